@@ -1,0 +1,54 @@
+// The calibration pipeline from correspondences to a camera, shared by calibrate_lines and the calibration node:
+// input checks, the distortion decision, DLT (with the principal-point iteration) and the quality report.
+#ifndef INSITU_CALIBRATION_CALIBRATION_H
+#define INSITU_CALIBRATION_CALIBRATION_H
+
+#include <optional>
+#include <string>
+
+#include "insitu_calibration/camera/camera_model.h"
+#include "insitu_calibration/error.h"
+#include "insitu_calibration/io/calibration_file.h"
+#include "insitu_calibration/metrics.h"
+#include "insitu_calibration/solvers/correspondences.h"
+#include "insitu_calibration/solvers/dlt.h"
+
+namespace insitu_calibration
+{
+enum class DistortionMode
+{
+  kAuto,  // estimate lambda when the data can identify it (curved lines or point correspondences)
+  kOn,    // always estimate; an error when the data cannot identify it
+  kOff,   // pin-hole only
+};
+std::optional<DistortionMode> parseDistortionMode(const std::string& name);
+
+struct CalibrationOptions
+{
+  DltMethod method = DltMethod::kCombined;
+  DistortionMode distortion = DistortionMode::kAuto;
+  DltOptions dlt;  // method and estimate_distortion are set from the fields above
+};
+
+struct CalibrationResult
+{
+  CameraModel camera;
+  ReprojectionStats reprojection;  // point-to-line (and point) errors in distorted pixels
+  DltResult dlt;
+  bool distortion_estimated = false;
+  std::string distortion_note;  // why lambda was or was not estimated
+  int iterations = 0;           // principal-point iterations
+  bool converged = true;
+};
+
+Expected<CalibrationResult> calibrateCamera(const CorrespondenceSet& data, const CalibrationOptions& options = {});
+
+CalibrationFile toCalibrationFile(const CorrespondenceSet& data, const CalibrationResult& result,
+                                  const std::string& world_frame);
+
+// A few lines for people: the camera, its errors, and what was estimated.
+std::string describeCalibration(const CalibrationResult& result);
+
+}  // namespace insitu_calibration
+
+#endif  // INSITU_CALIBRATION_CALIBRATION_H

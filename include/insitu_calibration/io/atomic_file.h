@@ -1,0 +1,18 @@
+// Writing files so that readers see the old content or the new, never half of it: a temporary file in the same
+// directory, flushed, then renamed over the target.
+#ifndef INSITU_CALIBRATION_IO_ATOMIC_FILE_H
+#define INSITU_CALIBRATION_IO_ATOMIC_FILE_H
+
+#include <string>
+
+#include "insitu_calibration/error.h"
+
+namespace insitu_calibration
+{
+// Creates the parent directory when missing.
+Status writeFileAtomically(const std::string& path, const std::string& content);
+Expected<std::string> readFile(const std::string& path);
+
+}  // namespace insitu_calibration
+
+#endif  // INSITU_CALIBRATION_IO_ATOMIC_FILE_H

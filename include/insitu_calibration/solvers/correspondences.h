@@ -1,0 +1,53 @@
+// 3D-to-2D correspondences, the input of every solver.
+#ifndef INSITU_CALIBRATION_SOLVERS_CORRESPONDENCES_H
+#define INSITU_CALIBRATION_SOLVERS_CORRESPONDENCES_H
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "insitu_calibration/error.h"
+
+namespace insitu_calibration
+{
+// One straight 3D line and its image. The image is a polyline of distorted pixels in order along the line: each
+// consecutive pair is a "part" (a straight line in the image only when there is no distortion), and every 3D point
+// pairs with every part (the paper's "many 3D points to one 2D line"). The 3D points need not correspond to the
+// image points.
+struct LineCorrespondence
+{
+  std::vector<Eigen::Vector2d> image;  // >= 2 distorted pixels
+  std::vector<Eigen::Vector3d> world;  // >= 1 points on the 3D line, world frame, metres
+
+  size_t partCount() const { return image.size() < 2 ? 0 : image.size() - 1; }
+  // Point-line pairs this line contributes: world points x parts.
+  size_t constraintCount() const { return world.size() * partCount(); }
+};
+
+struct PointCorrespondence
+{
+  Eigen::Vector2d image;  // distorted pixel
+  Eigen::Vector3d world;  // metres
+};
+
+struct CorrespondenceSet
+{
+  std::string camera_name;
+  int image_width = 0;
+  int image_height = 0;
+  std::vector<LineCorrespondence> lines;
+  std::vector<PointCorrespondence> points;
+
+  Eigen::Vector2d imageCenter() const { return {0.5 * (image_width - 1), 0.5 * (image_height - 1)}; }
+  size_t lineConstraintCount() const;
+  // True when a line has 3 or more image points or point correspondences exist: the data that identify lambda.
+  bool canIdentifyDistortion() const;
+  // Rejects NaN/infinite values, lines with fewer than 2 image points or no world point, coincident image points of
+  // a part, and non-positive image sizes.
+  Status validate() const;
+};
+
+}  // namespace insitu_calibration
+
+#endif  // INSITU_CALIBRATION_SOLVERS_CORRESPONDENCES_H

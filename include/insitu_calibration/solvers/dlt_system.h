@@ -1,0 +1,49 @@
+// The linear system of the DLT with division-model distortion, (B1 + lambda B2) vec(P) = 0, kept as the three 12x12
+// matrices C11 = B1^T B1, C12 = B1^T B2 and C22 = B2^T B2 rather than as N x 12 rows.
+//
+// Every constraint has the form l(lambda)^T P M = 0 with l(lambda) = l + lambda e (an image line for DLT-Lines, a row
+// of [m]_x for DLT-Points), so its row is M^T (x) l^T and its contribution to C11 is (M M^T) (x) (l l^T). All 3D
+// points of a line pair with all parts of its image, so a line's contribution is (sum_k M_k M_k^T) (x) (sum_j l_j
+// l_j^T): the cost is linear in points + parts, not in their product. vec() is column-major: p[3 * col + row].
+#ifndef INSITU_CALIBRATION_SOLVERS_DLT_SYSTEM_H
+#define INSITU_CALIBRATION_SOLVERS_DLT_SYSTEM_H
+
+#include <cstddef>
+
+#include <Eigen/Core>
+
+namespace insitu_calibration
+{
+using Matrix12d = Eigen::Matrix<double, 12, 12>;
+using Vector12d = Eigen::Matrix<double, 12, 1>;
+
+class DltSystem
+{
+public:
+  DltSystem() { clear(); }
+
+  void clear();
+
+  // Adds the constraints (each world point) x (each image row) of one group: world_scatter = sum_k M_k M_k^T over
+  // its homogeneous world points, and the sums over its image rows of l l^T, l e^T and e e^T.
+  void addGroup(const Eigen::Matrix4d& world_scatter, const Eigen::Matrix3d& ll, const Eigen::Matrix3d& le,
+                const Eigen::Matrix3d& ee, size_t constraints);
+
+  // Normal matrix of (B1 + lambda B2): C11 + lambda (C12 + C12^T) + lambda^2 C22.
+  Matrix12d normalMatrix(double lambda) const;
+
+  const Matrix12d& c11() const { return c11_; }
+  const Matrix12d& c12() const { return c12_; }
+  const Matrix12d& c22() const { return c22_; }
+  size_t constraintCount() const { return constraints_; }
+
+private:
+  Matrix12d c11_;
+  Matrix12d c12_;
+  Matrix12d c22_;
+  size_t constraints_ = 0;
+};
+
+}  // namespace insitu_calibration
+
+#endif  // INSITU_CALIBRATION_SOLVERS_DLT_SYSTEM_H

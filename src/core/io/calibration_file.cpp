@@ -1,0 +1,187 @@
+#include "insitu_calibration/io/calibration_file.h"
+
+#include <Eigen/Geometry>
+
+#include "insitu_calibration/io/atomic_file.h"
+#include "yaml_util.h"
+
+namespace insitu_calibration
+{
+std::string formatCalibration(const CalibrationFile& c)
+{
+  const Intrinsics& in = c.camera.intrinsics();
+  const Eigen::Matrix3d k = in.matrix();
+  PlumbBobFit plumb_bob = c.plumb_bob;
+  if (c.camera.distortion().lambda != 0.0 && plumb_bob.max_error_px == 0.0 && plumb_bob.coefficients[0] == 0.0)
+    plumb_bob = fitPlumbBob(in, c.camera.distortion(), c.image_width, c.image_height);
+  Matrix34d rectified_projection = Matrix34d::Zero();
+  rectified_projection.leftCols<3>() = k;
+
+  YAML::Emitter out;
+  out.SetDoublePrecision(15);
+  out << YAML::BeginMap;
+  out << YAML::Key << "image_width" << YAML::Value << c.image_width;
+  out << YAML::Key << "image_height" << YAML::Value << c.image_height;
+  out << YAML::Key << "camera_name" << YAML::Value << c.camera_name;
+  yaml_util::emitMatrix(out, "camera_matrix", k);
+  out << YAML::Key << "distortion_model" << YAML::Value << "plumb_bob";
+  yaml_util::emitMatrix(out, "distortion_coefficients",
+                        Eigen::Matrix<double, 1, 5>(Eigen::Map<const Eigen::Matrix<double, 1, 5>>(
+                            plumb_bob.coefficients.data())));
+  yaml_util::emitMatrix(out, "rectification_matrix", Eigen::Matrix3d::Identity());
+  yaml_util::emitMatrix(out, "projection_matrix", rectified_projection);
+
+  out << YAML::Key << "division_model" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "lambda" << YAML::Value << c.camera.distortion().lambda;
+  out << YAML::Key << "center" << YAML::Value;
+  yaml_util::emitVector(out, c.camera.distortion().center);
+  out << YAML::Key << "plumb_bob_max_error_px" << YAML::Value << plumb_bob.max_error_px;
+  out << YAML::EndMap;
+
+  yaml_util::emitMatrix(out, "world_projection_matrix", c.camera.projectionMatrix());
+
+  const Eigen::Isometry3d world_from_camera = c.camera.pose().worldFromCamera();
+  const Eigen::Quaterniond q(world_from_camera.linear());
+  out << YAML::Key << "camera_pose" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "frame_id" << YAML::Value << c.world_frame;
+  out << YAML::Key << "position" << YAML::Value;
+  yaml_util::emitVector(out, Eigen::Vector3d(world_from_camera.translation()));
+  out << YAML::Key << "orientation" << YAML::Value;
+  yaml_util::emitVector(out, Eigen::Vector4d(q.x(), q.y(), q.z(), q.w()));
+  out << YAML::EndMap;
+
+  if (c.quality)
+  {
+    const CalibrationQuality& q = *c.quality;
+    out << YAML::Key << "quality" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "rms_px" << YAML::Value << q.rms_px;
+    out << YAML::Key << "median_px" << YAML::Value << q.median_px;
+    out << YAML::Key << "lines" << YAML::Value << q.lines;
+    out << YAML::Key << "points" << YAML::Value << q.points;
+    out << YAML::Key << "constraints" << YAML::Value << q.constraints;
+    out << YAML::Key << "distortion_estimated" << YAML::Value << q.distortion_estimated;
+    for (const auto& [key, value] : q.extra)
+      out << YAML::Key << key << YAML::Value << value;
+    out << YAML::EndMap;
+  }
+  out << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
+}
+
+Status saveCalibrationFile(const std::string& path, const CalibrationFile& calibration)
+{
+  return writeFileAtomically(path, formatCalibration(calibration));
+}
+
+Expected<CalibrationFile> parseCalibration(const std::string& yaml_text)
+{
+  const auto root = yaml_util::parseYaml(yaml_text, "calibration file");
+  if (!root)
+    return root.error();
+  const YAML::Node& doc = *root;
+  if (!doc.IsMap())
+    return Error(ErrorCode::kParseError, "calibration file: expected a map");
+  CalibrationFile c;
+  c.camera_name = doc["camera_name"] ? doc["camera_name"].as<std::string>("") : "";
+  const auto width = yaml_util::toInt(doc["image_width"], "image_width");
+  const auto height = yaml_util::toInt(doc["image_height"], "image_height");
+  if (!width || !height)
+    return !width ? width.error() : height.error();
+  c.image_width = *width;
+  c.image_height = *height;
+  const auto k = yaml_util::toMatrix<3, 3>(doc["camera_matrix"], "camera_matrix");
+  if (!k)
+    return k.error();
+  c.camera.intrinsics() = Intrinsics::fromMatrix(*k);
+
+  const YAML::Node division = doc["division_model"];
+  if (division)
+  {
+    const auto lambda = yaml_util::toDouble(division["lambda"], "division_model.lambda");
+    if (!lambda)
+      return lambda.error();
+    const auto center = yaml_util::toVector<2>(division["center"], "division_model.center");
+    if (!center)
+      return center.error();
+    c.camera.distortion() = DivisionModel{*lambda, *center};
+    if (division["plumb_bob_max_error_px"])
+      c.plumb_bob.max_error_px = division["plumb_bob_max_error_px"].as<double>(0.0);
+  }
+  else
+  {
+    c.camera.distortion() = DivisionModel{0.0, c.camera.intrinsics().principalPoint()};
+  }
+  if (const YAML::Node d = doc["distortion_coefficients"]; d && d["data"] && d["data"].IsSequence())
+  {
+    const auto coefficients = yaml_util::toNumbers(d["data"], "distortion_coefficients.data");
+    if (!coefficients)
+      return coefficients.error();
+    for (size_t i = 0; i < std::min<size_t>(5, coefficients->size()); ++i)
+      c.plumb_bob.coefficients[i] = (*coefficients)[i];
+  }
+
+  const YAML::Node pose = doc["camera_pose"];
+  if (!pose || !pose.IsMap())
+    return Error(ErrorCode::kParseError, "camera_pose: missing (this file has intrinsics but no pose in the world)");
+  c.world_frame = pose["frame_id"] ? pose["frame_id"].as<std::string>("map") : "map";
+  const auto position = yaml_util::toVector<3>(pose["position"], "camera_pose.position");
+  if (!position)
+    return position.error();
+  const auto orientation = yaml_util::toVector<4>(pose["orientation"], "camera_pose.orientation");
+  if (!orientation)
+    return orientation.error();
+  const Eigen::Quaterniond q((*orientation)(3), (*orientation)(0), (*orientation)(1), (*orientation)(2));
+  if (!(q.norm() > 1e-9))
+    return Error(ErrorCode::kInvalidInput, "camera_pose.orientation: zero quaternion");
+  Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
+  world_from_camera.linear() = q.normalized().toRotationMatrix();
+  world_from_camera.translation() = *position;
+  c.camera.pose() = CameraPose::fromWorldFromCamera(world_from_camera);
+
+  if (const YAML::Node quality = doc["quality"]; quality && quality.IsMap())
+  {
+    CalibrationQuality q;
+    for (const auto& kv : quality)
+    {
+      const std::string key = kv.first.as<std::string>();
+      if (key == "rms_px")
+        q.rms_px = kv.second.as<double>(0.0);
+      else if (key == "median_px")
+        q.median_px = kv.second.as<double>(0.0);
+      else if (key == "lines")
+        q.lines = kv.second.as<size_t>(0);
+      else if (key == "points")
+        q.points = kv.second.as<size_t>(0);
+      else if (key == "constraints")
+        q.constraints = kv.second.as<size_t>(0);
+      else if (key == "distortion_estimated")
+        q.distortion_estimated = kv.second.as<bool>(false);
+      else if (kv.second.IsScalar())
+      {
+        try
+        {
+          q.extra[key] = kv.second.as<double>();
+        }
+        catch (const YAML::Exception&)
+        {
+          // Non-numeric extras (notes) are not kept.
+        }
+      }
+    }
+    c.quality = q;
+  }
+  return c;
+}
+
+Expected<CalibrationFile> loadCalibrationFile(const std::string& path)
+{
+  const auto text = readFile(path);
+  if (!text)
+    return text.error();
+  auto c = parseCalibration(*text);
+  if (!c)
+    return Error(c.error().code(), path + ": " + c.error().message());
+  return c;
+}
+
+}  // namespace insitu_calibration

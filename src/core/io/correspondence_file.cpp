@@ -1,0 +1,142 @@
+#include "insitu_calibration/io/correspondence_file.h"
+
+#include "insitu_calibration/io/atomic_file.h"
+#include "yaml_util.h"
+
+namespace insitu_calibration
+{
+namespace
+{
+template <int N>
+Expected<std::vector<Eigen::Matrix<double, N, 1>>> toPointList(const YAML::Node& node, const std::string& where)
+{
+  if (!node || !node.IsSequence())
+    return Error(ErrorCode::kParseError, where + ": expected a list of [" + (N == 2 ? "u, v" : "x, y, z") + "]");
+  std::vector<Eigen::Matrix<double, N, 1>> out;
+  for (size_t i = 0; i < node.size(); ++i)
+  {
+    const auto v = yaml_util::toVector<N>(node[i], where + "[" + std::to_string(i) + "]");
+    if (!v)
+      return v.error();
+    out.push_back(*v);
+  }
+  return out;
+}
+}  // namespace
+
+Expected<CorrespondenceSet> parseCorrespondences(const std::string& yaml_text)
+{
+  const auto root = yaml_util::parseYaml(yaml_text, "correspondence file");
+  if (!root)
+    return root.error();
+  const YAML::Node& doc = *root;
+  if (!doc.IsMap())
+    return Error(ErrorCode::kParseError, "correspondence file: expected a map with image_width, image_height, lines");
+  CorrespondenceSet set;
+  if (doc["camera_name"])
+    set.camera_name = doc["camera_name"].as<std::string>("");
+  const auto width = yaml_util::toInt(doc["image_width"], "image_width");
+  if (!width)
+    return width.error();
+  const auto height = yaml_util::toInt(doc["image_height"], "image_height");
+  if (!height)
+    return height.error();
+  set.image_width = *width;
+  set.image_height = *height;
+  if (!doc["lines"] && !doc["points"])
+    return Error(ErrorCode::kParseError, "correspondence file: neither 'lines' nor 'points' is present");
+  if (const YAML::Node lines = doc["lines"]; lines && !lines.IsNull())
+  {
+    if (!lines.IsSequence())
+      return Error(ErrorCode::kParseError, "lines: expected a list");
+    for (size_t i = 0; i < lines.size(); ++i)
+    {
+      const std::string where = "lines[" + std::to_string(i) + "]";
+      LineCorrespondence line;
+      auto image = toPointList<2>(lines[i]["image"], where + ".image");
+      if (!image)
+        return image.error();
+      auto world = toPointList<3>(lines[i]["world"], where + ".world");
+      if (!world)
+        return world.error();
+      line.image = std::move(*image);
+      line.world = std::move(*world);
+      set.lines.push_back(std::move(line));
+    }
+  }
+  if (const YAML::Node points = doc["points"]; points && !points.IsNull())
+  {
+    if (!points.IsSequence())
+      return Error(ErrorCode::kParseError, "points: expected a list");
+    for (size_t i = 0; i < points.size(); ++i)
+    {
+      const std::string where = "points[" + std::to_string(i) + "]";
+      const auto image = yaml_util::toVector<2>(points[i]["image"], where + ".image");
+      if (!image)
+        return image.error();
+      const auto world = yaml_util::toVector<3>(points[i]["world"], where + ".world");
+      if (!world)
+        return world.error();
+      set.points.push_back({*image, *world});
+    }
+  }
+  if (const Status valid = set.validate(); !valid)
+    return valid.error();
+  return set;
+}
+
+Expected<CorrespondenceSet> loadCorrespondenceFile(const std::string& path)
+{
+  const auto text = readFile(path);
+  if (!text)
+    return text.error();
+  auto set = parseCorrespondences(*text);
+  if (!set)
+    return Error(set.error().code(), path + ": " + set.error().message());
+  return set;
+}
+
+std::string formatCorrespondences(const CorrespondenceSet& data)
+{
+  YAML::Emitter out;
+  out.SetDoublePrecision(12);
+  out << YAML::BeginMap;
+  if (!data.camera_name.empty())
+    out << YAML::Key << "camera_name" << YAML::Value << data.camera_name;
+  out << YAML::Key << "image_width" << YAML::Value << data.image_width;
+  out << YAML::Key << "image_height" << YAML::Value << data.image_height;
+  out << YAML::Key << "lines" << YAML::Value << YAML::BeginSeq;
+  for (const auto& line : data.lines)
+  {
+    out << YAML::BeginMap << YAML::Key << "image" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+    for (const auto& p : line.image)
+      yaml_util::emitVector(out, p);
+    out << YAML::EndSeq << YAML::Key << "world" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+    for (const auto& p : line.world)
+      yaml_util::emitVector(out, p);
+    out << YAML::EndSeq << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+  if (!data.points.empty())
+  {
+    out << YAML::Key << "points" << YAML::Value << YAML::BeginSeq;
+    for (const auto& p : data.points)
+    {
+      out << YAML::BeginMap << YAML::Key << "image" << YAML::Value;
+      yaml_util::emitVector(out, p.image);
+      out << YAML::Key << "world" << YAML::Value;
+      yaml_util::emitVector(out, p.world);
+      out << YAML::EndMap;
+    }
+    out << YAML::EndSeq;
+  }
+  out << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
+}
+
+Status saveCorrespondenceFile(const std::string& path, const CorrespondenceSet& data)
+{
+  return writeFileAtomically(path, formatCorrespondences(data));
+}
+
+}  // namespace insitu_calibration

@@ -1,0 +1,48 @@
+#include "insitu_calibration/solvers/normalization.h"
+
+#include <cmath>
+
+namespace insitu_calibration
+{
+namespace
+{
+template <int Dim>
+IsotropicNormalization<Dim> computeNormalization(const std::vector<Eigen::Matrix<double, Dim, 1>>& points,
+                                                 const std::optional<Eigen::Matrix<double, Dim, 1>>& fixed_origin,
+                                                 double target_mean_distance)
+{
+  IsotropicNormalization<Dim> n;
+  if (points.empty())
+    return n;
+  if (fixed_origin)
+  {
+    n.origin = *fixed_origin;
+  }
+  else
+  {
+    Eigen::Matrix<double, Dim, 1> sum = Eigen::Matrix<double, Dim, 1>::Zero();
+    for (const auto& p : points)
+      sum += p;
+    n.origin = sum / static_cast<double>(points.size());
+  }
+  double mean_distance = 0.0;
+  for (const auto& p : points)
+    mean_distance += (p - n.origin).norm();
+  mean_distance /= static_cast<double>(points.size());
+  n.scale = mean_distance > 0.0 ? target_mean_distance / mean_distance : 1.0;
+  return n;
+}
+}  // namespace
+
+ImageNormalization computeImageNormalization(const std::vector<Eigen::Vector2d>& points,
+                                             const std::optional<Eigen::Vector2d>& fixed_origin)
+{
+  return computeNormalization<2>(points, fixed_origin, std::sqrt(2.0));
+}
+
+WorldNormalization computeWorldNormalization(const std::vector<Eigen::Vector3d>& points)
+{
+  return computeNormalization<3>(points, std::nullopt, std::sqrt(3.0));
+}
+
+}  // namespace insitu_calibration

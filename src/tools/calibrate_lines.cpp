@@ -1,0 +1,119 @@
+// calibrate_lines: offline calibration of one camera from a correspondence file (3D lines and their images).
+#include <iostream>
+
+#include "command_line.h"
+#include "insitu_calibration/calibration.h"
+#include "insitu_calibration/io/calibration_file.h"
+#include "insitu_calibration/io/correspondence_file.h"
+
+namespace ic = insitu_calibration;
+
+namespace
+{
+const char* kUsage = R"(Usage: calibrate_lines INPUT.yaml --output OUT.yaml [options]
+
+Calibrates one camera (intrinsics, division-model distortion, pose in the world) from 3D-line/2D-line
+correspondences by DLT-Lines, and writes a calibration YAML that camera_calibration_parsers and image_proc read.
+INPUT.yaml is a correspondence file (see README, "Correspondence file").
+
+Options:
+  --output FILE           calibration YAML to write (atomically; nothing is written on failure)
+  --distortion MODE       auto (default): estimate lambda when the data identify it (curved lines or points);
+                          on: always estimate it; off: pin-hole model only
+  --method METHOD         combined (default): lines and points stacked; lines: lines only; points: points only
+  --world-frame NAME      frame_id written in camera_pose (default: map)
+  --truth FILE            a calibration YAML of the true camera: print the errors against it
+  --quiet                 print only errors
+  -h, --help              this text
+
+Exit status: 0 success, 1 calibration failed, 2 bad command line or unreadable input.
+)";
+
+void printComparison(const ic::CameraModel& truth, const ic::CameraModel& estimate)
+{
+  const ic::CameraErrors e = ic::compareCameras(truth, estimate);
+  std::printf("against the truth:\n"
+              "  focal error     %+.4f %%\n"
+              "  rotation error  %.4f deg\n"
+              "  position error  %.2f mm\n"
+              "  principal pt    %.2f px\n"
+              "  lambda          %.6g (truth %.6g, %.2f %% off)\n",
+              100.0 * e.focal_relative, e.rotation_rad * 180.0 / M_PI, 1000.0 * e.center_m, e.principal_point_px,
+              estimate.distortion().lambda, truth.distortion().lambda, 100.0 * e.lambda_relative);
+}
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  ic::CommandLine cli(argc, argv, {"output", "distortion", "method", "world-frame", "truth"}, {"quiet"});
+  if (cli.help())
+  {
+    std::cout << kUsage;
+    return 0;
+  }
+  if (!cli.error().empty() || cli.positional().size() != 1 || !cli.has("output"))
+  {
+    std::cerr << "calibrate_lines: "
+              << (!cli.error().empty()            ? cli.error()
+                  : cli.positional().size() != 1 ? "expected exactly one INPUT.yaml"
+                                                  : "--output OUT.yaml is required")
+              << "\n\n"
+              << kUsage;
+    return 2;
+  }
+  ic::CalibrationOptions options;
+  const auto distortion = ic::parseDistortionMode(cli.value("distortion", "auto"));
+  const auto method = ic::parseDltMethod(cli.value("method", "combined"));
+  if (!distortion || !method)
+  {
+    std::cerr << "calibrate_lines: " << (!distortion ? "--distortion must be auto, on or off"
+                                                     : "--method must be lines, points or combined")
+              << "\n";
+    return 2;
+  }
+  options.distortion = *distortion;
+  options.method = *method;
+
+  const auto data = ic::loadCorrespondenceFile(cli.positional()[0]);
+  if (!data)
+  {
+    std::cerr << "calibrate_lines: " << data.error().describe() << "\n";
+    return 2;
+  }
+  std::optional<ic::CalibrationFile> truth;
+  if (cli.has("truth"))
+  {
+    auto t = ic::loadCalibrationFile(cli.value("truth"));
+    if (!t)
+    {
+      std::cerr << "calibrate_lines: --truth: " << t.error().describe() << "\n";
+      return 2;
+    }
+    truth = *t;
+  }
+
+  const auto result = ic::calibrateCamera(*data, options);
+  if (!result)
+  {
+    std::cerr << "calibrate_lines: calibration failed, nothing written: " << result.error().describe() << "\n";
+    return 1;
+  }
+  const std::string output = cli.value("output");
+  const ic::Status saved =
+      ic::saveCalibrationFile(output, ic::toCalibrationFile(*data, *result, cli.value("world-frame", "map")));
+  if (!saved)
+  {
+    std::cerr << "calibrate_lines: " << saved.error().describe() << "\n";
+    return 1;
+  }
+  if (!cli.flag("quiet"))
+  {
+    std::cout << "camera " << (data->camera_name.empty() ? "(unnamed)" : data->camera_name) << ", "
+              << data->image_width << "x" << data->image_height << "\n"
+              << ic::describeCalibration(*result);
+    if (truth)
+      printComparison(truth->camera, result->camera);
+    std::cout << "written to " << output << "\n";
+  }
+  return 0;
+}
