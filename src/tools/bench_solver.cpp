@@ -7,6 +7,8 @@
 #include <Eigen/SVD>
 
 #include "command_line.h"
+#include <Eigen/Geometry>
+
 #include "insitu_calibration/solvers/dlt.h"
 #include "insitu_calibration/solvers/normalization.h"
 #include "insitu_calibration/synthetic/synthetic_lines.h"

@@ -17,7 +17,8 @@ const char* kUsage = R"(Usage: vgg_to_correspondences SCENE_DIR --width W --heig
 Reads an Oxford VGG multi-view scene (*.P, *.lines, *l3d, *nview-lines) and writes for every view
 DIR/<view>.yaml (correspondence file: each 3D segment seen in the view with its 2D segment) and
 DIR/<view>_truth.yaml (calibration file of the ground-truth P, for calibrate_lines --truth).
-Image sizes: Model House 768x576, Merton College I 1024x768.
+Image sizes: Model House 768x576, Merton College I 1024x768. A scene reconstructed in a left-handed frame (Model
+House) is mirrored (world z negated in the points and in P) so that a camera with a proper rotation can see it.
 )";
 }
 
@@ -66,7 +67,8 @@ int main(int argc, char** argv)
       std::cerr << "vgg_to_correspondences: " << (!a ? a.error() : b.error()).describe() << "\n";
       return 1;
     }
-    std::cout << view.name << ": " << view.data.lines.size() << " lines\n";
+    std::cout << view.name << ": " << view.data.lines.size() << " lines"
+              << (view.mirrored ? " (left-handed scene: world z negated to make it right-handed)" : "") << "\n";
   }
   return 0;
 }

@@ -1,3 +1,5 @@
+#include <Eigen/Geometry>
+
 #include "insitu_calibration/camera/plumb_bob.h"
 
 #include <cmath>

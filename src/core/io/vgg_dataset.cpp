@@ -6,6 +6,8 @@
 #include <fstream>
 #include <sstream>
 
+#include <Eigen/LU>
+
 namespace insitu_calibration
 {
 namespace
@@ -140,6 +142,24 @@ Expected<std::vector<VggView>> loadVggScene(const std::string& directory, int im
       view.data.lines.push_back(std::move(line));
     }
     views.push_back(std::move(view));
+  }
+
+  // Handedness from the first view: det(M) and the depth sign of the scene must agree in a right-handed frame.
+  const Matrix34d& p0 = views.front().projection;
+  double depth_sign = 0.0;
+  for (const auto& s3 : *segments)
+    depth_sign += (p0 * Eigen::Vector4d(s3[0], s3[1], s3[2], 1.0))(2) > 0.0 ? 1.0 : -1.0;
+  if (p0.leftCols<3>().determinant() * depth_sign < 0.0)
+  {
+    const Eigen::Vector4d mirror(1.0, 1.0, -1.0, 1.0);
+    for (auto& view : views)
+    {
+      view.mirrored = true;
+      view.projection = view.projection * mirror.asDiagonal();
+      for (auto& line : view.data.lines)
+        for (auto& x : line.world)
+          x.z() = -x.z();
+    }
   }
   return views;
 }

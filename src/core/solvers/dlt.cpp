@@ -245,6 +245,19 @@ Expected<DltResult> solveDlt(const CorrespondenceSet& data, const DltOptions& op
       return Error(ErrorCode::kDegenerate, "the correspondences leave more than one camera that fits them exactly "
                                            "(the configuration is degenerate); add lines in other directions and "
                                            "depths");
+    if (options.estimate_distortion)
+    {
+      // The model must stay one-to-one over the image: 1 + lambda r^2 > 0 (barrel) and lambda r^2 < 1 (pincushion).
+      double r2 = 0.0;
+      for (double x : {0.0, data.image_width - 1.0})
+        for (double y : {0.0, data.image_height - 1.0})
+          r2 = std::max(r2, (Eigen::Vector2d(x, y) - center).squaredNorm());
+      if (std::abs(linear->lambda) * r2 > 0.8)
+        return Error(ErrorCode::kNoSolution,
+                     "the estimated distortion (lambda " + std::to_string(linear->lambda) +
+                         " 1/px^2) would fold the image onto itself; the data do not determine it (add curved lines "
+                         "near the image border) or the correspondences are wrong");
+    }
     auto decomposed = decomposeProjection(linear->projection, world);
     if (!decomposed)
       return decomposed.error();

@@ -1,3 +1,5 @@
+#include <Eigen/Geometry>
+
 #include "insitu_calibration/solvers/dlt_points.h"
 
 namespace insitu_calibration

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <complex>
 #include <limits>
+#include <vector>
 
 #include <Eigen/Eigenvalues>
 
@@ -84,21 +85,42 @@ Expected<DltSystemSolution> solveDltSystem(const DltSystem& system, bool estimat
   const auto alphas = gep.alphas();
   const auto betas = gep.betas();
 
-  best.residual = std::numeric_limits<double>::infinity();
+  // Starting points for the residual minimisation. lambda = 0 is always one: when the data fit a pin-hole camera
+  // exactly, C11 and C12 share the left null vector p (C12^T p = B2^T B1 p = 0), the pencil is singular and QZ
+  // returns arbitrary values instead of 0. Under noise the roots near the true lambda can turn into a complex pair;
+  // their real part still starts the polish in the right valley.
+  std::vector<double> candidates = {0.0};
+  int finite = 0;
   for (int i = 0; i < 12; ++i)
   {
     const double beta = betas(i);
     const std::complex<double> alpha = alphas(i);
     if (std::abs(beta) <= 1e-12 * std::max(std::abs(alpha), 1e-300))
       continue;  // infinite
+    ++finite;
     const std::complex<double> mu = alpha / beta;
-    if (std::abs(mu.imag()) > 1e-8 * std::max(1.0, std::abs(mu.real())))
-      continue;  // complex
     const double lambda = -mu.real();
     // In normalised coordinates (mean radius sqrt(2)) |lambda| beyond 1e3 would fold the image onto itself.
     if (!std::isfinite(lambda) || std::abs(lambda) > 1e3)
       continue;
-    ++best.real_candidates;
+    if (std::abs(mu.imag()) <= 1e-8 * std::max(1.0, std::abs(mu.real())))
+      ++best.real_candidates;
+    else if (!polish_lambda)
+      continue;  // a complex root is only a starting point for the polish
+    candidates.push_back(lambda);
+  }
+  // Without a finite (or, unpolished, a real) root only an exact pin-hole fit (the singular pencil above) is an answer.
+  if (finite == 0 || (!polish_lambda && best.real_candidates == 0))
+  {
+    const SmallestEigen pinhole = smallestEigen(system.c11());
+    if (!(pinhole.value <= 1e-12 * system.c11().diagonal().sum()))
+      return Error(ErrorCode::kNoSolution,
+                   "the distortion eigenproblem has no real finite solution, so the data cannot support a division "
+                   "model; calibrate without distortion or check the correspondences");
+  }
+  best.residual = std::numeric_limits<double>::infinity();
+  for (double lambda : candidates)
+  {
     const SmallestEigen e = smallestEigen(system.normalMatrix(lambda));
     if (e.value < best.residual)
     {
@@ -108,10 +130,6 @@ Expected<DltSystemSolution> solveDltSystem(const DltSystem& system, bool estimat
       best.null_space_gap = e.gap;
     }
   }
-  if (best.real_candidates == 0)
-    return Error(ErrorCode::kNoSolution,
-                 "the distortion eigenproblem has no real finite solution; the data cannot support a division model "
-                 "(try without distortion)");
   if (polish_lambda)
   {
     const int candidates = best.real_candidates;

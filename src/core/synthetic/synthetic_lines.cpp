@@ -1,3 +1,5 @@
+#include <Eigen/Geometry>
+
 #include "insitu_calibration/synthetic/synthetic_lines.h"
 
 #include <cmath>
