@@ -10,6 +10,8 @@
 #include "insitu_calibration/error.h"
 #include "insitu_calibration/io/calibration_file.h"
 #include "insitu_calibration/metrics.h"
+#include "insitu_calibration/refine/refinement.h"
+#include "insitu_calibration/solvers/ransac.h"
 #include "insitu_calibration/solvers/correspondences.h"
 #include "insitu_calibration/solvers/dlt.h"
 
@@ -28,17 +30,29 @@ struct CalibrationOptions
   DltMethod method = DltMethod::kCombined;
   DistortionMode distortion = DistortionMode::kAuto;
   DltOptions dlt;  // method and estimate_distortion are set from the fields above
+  // Beyond the paper: RANSAC over lines against wrong correspondences, then nonlinear refinement of geometric errors.
+  // Both off reproduce the paper's plain DLT.
+  bool ransac = true;
+  RansacOptions ransac_options;
+  bool refine = true;
+  RefinementOptions refinement;  // estimate_distortion is set from the distortion decision
 };
 
 struct CalibrationResult
 {
-  CameraModel camera;
-  ReprojectionStats reprojection;  // point-to-line (and point) errors in distorted pixels
+  CameraModel camera;              // the final camera (refined when refinement ran)
+  CameraModel linear_camera;       // the DLT's camera, before refinement
+  ReprojectionStats reprojection;  // point-to-line (and point) errors in distorted pixels, over the inliers
   DltResult dlt;
   bool distortion_estimated = false;
-  std::string distortion_note;  // why lambda was or was not estimated
-  int iterations = 0;           // principal-point iterations
-  bool converged = true;
+  std::string distortion_note;     // why lambda was or was not estimated
+  std::vector<bool> inlier_lines;  // per input line; all true without RANSAC
+  size_t inlier_count = 0;
+  int ransac_iterations = 0;
+  std::optional<RefinementResult> refinement;
+  CameraUncertainty uncertainty;   // from the refinement; available = false without it
+  int iterations = 0;              // principal-point iterations plus refinement iterations
+  bool converged = true;           // the principal-point iteration and the refinement both converged
 };
 
 Expected<CalibrationResult> calibrateCamera(const CorrespondenceSet& data, const CalibrationOptions& options = {});

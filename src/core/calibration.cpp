@@ -1,5 +1,6 @@
 #include "insitu_calibration/calibration.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <sstream>
 
@@ -15,6 +16,40 @@ std::optional<DistortionMode> parseDistortionMode(const std::string& name)
     return DistortionMode::kOff;
   return std::nullopt;
 }
+
+namespace
+{
+// The DLT with the principal-point iteration, then the refinement, on lines already selected.
+Status solveAndRefine(const CorrespondenceSet& inliers, const DltOptions& dlt, const CalibrationOptions& options,
+                      CalibrationResult* result)
+{
+  auto solved = solveDlt(inliers, dlt);
+  if (!solved)
+    return solved.error();
+  result->dlt = *solved;
+  result->dlt.lines_used = inliers.lines.size();
+  result->linear_camera = solved->camera;
+  result->camera = solved->camera;
+  result->distortion_estimated = solved->distortion_estimated;
+  result->iterations = solved->center_iterations;
+  result->converged = solved->center_converged;
+
+  if (options.refine)
+  {
+    RefinementOptions refinement = options.refinement;
+    refinement.estimate_distortion = result->distortion_estimated;
+    auto refined = refineCamera(inliers, result->linear_camera, refinement);
+    if (!refined)
+      return refined.error();
+    result->camera = refined->camera;
+    result->uncertainty = refined->uncertainty;
+    result->iterations += refined->iterations;
+    result->converged = result->converged && refined->converged;
+    result->refinement = std::move(*refined);
+  }
+  return Success{};
+}
+}  // namespace
 
 Expected<CalibrationResult> calibrateCamera(const CorrespondenceSet& data, const CalibrationOptions& options)
 {
@@ -50,15 +85,42 @@ Expected<CalibrationResult> calibrateCamera(const CorrespondenceSet& data, const
     }
   }
 
-  auto solved = solveDlt(selected, dlt);
-  if (!solved)
-    return solved.error();
-  result.dlt = *solved;
-  result.camera = solved->camera;
-  result.distortion_estimated = solved->distortion_estimated;
-  result.iterations = solved->center_iterations;
-  result.converged = solved->center_converged;
-  result.reprojection = reprojectionStats(result.camera, selected);
+  // Robust selection of lines, then the DLT with the principal-point iteration on the inliers.
+  result.inlier_lines.assign(selected.lines.size(), true);
+  const size_t minimal = dlt.estimate_distortion ? 7 : 6;
+  if (options.ransac && selected.lines.size() > minimal)
+  {
+    if (const Status s = checkDltInput(selected, dlt); !s)
+      return s.error();
+    const auto ransac = ransacDlt(selected, dlt, options.ransac_options);
+    if (!ransac)
+      return ransac.error();
+    result.inlier_lines = ransac->inliers;
+    result.ransac_iterations = ransac->iterations;
+  }
+  // The RANSAC hypotheses are linear and centred on the image centre; the final camera judges the lines better, so
+  // the inlier set is re-evaluated with it and the solve repeated once when it changes.
+  CorrespondenceSet inliers;
+  for (int pass = 0; pass < 2; ++pass)
+  {
+    inliers = selected;
+    inliers.lines.clear();
+    for (size_t i = 0; i < selected.lines.size(); ++i)
+      if (result.inlier_lines[i])
+        inliers.lines.push_back(selected.lines[i]);
+    result.inlier_count = inliers.lines.size();
+    if (const Status s = solveAndRefine(inliers, dlt, options, &result); !s)
+      return s.error();
+    if (!options.ransac || result.inlier_count == selected.lines.size())
+      break;
+    std::vector<bool> judged(selected.lines.size());
+    for (size_t i = 0; i < selected.lines.size(); ++i)
+      judged[i] = lineError(result.camera, selected.lines[i]) < options.ransac_options.inlier_threshold_px;
+    if (judged == result.inlier_lines || std::count(judged.begin(), judged.end(), true) < static_cast<long>(minimal))
+      break;
+    result.inlier_lines = judged;
+  }
+  result.reprojection = reprojectionStats(result.camera, inliers);
   return result;
 }
 
@@ -84,6 +146,19 @@ CalibrationFile toCalibrationFile(const CorrespondenceSet& data, const Calibrati
   q.extra["max_px"] = result.reprojection.max_px;
   q.extra["iterations"] = result.iterations;
   q.extra["converged"] = result.converged ? 1.0 : 0.0;
+  q.extra["inlier_lines"] = static_cast<double>(result.inlier_count);
+  q.extra["refined"] = result.refinement ? 1.0 : 0.0;
+  if (result.uncertainty.available)
+  {
+    const CameraUncertainty& u = result.uncertainty;
+    q.extra["sigma_fx_px"] = u.fx;
+    q.extra["sigma_fy_px"] = u.fy;
+    q.extra["sigma_cx_px"] = u.cx;
+    q.extra["sigma_cy_px"] = u.cy;
+    q.extra["sigma_lambda"] = u.lambda;
+    q.extra["sigma_position_m"] = u.position_m;
+    q.extra["sigma_rotation_deg"] = u.rotation_deg;
+  }
   file.quality = q;
   return file;
 }
@@ -106,6 +181,32 @@ std::string describeCalibration(const CalibrationResult& r)
                 r.reprojection.mse_px2, r.reprojection.count, r.dlt.lines_used, r.dlt.points_used, r.dlt.constraints,
                 r.iterations, r.converged ? "" : " (NOT converged)");
   std::string out = buffer;
+  if (r.inlier_count < r.inlier_lines.size())
+    out += "robust         " + std::to_string(r.inlier_count) + " of " + std::to_string(r.inlier_lines.size()) +
+           " lines are inliers (RANSAC); the others were left out\n";
+  if (r.refinement)
+  {
+    const CameraUncertainty& u = r.uncertainty;
+    if (u.available)
+    {
+      std::snprintf(buffer, sizeof(buffer),
+                    "uncertainty    1 sigma: fx %.3f px, principal point %.2f, %.2f px, lambda %.3g, position %.2f mm, "
+                    "rotation %.4f deg (noise %.3f px)\n",
+                    u.fx, u.cx, u.cy, u.lambda, 1000.0 * u.position_m, u.rotation_deg, u.residual_sigma_px);
+      out += buffer;
+    }
+    else
+    {
+      out += "uncertainty    not available: " + u.reason + "\n";
+    }
+    std::snprintf(buffer, sizeof(buffer), "refinement     RMS %.3f px -> %.3f px (%s)\n", r.refinement->initial_rms_px,
+                  r.refinement->final_rms_px, r.refinement->converged ? "converged" : "NOT converged");
+    out += buffer;
+  }
+  else
+  {
+    out += "refinement     off (the paper's linear DLT)\n";
+  }
   if (r.reprojection.unprojectable > 0)
     out += "warning        " + std::to_string(r.reprojection.unprojectable) +
            " world points do not project into the camera (behind it or outside the distortion model)\n";

@@ -22,6 +22,17 @@ Options:
                           on: always estimate it; off: pin-hole model only
   --method METHOD         combined (default): lines and points stacked; lines: lines only; points: points only
   --world-frame NAME      frame_id written in camera_pose (default: map)
+  --no-ransac             use every line (default: RANSAC over lines drops wrong correspondences)
+  --inlier-threshold PX   RANSAC: a line is an inlier below this RMS point-to-line error (default 3)
+  --seed N                RANSAC's random seed (default 1)
+  --no-refine             keep the linear DLT result (default: Ceres refinement of geometric errors)
+  --loss NAME             refinement's robust loss: huber (default), cauchy or none
+  --loss-scale PX         the robust loss's scale in pixels (default 1)
+  --line-residual KIND    refinement's line error: image (default; every image point to the projected 3D line) or
+                          world (every world point's projection to its nearest image part) or both
+  --single-focal          refine one focal length (fx = fy)
+  --estimate-skew         refine the skew too (default: fixed at 0, as for every modern sensor)
+  --paper                 the paper's plain DLT: same as --no-ransac --no-refine
   --truth FILE            a calibration YAML of the true camera: print the errors against it
   --quiet                 print only errors
   -h, --help              this text
@@ -45,7 +56,10 @@ void printComparison(const ic::CameraModel& truth, const ic::CameraModel& estima
 
 int main(int argc, char** argv)
 {
-  ic::CommandLine cli(argc, argv, {"output", "distortion", "method", "world-frame", "truth"}, {"quiet"});
+  ic::CommandLine cli(argc, argv,
+                      {"output", "distortion", "method", "world-frame", "truth", "inlier-threshold", "seed", "loss",
+                       "loss-scale", "line-residual"},
+                      {"quiet", "no-ransac", "no-refine", "single-focal", "estimate-skew", "paper"});
   if (cli.help())
   {
     std::cout << kUsage;
@@ -73,6 +87,34 @@ int main(int argc, char** argv)
   }
   options.distortion = *distortion;
   options.method = *method;
+  options.ransac = !cli.flag("no-ransac") && !cli.flag("paper");
+  options.refine = !cli.flag("no-refine") && !cli.flag("paper");
+  options.ransac_options.inlier_threshold_px = cli.number("inlier-threshold", 3.0);
+  options.ransac_options.seed = static_cast<unsigned>(cli.number("seed", 1));
+  options.refinement.loss_scale_px = cli.number("loss-scale", 1.0);
+  options.refinement.single_focal = cli.flag("single-focal");
+  options.refinement.estimate_skew = cli.flag("estimate-skew");
+  const auto loss = ic::parseRobustLoss(cli.value("loss", "huber"));
+  if (!loss || !cli.error().empty() || !(options.ransac_options.inlier_threshold_px > 0) ||
+      !(options.refinement.loss_scale_px > 0))
+  {
+    std::cerr << "calibrate_lines: "
+              << (!cli.error().empty() ? cli.error()
+                  : !loss               ? "--loss must be huber, cauchy or none"
+                                        : "--inlier-threshold and --loss-scale must be positive")
+              << "\n";
+    return 2;
+  }
+  options.refinement.loss = *loss;
+  const std::string line_residual = cli.value("line-residual", "image");
+  if (line_residual != "image" && line_residual != "world" && line_residual != "both")
+  {
+    std::cerr << "calibrate_lines: --line-residual must be image, world or both\n";
+    return 2;
+  }
+  options.refinement.line_residual = line_residual == "image"   ? ic::LineResidual::kImagePoints
+                                     : line_residual == "world" ? ic::LineResidual::kWorldPoints
+                                                                : ic::LineResidual::kBoth;
 
   const auto data = ic::loadCorrespondenceFile(cli.positional()[0]);
   if (!data)

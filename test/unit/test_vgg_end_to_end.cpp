@@ -49,7 +49,14 @@ void checkScene(const std::string& scene, int width, int height)
   {
     const std::string input = (out / (view.name + ".yaml")).string();
     const std::string result_path = (out / (view.name + "_result.yaml")).string();
-    ASSERT_EQ(run(tools + "/calibrate_lines '" + input + "' --output '" + result_path + "'"), 0) << view.name;
+    // The VGG cameras have skew (about -8 px in Model House) and non-square pixels, artefacts of the reconstruction
+    // they come from: the refinement must estimate skew rather than fix it at 0 (the default for real sensors). Their
+    // 3D lines are reconstructed from the same noisy images as the 2D segments, so both sides carry noise and the
+    // refinement measures the line error both ways (--line-residual both).
+    ASSERT_EQ(run(tools + "/calibrate_lines '" + input + "' --estimate-skew --line-residual both --output '" +
+                  result_path + "'"),
+              0)
+        << view.name;
     const auto result = ic::loadCalibrationFile(result_path);
     ASSERT_TRUE(result) << result.error().describe();
     const auto truth = ic::decomposeProjection(view.projection);

@@ -1,0 +1,440 @@
+#include "insitu_calibration/refine/refinement.h"
+
+#include <cmath>
+#include <limits>
+#include <memory>
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+#include <Eigen/Geometry>
+
+#include "insitu_calibration/metrics.h"
+
+namespace insitu_calibration
+{
+namespace
+{
+// Parameter blocks: focal [fx, fy], principal point [cx, cy], skew [s], distortion [k] with lambda = k / r_ref^2
+// (k is O(0.1) where lambda is O(1e-7)), rotation update delta (angle-axis, R = exp(delta) R0), optical centre C.
+struct Parameters
+{
+  double focal[2];
+  double principal[2];
+  double skew[1];
+  double distortion[1];
+  double delta[3] = {0.0, 0.0, 0.0};
+  double center[3];
+};
+
+struct Projector
+{
+  Eigen::Matrix3d r0;
+  double r_ref2;
+  bool single_focal;
+
+  // World point -> homogeneous undistorted pixel relative to the principal point.
+  template <typename T>
+  void undistortedHomogeneous(const T* focal, const T* skew, const T* delta, const T* center,
+                              const Eigen::Vector3d& world, T* u) const
+  {
+    T d[3] = {T(world.x()) - center[0], T(world.y()) - center[1], T(world.z()) - center[2]};
+    T rotated[3];
+    for (int i = 0; i < 3; ++i)
+      rotated[i] = T(r0(i, 0)) * d[0] + T(r0(i, 1)) * d[1] + T(r0(i, 2)) * d[2];
+    T xc[3];
+    ceres::AngleAxisRotatePoint(delta, rotated, xc);
+    const T fy = single_focal ? focal[0] : focal[1];
+    u[0] = focal[0] * xc[0] + skew[0] * xc[1];
+    u[1] = fy * xc[1];
+    u[2] = xc[2];
+  }
+
+  // World point -> distorted pixel; false behind the camera or outside the division model's domain.
+  template <typename T>
+  bool operator()(const T* focal, const T* principal, const T* skew, const T* distortion, const T* delta,
+                  const T* center, const Eigen::Vector3d& world, T* pixel) const
+  {
+    T d[3] = {T(world.x()) - center[0], T(world.y()) - center[1], T(world.z()) - center[2]};
+    T rotated[3];
+    for (int i = 0; i < 3; ++i)
+      rotated[i] = T(r0(i, 0)) * d[0] + T(r0(i, 1)) * d[1] + T(r0(i, 2)) * d[2];
+    T xc[3];
+    ceres::AngleAxisRotatePoint(delta, rotated, xc);
+    if (!(xc[2] > T(1e-9)))
+      return false;
+    const T fx = focal[0];
+    const T fy = single_focal ? focal[0] : focal[1];
+    const T x = xc[0] / xc[2];
+    const T y = xc[1] / xc[2];
+    // Undistorted pixel relative to the distortion centre (the principal point).
+    const T ux = fx * x + skew[0] * y;
+    const T uy = fy * y;
+    const T lambda = distortion[0] / T(r_ref2);
+    const T disc = T(1.0) - T(4.0) * lambda * (ux * ux + uy * uy);
+    if (!(disc > T(0.0)))
+      return false;
+    const T factor = T(2.0) / (T(1.0) + sqrt(disc));
+    pixel[0] = principal[0] + ux * factor;
+    pixel[1] = principal[1] + uy * factor;
+    return true;
+  }
+};
+
+// Signed distance of a world point's projection to the infinite line of one image part.
+struct PointToPartResidual
+{
+  Projector projector;
+  Eigen::Vector3d world;
+  Eigen::Vector2d a;
+  Eigen::Vector2d normal;
+
+  template <typename T>
+  bool operator()(const T* focal, const T* principal, const T* skew, const T* distortion, const T* delta,
+                  const T* center, T* residual) const
+  {
+    T m[2];
+    if (!projector(focal, principal, skew, distortion, delta, center, world, m))
+      return false;
+    residual[0] = T(normal.x()) * (m[0] - T(a.x())) + T(normal.y()) * (m[1] - T(a.y()));
+    return true;
+  }
+};
+
+// Distance of an observed distorted image point to the distorted image of the 3D line through world points a, b:
+// the point is undistorted, its distance to the projected straight line measured in undistorted pixels, and scaled
+// back by the division model's local scale 1 + lambda r_d^2 (exact across the radial direction, first order along it).
+struct ImagePointToLineResidual
+{
+  Projector projector;
+  Eigen::Vector3d world_a;
+  Eigen::Vector3d world_b;
+  Eigen::Vector2d image;
+
+  template <typename T>
+  bool operator()(const T* focal, const T* principal, const T* skew, const T* distortion, const T* delta,
+                  const T* center, T* residual) const
+  {
+    T ua[3];
+    T ub[3];
+    projector.undistortedHomogeneous(focal, skew, delta, center, world_a, ua);
+    projector.undistortedHomogeneous(focal, skew, delta, center, world_b, ub);
+    // Homogeneous image line through both projections (relative to the principal point), valid for any depth sign.
+    const T l0 = ua[1] * ub[2] - ua[2] * ub[1];
+    const T l1 = ua[2] * ub[0] - ua[0] * ub[2];
+    const T l2 = ua[0] * ub[1] - ua[1] * ub[0];
+    const T norm = sqrt(l0 * l0 + l1 * l1);
+    if (!(norm > T(0.0)))
+      return false;
+    const T dx = T(image.x()) - principal[0];
+    const T dy = T(image.y()) - principal[1];
+    const T scale = T(1.0) + distortion[0] / T(projector.r_ref2) * (dx * dx + dy * dy);
+    if (!(scale > T(0.0)))
+      return false;
+    residual[0] = (l0 * (dx / scale) + l1 * (dy / scale) + l2) / norm * scale;
+    return true;
+  }
+};
+
+struct PointResidual
+{
+  Projector projector;
+  Eigen::Vector3d world;
+  Eigen::Vector2d image;
+
+  template <typename T>
+  bool operator()(const T* focal, const T* principal, const T* skew, const T* distortion, const T* delta,
+                  const T* center, T* residual) const
+  {
+    T m[2];
+    if (!projector(focal, principal, skew, distortion, delta, center, world, m))
+      return false;
+    residual[0] = m[0] - T(image.x());
+    residual[1] = m[1] - T(image.y());
+    return true;
+  }
+};
+
+CameraModel toCamera(const Parameters& p, const Projector& projector)
+{
+  Intrinsics in;
+  in.fx = p.focal[0];
+  in.fy = projector.single_focal ? p.focal[0] : p.focal[1];
+  in.cx = p.principal[0];
+  in.cy = p.principal[1];
+  in.skew = p.skew[0];
+  DivisionModel distortion{p.distortion[0] / projector.r_ref2, in.principalPoint()};
+  Eigen::Matrix3d delta;
+  ceres::AngleAxisToRotationMatrix(p.delta, ceres::ColumnMajorAdapter3x3(delta.data()));
+  CameraPose pose;
+  pose.rotation = delta * projector.r0;
+  const Eigen::Vector3d c(p.center[0], p.center[1], p.center[2]);
+  pose.translation = -pose.rotation * c;
+  return CameraModel(in, distortion, pose);
+}
+
+// The part of the polyline nearest to a pixel (first and last parts extended), as in distanceToPolyline.
+size_t nearestPart(const Eigen::Vector2d& m, const std::vector<Eigen::Vector2d>& polyline)
+{
+  size_t best = 0;
+  double best_distance = std::numeric_limits<double>::infinity();
+  const size_t parts = polyline.size() - 1;
+  for (size_t j = 0; j < parts; ++j)
+  {
+    const double d = distanceToPolyline(m, {polyline[j], polyline[j + 1]});
+    // distanceToPolyline of a single part is the infinite line's distance; prefer parts whose extent covers m.
+    const Eigen::Vector2d ab = polyline[j + 1] - polyline[j];
+    const double t = (m - polyline[j]).dot(ab) / ab.squaredNorm();
+    const double outside = (j == 0 ? std::max(0.0, t - 1.0) : j + 1 == parts ? std::max(0.0, -t) :
+                                                                               std::max({0.0, -t, t - 1.0})) *
+                           ab.norm();
+    const double score = d + outside;
+    if (score < best_distance)
+    {
+      best_distance = score;
+      best = j;
+    }
+  }
+  return best;
+}
+
+std::unique_ptr<ceres::LossFunction> makeLoss(RobustLoss loss, double scale)
+{
+  switch (loss)
+  {
+    case RobustLoss::kHuber:
+      return std::make_unique<ceres::HuberLoss>(scale);
+    case RobustLoss::kCauchy:
+      return std::make_unique<ceres::CauchyLoss>(scale);
+    case RobustLoss::kNone:
+      break;
+  }
+  return nullptr;
+}
+
+double rmsOf(const std::vector<double>& residuals)
+{
+  double sum = 0.0;
+  for (double r : residuals)
+    sum += r * r;
+  return residuals.empty() ? 0.0 : std::sqrt(sum / residuals.size());
+}
+}  // namespace
+
+std::optional<RobustLoss> parseRobustLoss(const std::string& name)
+{
+  if (name == "none")
+    return RobustLoss::kNone;
+  if (name == "huber")
+    return RobustLoss::kHuber;
+  if (name == "cauchy")
+    return RobustLoss::kCauchy;
+  return std::nullopt;
+}
+
+const char* toString(RobustLoss loss)
+{
+  switch (loss)
+  {
+    case RobustLoss::kNone:
+      return "none";
+    case RobustLoss::kHuber:
+      return "huber";
+    case RobustLoss::kCauchy:
+      return "cauchy";
+  }
+  return "?";
+}
+
+Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const CameraModel& initial,
+                                        const RefinementOptions& options, const std::vector<bool>& use_line)
+{
+  if (const Status valid = data.validate(); !valid)
+    return valid.error();
+  if (!use_line.empty() && use_line.size() != data.lines.size())
+    return Error(ErrorCode::kInvalidInput, "use_line has " + std::to_string(use_line.size()) + " entries for " +
+                                               std::to_string(data.lines.size()) + " lines");
+  const auto selected = [&](size_t i) { return use_line.empty() || use_line[i]; };
+
+  Projector projector;
+  projector.r0 = initial.pose().rotation;
+  projector.single_focal = options.single_focal;
+  const double half_diagonal = 0.5 * std::hypot(data.image_width, data.image_height);
+  projector.r_ref2 = half_diagonal * half_diagonal;
+
+  Parameters p;
+  const Intrinsics& in = initial.intrinsics();
+  p.focal[0] = options.single_focal ? 0.5 * (in.fx + in.fy) : in.fx;
+  p.focal[1] = in.fy;
+  p.principal[0] = in.cx;
+  p.principal[1] = in.cy;
+  p.skew[0] = options.estimate_skew ? in.skew : 0.0;
+  p.distortion[0] = options.estimate_distortion ? initial.distortion().lambda * projector.r_ref2 : 0.0;
+  const Eigen::Vector3d c0 = initial.pose().center();
+  for (int i = 0; i < 3; ++i)
+    p.center[i] = c0(i);
+
+  RefinementResult result;
+  {
+    // The starting error, with the pairing of points and parts the initial camera gives.
+    std::vector<double> r;
+    for (size_t i = 0; i < data.lines.size(); ++i)
+      if (selected(i))
+        for (double d : lineResiduals(toCamera(p, projector), data.lines[i]))
+          r.push_back(d);
+    result.initial_rms_px = rmsOf(r);
+  }
+
+  std::vector<std::vector<size_t>> assignment(data.lines.size());
+  ceres::Solver::Summary summary;
+  size_t residual_count = 0;
+  std::unique_ptr<ceres::Problem> problem;
+  for (int round = 0; round <= options.max_reassignments; ++round)
+  {
+    // Pair each world point with its nearest part under the current camera.
+    const CameraModel current = toCamera(p, projector);
+    bool changed = false;
+    for (size_t i = 0; i < data.lines.size(); ++i)
+    {
+      if (!selected(i))
+        continue;
+      const auto& line = data.lines[i];
+      std::vector<size_t> parts(line.world.size(), 0);
+      for (size_t k = 0; k < line.world.size(); ++k)
+      {
+        const auto m = current.project(line.world[k]);
+        parts[k] = m ? nearestPart(*m, line.image) : 0;
+      }
+      changed = changed || parts != assignment[i];
+      assignment[i] = parts;
+    }
+    if (round > 0 && !changed)
+      break;
+
+    ceres::Problem::Options problem_options;
+    problem_options.loss_function_ownership = ceres::TAKE_OWNERSHIP;
+    problem = std::make_unique<ceres::Problem>(problem_options);
+    residual_count = 0;
+    for (size_t i = 0; i < data.lines.size(); ++i)
+    {
+      if (!selected(i))
+        continue;
+      const auto& line = data.lines[i];
+      if (options.line_residual != LineResidual::kWorldPoints && line.world.size() >= 2 &&
+          (line.world.back() - line.world.front()).norm() > 0.0)
+      {
+        for (const auto& m : line.image)
+        {
+          auto* cost = new ceres::AutoDiffCostFunction<ImagePointToLineResidual, 1, 2, 2, 1, 1, 3, 3>(
+              new ImagePointToLineResidual{projector, line.world.front(), line.world.back(), m});
+          problem->AddResidualBlock(cost, makeLoss(options.loss, options.loss_scale_px).release(), p.focal,
+                                    p.principal, p.skew, p.distortion, p.delta, p.center);
+          ++residual_count;
+        }
+        if (options.line_residual == LineResidual::kImagePoints)
+          continue;
+      }
+      for (size_t k = 0; k < line.world.size(); ++k)
+      {
+        const Eigen::Vector2d a = line.image[assignment[i][k]];
+        const Eigen::Vector2d b = line.image[assignment[i][k] + 1];
+        const Eigen::Vector2d dir = (b - a).normalized();
+        auto* cost = new ceres::AutoDiffCostFunction<PointToPartResidual, 1, 2, 2, 1, 1, 3, 3>(
+            new PointToPartResidual{projector, line.world[k], a, Eigen::Vector2d(-dir.y(), dir.x())});
+        problem->AddResidualBlock(cost, makeLoss(options.loss, options.loss_scale_px).release(), p.focal,
+                                  p.principal, p.skew, p.distortion, p.delta, p.center);
+        ++residual_count;
+      }
+    }
+    for (const auto& point : data.points)
+    {
+      auto* cost = new ceres::AutoDiffCostFunction<PointResidual, 2, 2, 2, 1, 1, 3, 3>(
+          new PointResidual{projector, point.world, point.image});
+      problem->AddResidualBlock(cost, makeLoss(options.loss, options.loss_scale_px).release(), p.focal, p.principal,
+                                p.skew, p.distortion, p.delta, p.center);
+      residual_count += 2;
+    }
+    if (residual_count == 0)
+      return Error(ErrorCode::kNotEnoughData, "refinement has no residuals (no selected line or point)");
+    if (options.single_focal)
+      problem->SetManifold(p.focal, new ceres::SubsetManifold(2, {1}));
+    if (!options.estimate_skew)
+      problem->SetParameterBlockConstant(p.skew);
+    if (!options.estimate_distortion)
+      problem->SetParameterBlockConstant(p.distortion);
+
+    ceres::Solver::Options solver_options;
+    solver_options.linear_solver_type = ceres::DENSE_QR;
+    solver_options.max_num_iterations = options.max_iterations;
+    solver_options.function_tolerance = 1e-12;
+    solver_options.gradient_tolerance = 1e-12;
+    solver_options.parameter_tolerance = 1e-12;
+    solver_options.num_threads = 1;
+    ceres::Solve(solver_options, problem.get(), &summary);
+    result.iterations += static_cast<int>(summary.iterations.size());
+    if (summary.termination_type == ceres::FAILURE)
+      return Error(ErrorCode::kNoSolution, "refinement failed: " + summary.message);
+  }
+
+  result.camera = toCamera(p, projector);
+  result.converged = summary.termination_type == ceres::CONVERGENCE;
+  result.termination = summary.message;
+  result.residuals = residual_count;
+  {
+    std::vector<double> r;
+    for (size_t i = 0; i < data.lines.size(); ++i)
+      if (selected(i))
+        for (double d : lineResiduals(result.camera, data.lines[i]))
+          r.push_back(d);
+    result.final_rms_px = rmsOf(r);
+  }
+
+  if (options.compute_uncertainty)
+  {
+    CameraUncertainty& u = result.uncertainty;
+    const size_t free_parameters = (options.single_focal ? 1 : 2) + 2 + (options.estimate_skew ? 1 : 0) +
+                                   (options.estimate_distortion ? 1 : 0) + 6;
+    if (residual_count <= free_parameters)
+    {
+      u.reason = "as many parameters as residuals: no redundancy to estimate uncertainty from";
+    }
+    else
+    {
+      ceres::Covariance::Options covariance_options;
+      covariance_options.algorithm_type = ceres::DENSE_SVD;
+      covariance_options.null_space_rank = 0;
+      covariance_options.min_reciprocal_condition_number = 1e-14;
+      ceres::Covariance covariance(covariance_options);
+      std::vector<std::pair<const double*, const double*>> blocks = {
+          {p.focal, p.focal}, {p.principal, p.principal}, {p.distortion, p.distortion},
+          {p.delta, p.delta}, {p.center, p.center}};
+      if (!covariance.Compute(blocks, problem.get()))
+      {
+        u.reason = "rank deficient: the data leave the camera under-constrained (for example all lines in one "
+                   "plane or too few directions); no uncertainty can be given";
+      }
+      else
+      {
+        // Ceres assumes unit-variance residuals: scale by the residual variance (2 cost / degrees of freedom).
+        const double sigma2 = 2.0 * summary.final_cost / static_cast<double>(residual_count - free_parameters);
+        u.residual_sigma_px = std::sqrt(sigma2);
+        double focal[4], principal[4], distortion[1], delta[9], center[9];
+        covariance.GetCovarianceBlock(p.focal, p.focal, focal);
+        covariance.GetCovarianceBlock(p.principal, p.principal, principal);
+        covariance.GetCovarianceBlock(p.distortion, p.distortion, distortion);
+        covariance.GetCovarianceBlock(p.delta, p.delta, delta);
+        covariance.GetCovarianceBlock(p.center, p.center, center);
+        u.available = true;
+        u.fx = std::sqrt(sigma2 * focal[0]);
+        u.fy = options.single_focal ? u.fx : std::sqrt(sigma2 * focal[3]);
+        u.cx = std::sqrt(sigma2 * principal[0]);
+        u.cy = std::sqrt(sigma2 * principal[3]);
+        u.lambda = std::sqrt(sigma2 * distortion[0]) / projector.r_ref2;
+        u.rotation_deg = std::sqrt(sigma2 * (delta[0] + delta[4] + delta[8])) * 180.0 / M_PI;
+        u.position_m = std::sqrt(sigma2 * (center[0] + center[4] + center[8]));
+      }
+    }
+  }
+  return result;
+}
+
+}  // namespace insitu_calibration
