@@ -25,23 +25,38 @@ public:
   void clear();
 
   // Adds the constraints (each world point) x (each image row) of one group: world_scatter = sum_k M_k M_k^T over
-  // its homogeneous world points, and the sums over its image rows of l l^T, l e^T and e e^T.
+  // its homogeneous world points, and the sums over its image rows of l l^T, l e^T and e e^T. Every e has a zero
+  // third entry (the division model changes only the third coordinate of a homogeneous point), which the packed
+  // accumulation relies on.
   void addGroup(const Eigen::Matrix4d& world_scatter, const Eigen::Matrix3d& ll, const Eigen::Matrix3d& le,
                 const Eigen::Matrix3d& ee, size_t constraints);
+  // The same with the distinct entries only (the hot path of DLT-Lines): scatter (j <= k) in the order 00 01 02 03
+  // 11 12 13 22 23 33; ll row-major; le's first two columns row-major (l0e0 l0e1 l1e0 l1e1 l2e0 l2e1); ee as e0e0
+  // e0e1 e1e1.
+  void addPackedGroup(const double scatter[10], const double ll[9], const double le[6], const double ee[3],
+                      size_t constraints);
 
   // Normal matrix of (B1 + lambda B2): C11 + lambda (C12 + C12^T) + lambda^2 C22.
   Matrix12d normalMatrix(double lambda) const;
 
-  const Matrix12d& c11() const { return c11_; }
-  const Matrix12d& c12() const { return c12_; }
-  const Matrix12d& c22() const { return c22_; }
+  const Matrix12d& c11() const;
+  const Matrix12d& c12() const;
+  const Matrix12d& c22() const;
   size_t constraintCount() const { return constraints_; }
 
 private:
-  Matrix12d c11_;
-  Matrix12d c12_;
-  Matrix12d c22_;
+  void unpack() const;
+
+  // Only the distinct products are accumulated: the 10 entries of the symmetric 4x4 scatter times the 9 entries of
+  // l l^T, the 6 non-zero ones of l e^T and the 3 distinct ones of e e^T. The 12x12 matrices are built on demand.
+  double packed11_[10][9];
+  double packed12_[10][6];
+  double packed22_[10][3];
   size_t constraints_ = 0;
+  mutable bool unpacked_ = false;
+  mutable Matrix12d c11_;
+  mutable Matrix12d c12_;
+  mutable Matrix12d c22_;
 };
 
 }  // namespace insitu_calibration

@@ -1,40 +1,104 @@
 #include "insitu_calibration/solvers/dlt_system.h"
 
+#include <cstring>
+
 namespace insitu_calibration
 {
+namespace
+{
+// (j, k) with j <= k of the symmetric 4x4 scatter, in packing order.
+constexpr int kScatterRow[10] = {0, 0, 0, 0, 1, 1, 1, 2, 2, 3};
+constexpr int kScatterCol[10] = {0, 1, 2, 3, 1, 2, 3, 2, 3, 3};
+}  // namespace
+
 void DltSystem::clear()
 {
-  c11_.setZero();
-  c12_.setZero();
-  c22_.setZero();
+  std::memset(packed11_, 0, sizeof(packed11_));
+  std::memset(packed12_, 0, sizeof(packed12_));
+  std::memset(packed22_, 0, sizeof(packed22_));
   constraints_ = 0;
+  unpacked_ = false;
 }
 
 void DltSystem::addGroup(const Eigen::Matrix4d& world_scatter, const Eigen::Matrix3d& ll, const Eigen::Matrix3d& le,
                          const Eigen::Matrix3d& ee, size_t constraints)
 {
-  // Kronecker product S (x) L, block (j, k) = S(j, k) L. S is symmetric, so block (k, j) equals block (j, k).
-  for (int j = 0; j < 4; ++j)
+  double s[10];
+  for (int b = 0; b < 10; ++b)
+    s[b] = world_scatter(kScatterRow[b], kScatterCol[b]);
+  const double l11[9] = {ll(0, 0), ll(0, 1), ll(0, 2), ll(1, 0), ll(1, 1), ll(1, 2), ll(2, 0), ll(2, 1), ll(2, 2)};
+  const double l12[6] = {le(0, 0), le(0, 1), le(1, 0), le(1, 1), le(2, 0), le(2, 1)};
+  const double l22[3] = {ee(0, 0), ee(0, 1), ee(1, 1)};
+  addPackedGroup(s, l11, l12, l22, constraints);
+}
+
+void DltSystem::addPackedGroup(const double s[10], const double l11[9], const double l12[6], const double l22[3],
+                               size_t constraints)
+{
+  for (int b = 0; b < 10; ++b)
   {
-    for (int k = j; k < 4; ++k)
-    {
-      const double s = world_scatter(j, k);
-      c11_.block<3, 3>(3 * j, 3 * k) += s * ll;
-      c12_.block<3, 3>(3 * j, 3 * k) += s * le;
-      c22_.block<3, 3>(3 * j, 3 * k) += s * ee;
-      if (k != j)
-      {
-        c11_.block<3, 3>(3 * k, 3 * j) += s * ll;
-        c12_.block<3, 3>(3 * k, 3 * j) += s * le;
-        c22_.block<3, 3>(3 * k, 3 * j) += s * ee;
-      }
-    }
+    for (int q = 0; q < 9; ++q)
+      packed11_[b][q] += s[b] * l11[q];
+    for (int q = 0; q < 6; ++q)
+      packed12_[b][q] += s[b] * l12[q];
+    for (int q = 0; q < 3; ++q)
+      packed22_[b][q] += s[b] * l22[q];
   }
   constraints_ += constraints;
+  unpacked_ = false;
+}
+
+void DltSystem::unpack() const
+{
+  if (unpacked_)
+    return;
+  c11_.setZero();
+  c12_.setZero();
+  c22_.setZero();
+  // Kronecker product S (x) L, block (j, k) = S(j, k) L; S is symmetric, so block (k, j) equals block (j, k).
+  for (int b = 0; b < 10; ++b)
+  {
+    Eigen::Matrix3d b11;
+    b11 << packed11_[b][0], packed11_[b][1], packed11_[b][2], packed11_[b][3], packed11_[b][4], packed11_[b][5],
+        packed11_[b][6], packed11_[b][7], packed11_[b][8];
+    Eigen::Matrix3d b12 = Eigen::Matrix3d::Zero();
+    b12.leftCols<2>() << packed12_[b][0], packed12_[b][1], packed12_[b][2], packed12_[b][3], packed12_[b][4],
+        packed12_[b][5];
+    Eigen::Matrix3d b22 = Eigen::Matrix3d::Zero();
+    b22.topLeftCorner<2, 2>() << packed22_[b][0], packed22_[b][1], packed22_[b][1], packed22_[b][2];
+    const int j = kScatterRow[b];
+    const int k = kScatterCol[b];
+    c11_.block<3, 3>(3 * j, 3 * k) = b11;
+    c12_.block<3, 3>(3 * j, 3 * k) = b12;
+    c22_.block<3, 3>(3 * j, 3 * k) = b22;
+    c11_.block<3, 3>(3 * k, 3 * j) = b11;
+    c12_.block<3, 3>(3 * k, 3 * j) = b12;
+    c22_.block<3, 3>(3 * k, 3 * j) = b22;
+  }
+  unpacked_ = true;
+}
+
+const Matrix12d& DltSystem::c11() const
+{
+  unpack();
+  return c11_;
+}
+
+const Matrix12d& DltSystem::c12() const
+{
+  unpack();
+  return c12_;
+}
+
+const Matrix12d& DltSystem::c22() const
+{
+  unpack();
+  return c22_;
 }
 
 Matrix12d DltSystem::normalMatrix(double lambda) const
 {
+  unpack();
   return c11_ + lambda * (c12_ + c12_.transpose()) + (lambda * lambda) * c22_;
 }
 

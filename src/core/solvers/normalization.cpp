@@ -11,25 +11,19 @@ IsotropicNormalization<Dim> computeNormalization(const std::vector<Eigen::Matrix
                                                  const std::optional<Eigen::Matrix<double, Dim, 1>>& fixed_origin,
                                                  double target_mean_distance)
 {
+  using Vector = Eigen::Matrix<double, Dim, 1>;
   IsotropicNormalization<Dim> n;
   if (points.empty())
     return n;
-  if (fixed_origin)
-  {
-    n.origin = *fixed_origin;
-  }
-  else
-  {
-    Eigen::Matrix<double, Dim, 1> sum = Eigen::Matrix<double, Dim, 1>::Zero();
-    for (const auto& p : points)
-      sum += p;
-    n.origin = sum / static_cast<double>(points.size());
-  }
-  double mean_distance = 0.0;
+  Vector sum = Vector::Zero();
   for (const auto& p : points)
-    mean_distance += (p - n.origin).norm();
-  mean_distance /= static_cast<double>(points.size());
-  n.scale = mean_distance > 0.0 ? target_mean_distance / mean_distance : 1.0;
+    sum += p;
+  n.origin = fixed_origin ? *fixed_origin : Vector(sum / static_cast<double>(points.size()));
+  double distance = 0.0;
+  for (const auto& p : points)
+    distance += (p - n.origin).norm();
+  distance /= static_cast<double>(points.size());
+  n.scale = distance > 0.0 ? target_mean_distance / distance : 1.0;
   return n;
 }
 }  // namespace
