@@ -50,9 +50,9 @@ struct CalibrationResult
   size_t inlier_count = 0;
   int ransac_iterations = 0;
   std::optional<RefinementResult> refinement;
-  CameraUncertainty uncertainty;   // from the refinement; available = false without it
-  int iterations = 0;              // principal-point iterations plus refinement iterations
-  bool converged = true;           // the principal-point iteration and the refinement both converged
+  CameraUncertainty uncertainty;  // from the refinement; available = false without it
+  int iterations = 0;             // principal-point iterations plus refinement iterations
+  bool converged = true;          // the principal-point iteration and the refinement both converged
 };
 
 Expected<CalibrationResult> calibrateCamera(const CorrespondenceSet& data, const CalibrationOptions& options = {});

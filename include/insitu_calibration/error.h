@@ -40,7 +40,7 @@ template <typename T>
 class Expected
 {
 public:
-  Expected(T value) : storage_(std::move(value)) {}  // NOLINT: implicit by design, like std::expected
+  Expected(T value) : storage_(std::move(value)) {}      // NOLINT: implicit by design, like std::expected
   Expected(Error error) : storage_(std::move(error)) {}  // NOLINT
 
   bool ok() const { return storage_.index() == 0; }
@@ -62,8 +62,7 @@ private:
 
 // For operations that return nothing on success.
 struct Success
-{
-};
+{};
 using Status = Expected<Success>;
 
 }  // namespace insitu_calibration

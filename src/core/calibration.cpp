@@ -72,15 +72,14 @@ Expected<CalibrationResult> calibrateCamera(const CorrespondenceSet& data, const
       dlt.estimate_distortion = true;
       result.distortion_note = "distortion estimated (requested)";
       break;
-    case DistortionMode::kAuto:
-    {
+    case DistortionMode::kAuto: {
       DltOptions with_lambda = dlt;
       with_lambda.estimate_distortion = true;
       const Status identifiable = checkDltInput(selected, with_lambda);
       dlt.estimate_distortion = identifiable.ok();
-      result.distortion_note =
-          identifiable ? "distortion estimated (curved image lines or point correspondences identify it)"
-                       : "distortion not estimated: " + identifiable.error().message();
+      result.distortion_note = identifiable
+                                   ? "distortion estimated (curved image lines or point correspondences identify it)"
+                                   : "distortion not estimated: " + identifiable.error().message();
       break;
     }
   }
@@ -133,8 +132,8 @@ CalibrationFile toCalibrationFile(const CorrespondenceSet& data, const Calibrati
   file.image_height = data.image_height;
   file.world_frame = world_frame;
   file.camera = result.camera;
-  file.plumb_bob = fitPlumbBob(result.camera.intrinsics(), result.camera.distortion(), data.image_width,
-                               data.image_height);
+  file.plumb_bob =
+      fitPlumbBob(result.camera.intrinsics(), result.camera.distortion(), data.image_width, data.image_height);
   CalibrationQuality q;
   q.rms_px = result.reprojection.rms_px;
   q.median_px = result.reprojection.median_px;
@@ -176,8 +175,8 @@ std::string describeCalibration(const CalibrationResult& r)
                 "position       %.4f %.4f %.4f m (optical centre in the world)\n"
                 "reprojection   RMS %.3f px, median %.3f px, max %.3f px, MSE %.4f px^2 over %zu residuals\n"
                 "data           %zu lines, %zu points, %zu constraints; %d principal-point iteration(s)%s\n",
-                k.fx, k.fy, k.skew, k.cx, k.cy, d.lambda, d.center.x(), d.center.y(), r.distortion_note.c_str(),
-                c.x(), c.y(), c.z(), r.reprojection.rms_px, r.reprojection.median_px, r.reprojection.max_px,
+                k.fx, k.fy, k.skew, k.cx, k.cy, d.lambda, d.center.x(), d.center.y(), r.distortion_note.c_str(), c.x(),
+                c.y(), c.z(), r.reprojection.rms_px, r.reprojection.median_px, r.reprojection.max_px,
                 r.reprojection.mse_px2, r.reprojection.count, r.dlt.lines_used, r.dlt.points_used, r.dlt.constraints,
                 r.iterations, r.converged ? "" : " (NOT converged)");
   std::string out = buffer;

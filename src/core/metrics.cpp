@@ -112,7 +112,10 @@ double rotationDistance(const Eigen::Matrix3d& r1, const Eigen::Matrix3d& r2)
   return std::atan2(0.5 * axis_sin.norm(), 0.5 * (r.trace() - 1.0));
 }
 
-double centerDistance(const CameraPose& a, const CameraPose& b) { return (a.center() - b.center()).norm(); }
+double centerDistance(const CameraPose& a, const CameraPose& b)
+{
+  return (a.center() - b.center()).norm();
+}
 
 CameraErrors compareCameras(const CameraModel& truth, const CameraModel& estimate)
 {

@@ -59,9 +59,9 @@ double naiveSolve(const ic::CorrespondenceSet& data, const Eigen::Vector2d& cent
       const Eigen::Vector3d ld = a.homogeneous().cross(b.homogeneous());
       const double len = ld.head<2>().norm();
       const Eigen::Vector3d l = ld / len;
-      const Eigen::Vector3d e =
-          Eigen::Vector3d(a.y() * b.squaredNorm() - b.y() * a.squaredNorm(),
-                          b.x() * a.squaredNorm() - a.x() * b.squaredNorm(), 0.0) / len;
+      const Eigen::Vector3d e = Eigen::Vector3d(a.y() * b.squaredNorm() - b.y() * a.squaredNorm(),
+                                                b.x() * a.squaredNorm() - a.x() * b.squaredNorm(), 0.0) /
+                                len;
       for (const auto& x : line.world)
       {
         const Eigen::Vector4d m = wn.apply(x).homogeneous();
@@ -118,10 +118,12 @@ int main(int argc, char** argv)
   const ic::CameraModel camera = ic::randomCamera(camera_options, rng);
   std::cout << "bench_solver: seed " << seed << ", camera fx " << camera.intrinsics().fx << " px, lambda "
             << camera.distortion().lambda << ", image noise 0.5 px, best of " << repeat << " runs, one thread\n\n";
-  std::printf("| shape  | constraints | lines   | library ms | naive ms | speed-up | constraints/s (library) | "
-              "lambda error library / naive |\n");
-  std::printf("|--------|-------------|---------|------------|----------|----------|-------------------------|"
-              "------------------------------|\n");
+  std::printf(
+      "| shape  | constraints | lines   | library ms | naive ms | speed-up | constraints/s (library) | "
+      "lambda error library / naive |\n");
+  std::printf(
+      "|--------|-------------|---------|------------|----------|----------|-------------------------|"
+      "------------------------------|\n");
 
   for (const bool dense : {true, false})
   {
@@ -133,8 +135,8 @@ int main(int argc, char** argv)
       options.image_noise_px = 0.5;
       const int per_line = dense ? 100 : 2;
       options.lines = std::max(7, static_cast<int>(n / per_line));
-      const ic::SyntheticLines lines = ic::makeSyntheticLines(camera, camera_options.image_width,
-                                                              camera_options.image_height, options, rng);
+      const ic::SyntheticLines lines =
+          ic::makeSyntheticLines(camera, camera_options.image_width, camera_options.image_height, options, rng);
       ic::DltOptions dlt;
       dlt.method = ic::DltMethod::kLines;
       dlt.estimate_distortion = true;

@@ -43,14 +43,15 @@ Exit status: 0 success, 1 calibration failed, 2 bad command line or unreadable i
 void printComparison(const ic::CameraModel& truth, const ic::CameraModel& estimate)
 {
   const ic::CameraErrors e = ic::compareCameras(truth, estimate);
-  std::printf("against the truth:\n"
-              "  focal error     %+.4f %%\n"
-              "  rotation error  %.4f deg\n"
-              "  position error  %.2f mm\n"
-              "  principal pt    %.2f px\n"
-              "  lambda          %.6g (truth %.6g, %.2f %% off)\n",
-              100.0 * e.focal_relative, e.rotation_rad * 180.0 / M_PI, 1000.0 * e.center_m, e.principal_point_px,
-              estimate.distortion().lambda, truth.distortion().lambda, 100.0 * e.lambda_relative);
+  std::printf(
+      "against the truth:\n"
+      "  focal error     %+.4f %%\n"
+      "  rotation error  %.4f deg\n"
+      "  position error  %.2f mm\n"
+      "  principal pt    %.2f px\n"
+      "  lambda          %.6g (truth %.6g, %.2f %% off)\n",
+      100.0 * e.focal_relative, e.rotation_rad * 180.0 / M_PI, 1000.0 * e.center_m, e.principal_point_px,
+      estimate.distortion().lambda, truth.distortion().lambda, 100.0 * e.lambda_relative);
 }
 }  // namespace
 
@@ -68,9 +69,9 @@ int main(int argc, char** argv)
   if (!cli.error().empty() || cli.positional().size() != 1 || !cli.has("output"))
   {
     std::cerr << "calibrate_lines: "
-              << (!cli.error().empty()            ? cli.error()
+              << (!cli.error().empty()           ? cli.error()
                   : cli.positional().size() != 1 ? "expected exactly one INPUT.yaml"
-                                                  : "--output OUT.yaml is required")
+                                                 : "--output OUT.yaml is required")
               << "\n\n"
               << kUsage;
     return 2;
@@ -80,8 +81,8 @@ int main(int argc, char** argv)
   const auto method = ic::parseDltMethod(cli.value("method", "combined"));
   if (!distortion || !method)
   {
-    std::cerr << "calibrate_lines: " << (!distortion ? "--distortion must be auto, on or off"
-                                                     : "--method must be lines, points or combined")
+    std::cerr << "calibrate_lines: "
+              << (!distortion ? "--distortion must be auto, on or off" : "--method must be lines, points or combined")
               << "\n";
     return 2;
   }
@@ -100,8 +101,8 @@ int main(int argc, char** argv)
   {
     std::cerr << "calibrate_lines: "
               << (!cli.error().empty() ? cli.error()
-                  : !loss               ? "--loss must be huber, cauchy or none"
-                                        : "--inlier-threshold and --loss-scale must be positive")
+                  : !loss              ? "--loss must be huber, cauchy or none"
+                                       : "--inlier-threshold and --loss-scale must be positive")
               << "\n";
     return 2;
   }
@@ -150,8 +151,8 @@ int main(int argc, char** argv)
   }
   if (!cli.flag("quiet"))
   {
-    std::cout << "camera " << (data->camera_name.empty() ? "(unnamed)" : data->camera_name) << ", "
-              << data->image_width << "x" << data->image_height << "\n"
+    std::cout << "camera " << (data->camera_name.empty() ? "(unnamed)" : data->camera_name) << ", " << data->image_width
+              << "x" << data->image_height << "\n"
               << ic::describeCalibration(*result);
     if (truth)
       printComparison(truth->camera, result->camera);

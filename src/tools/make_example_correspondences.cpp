@@ -29,9 +29,9 @@ Options:
 
 int main(int argc, char** argv)
 {
-  ic::CommandLine cli(argc, argv,
-                      {"out", "truth", "seed", "name", "width", "height", "lines", "image-points", "noise", "corner-px"},
-                      {});
+  ic::CommandLine cli(
+      argc, argv, {"out", "truth", "seed", "name", "width", "height", "lines", "image-points", "noise", "corner-px"},
+      {});
   if (cli.help())
   {
     std::cout << kUsage;
@@ -48,8 +48,8 @@ int main(int argc, char** argv)
   const auto seed = static_cast<unsigned>(cli.number("seed", 1));
   if (!cli.error().empty() || !cli.has("out") || !cli.has("truth") || !cli.positional().empty())
   {
-    std::cerr << "make_example_correspondences: " << (cli.error().empty() ? "--out and --truth are required" : cli.error())
-              << "\n\n"
+    std::cerr << "make_example_correspondences: "
+              << (cli.error().empty() ? "--out and --truth are required" : cli.error()) << "\n\n"
               << kUsage;
     return 2;
   }

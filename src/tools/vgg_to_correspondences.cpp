@@ -58,8 +58,8 @@ int main(int argc, char** argv)
     file.image_width = width;
     file.image_height = height;
     file.world_frame = "world";
-    file.camera = ic::CameraModel(truth->intrinsics, ic::DivisionModel{0.0, truth->intrinsics.principalPoint()},
-                                  truth->pose);
+    file.camera =
+        ic::CameraModel(truth->intrinsics, ic::DivisionModel{0.0, truth->intrinsics.principalPoint()}, truth->pose);
     const ic::Status a = ic::saveCorrespondenceFile(out_dir + "/" + view.name + ".yaml", view.data);
     const ic::Status b = ic::saveCalibrationFile(out_dir + "/" + view.name + "_truth.yaml", file);
     if (!a || !b)

@@ -61,9 +61,8 @@ class CameraModel
 public:
   CameraModel() = default;
   CameraModel(const Intrinsics& intrinsics, const DivisionModel& distortion, const CameraPose& pose)
-    : intrinsics_(intrinsics), distortion_(distortion), pose_(pose)
-  {
-  }
+      : intrinsics_(intrinsics), distortion_(distortion), pose_(pose)
+  {}
 
   const Intrinsics& intrinsics() const { return intrinsics_; }
   const DivisionModel& distortion() const { return distortion_; }

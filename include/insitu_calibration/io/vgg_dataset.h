@@ -15,10 +15,10 @@ namespace insitu_calibration
 {
 struct VggView
 {
-  std::string name;            // the .P file's stem, e.g. "house.000"
-  Matrix34d projection;        // ground truth, pixels with (0,0) the top-left pixel
+  std::string name;      // the .P file's stem, e.g. "house.000"
+  Matrix34d projection;  // ground truth, pixels with (0,0) the top-left pixel
   CorrespondenceSet data;
-  bool mirrored = false;       // the scene's frame was left-handed and z was negated (see loadVggScene)
+  bool mirrored = false;  // the scene's frame was left-handed and z was negated (see loadVggScene)
 };
 
 // Reads every view of a scene folder: *.P files, their .lines, the *l3d file and the *nview-lines file.

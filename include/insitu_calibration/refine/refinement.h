@@ -42,8 +42,8 @@ enum class LineResidual
 struct RefinementOptions
 {
   LineResidual line_residual = LineResidual::kImagePoints;
-  bool single_focal = false;     // fx = fy
-  bool estimate_skew = false;    // skew fixed (at its initial value, normally 0) by default
+  bool single_focal = false;   // fx = fy
+  bool estimate_skew = false;  // skew fixed (at its initial value, normally 0) by default
   bool estimate_distortion = true;
   RobustLoss loss = RobustLoss::kHuber;
   double loss_scale_px = 1.0;
@@ -63,9 +63,9 @@ struct CameraUncertainty
   double fy = 0.0;
   double cx = 0.0;
   double cy = 0.0;
-  double lambda = 0.0;        // 1/px^2
-  double position_m = 0.0;    // sqrt of the trace of the centre's covariance: RMS of the 3D position error
-  double rotation_deg = 0.0;  // sqrt of the trace of the rotation's covariance: RMS of the rotation angle
+  double lambda = 0.0;             // 1/px^2
+  double position_m = 0.0;         // sqrt of the trace of the centre's covariance: RMS of the 3D position error
+  double rotation_deg = 0.0;       // sqrt of the trace of the rotation's covariance: RMS of the rotation angle
   double residual_sigma_px = 0.0;  // noise level estimated from the residuals, which scales the covariance
 };
 
@@ -83,8 +83,7 @@ struct RefinementResult
 
 // Refines `initial` on the data. `use_line[i]` selects lines (all when empty); points are always used.
 Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const CameraModel& initial,
-                                        const RefinementOptions& options = {},
-                                        const std::vector<bool>& use_line = {});
+                                        const RefinementOptions& options = {}, const std::vector<bool>& use_line = {});
 
 }  // namespace insitu_calibration
 

@@ -46,8 +46,8 @@ struct DltResult
   size_t lines_used = 0;
   size_t points_used = 0;
   bool distortion_estimated = false;
-  int center_iterations = 0;      // solves performed by the principal-point iteration
-  bool center_converged = true;   // false when the iteration ran out before the centre stopped moving
+  int center_iterations = 0;     // solves performed by the principal-point iteration
+  bool center_converged = true;  // false when the iteration ran out before the centre stopped moving
   double center_last_step_px = 0.0;
 };
 

@@ -19,8 +19,8 @@ namespace insitu_calibration
 struct DltSystemSolution
 {
   Vector12d p = Vector12d::Zero();  // unit norm
-  double lambda = 0.0;    // in the coordinates the system was built in
-  double residual = 0.0;  // p^T N(lambda) p = ||(B1 + lambda B2) p||^2
+  double lambda = 0.0;              // in the coordinates the system was built in
+  double residual = 0.0;            // p^T N(lambda) p = ||(B1 + lambda B2) p||^2
   // Second-smallest over largest eigenvalue of N(lambda): near zero when the data leave a 2+ dimensional family of
   // solutions (a degenerate configuration).
   double null_space_gap = 0.0;

@@ -27,8 +27,8 @@ struct SyntheticCameraOptions
   double principal_jitter_px = 30.0;  // principal point offset from the image centre
   // Radial displacement of the image corner by the division model, in px (negative: barrel).
   double corner_displacement_px = -15.0;
-  double height_m = 2.7;        // camera height above the floor (z up in the world)
-  double tilt_min_deg = 15.0;   // looking down
+  double height_m = 2.7;       // camera height above the floor (z up in the world)
+  double tilt_min_deg = 15.0;  // looking down
   double tilt_max_deg = 40.0;
 };
 
@@ -48,7 +48,7 @@ struct SyntheticLineOptions
   double depth_min_m = 1.5;
   double depth_max_m = 8.0;
   double min_image_length_px = 60.0;
-  double margin_px = 5.0;  // segments stay this far inside the image
+  double margin_px = 5.0;     // segments stay this far inside the image
   bool axis_aligned = false;  // building-like directions (x, y, z of the world) instead of random ones
 };
 

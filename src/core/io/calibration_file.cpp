@@ -25,9 +25,9 @@ std::string formatCalibration(const CalibrationFile& c)
   out << YAML::Key << "camera_name" << YAML::Value << c.camera_name;
   yaml_util::emitMatrix(out, "camera_matrix", k);
   out << YAML::Key << "distortion_model" << YAML::Value << "plumb_bob";
-  yaml_util::emitMatrix(out, "distortion_coefficients",
-                        Eigen::Matrix<double, 1, 5>(Eigen::Map<const Eigen::Matrix<double, 1, 5>>(
-                            plumb_bob.coefficients.data())));
+  yaml_util::emitMatrix(
+      out, "distortion_coefficients",
+      Eigen::Matrix<double, 1, 5>(Eigen::Map<const Eigen::Matrix<double, 1, 5>>(plumb_bob.coefficients.data())));
   yaml_util::emitMatrix(out, "rectification_matrix", Eigen::Matrix3d::Identity());
   yaml_util::emitMatrix(out, "projection_matrix", rectified_projection);
 

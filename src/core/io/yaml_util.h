@@ -54,8 +54,8 @@ inline Expected<std::vector<double>> toNumbers(const YAML::Node& node, const std
   if (!node || !node.IsSequence())
     return Error(ErrorCode::kParseError, where + ": expected a list of numbers");
   if (size && node.size() != *size)
-    return Error(ErrorCode::kParseError, where + ": expected " + std::to_string(*size) + " numbers, got " +
-                                             std::to_string(node.size()));
+    return Error(ErrorCode::kParseError,
+                 where + ": expected " + std::to_string(*size) + " numbers, got " + std::to_string(node.size()));
   std::vector<double> out;
   for (size_t i = 0; i < node.size(); ++i)
   {

@@ -184,8 +184,9 @@ size_t nearestPart(const Eigen::Vector2d& m, const std::vector<Eigen::Vector2d>&
     // distanceToPolyline of a single part is the infinite line's distance; prefer parts whose extent covers m.
     const Eigen::Vector2d ab = polyline[j + 1] - polyline[j];
     const double t = (m - polyline[j]).dot(ab) / ab.squaredNorm();
-    const double outside = (j == 0 ? std::max(0.0, t - 1.0) : j + 1 == parts ? std::max(0.0, -t) :
-                                                                               std::max({0.0, -t, t - 1.0})) *
+    const double outside = (j == 0           ? std::max(0.0, t - 1.0)
+                            : j + 1 == parts ? std::max(0.0, -t)
+                                             : std::max({0.0, -t, t - 1.0})) *
                            ab.norm();
     const double score = d + outside;
     if (score < best_distance)
@@ -326,8 +327,8 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
         {
           auto* cost = new ceres::AutoDiffCostFunction<ImagePointToLineResidual, 1, 2, 2, 1, 1, 3, 3>(
               new ImagePointToLineResidual{projector, line.world.front(), line.world.back(), m});
-          problem->AddResidualBlock(cost, makeLoss(options.loss, options.loss_scale_px).release(), p.focal,
-                                    p.principal, p.skew, p.distortion, p.delta, p.center);
+          problem->AddResidualBlock(cost, makeLoss(options.loss, options.loss_scale_px).release(), p.focal, p.principal,
+                                    p.skew, p.distortion, p.delta, p.center);
           ++residual_count;
         }
         if (options.line_residual == LineResidual::kImagePoints)
@@ -340,8 +341,8 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
         const Eigen::Vector2d dir = (b - a).normalized();
         auto* cost = new ceres::AutoDiffCostFunction<PointToPartResidual, 1, 2, 2, 1, 1, 3, 3>(
             new PointToPartResidual{projector, line.world[k], a, Eigen::Vector2d(-dir.y(), dir.x())});
-        problem->AddResidualBlock(cost, makeLoss(options.loss, options.loss_scale_px).release(), p.focal,
-                                  p.principal, p.skew, p.distortion, p.delta, p.center);
+        problem->AddResidualBlock(cost, makeLoss(options.loss, options.loss_scale_px).release(), p.focal, p.principal,
+                                  p.skew, p.distortion, p.delta, p.center);
         ++residual_count;
       }
     }
@@ -404,13 +405,16 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
       covariance_options.null_space_rank = 0;
       covariance_options.min_reciprocal_condition_number = 1e-14;
       ceres::Covariance covariance(covariance_options);
-      std::vector<std::pair<const double*, const double*>> blocks = {
-          {p.focal, p.focal}, {p.principal, p.principal}, {p.distortion, p.distortion},
-          {p.delta, p.delta}, {p.center, p.center}};
+      std::vector<std::pair<const double*, const double*>> blocks = {{p.focal, p.focal},
+                                                                     {p.principal, p.principal},
+                                                                     {p.distortion, p.distortion},
+                                                                     {p.delta, p.delta},
+                                                                     {p.center, p.center}};
       if (!covariance.Compute(blocks, problem.get()))
       {
-        u.reason = "rank deficient: the data leave the camera under-constrained (for example all lines in one "
-                   "plane or too few directions); no uncertainty can be given";
+        u.reason =
+            "rank deficient: the data leave the camera under-constrained (for example all lines in one "
+            "plane or too few directions); no uncertainty can be given";
       }
       else
       {

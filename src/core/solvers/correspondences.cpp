@@ -26,14 +26,15 @@ Status CorrespondenceSet::validate() const
 {
   if (image_width <= 0 || image_height <= 0)
     return Error(ErrorCode::kInvalidInput, "image_width and image_height must be positive (got " +
-                                               std::to_string(image_width) + " x " + std::to_string(image_height) + ")");
+                                               std::to_string(image_width) + " x " + std::to_string(image_height) +
+                                               ")");
   for (size_t i = 0; i < lines.size(); ++i)
   {
     const auto& line = lines[i];
     const std::string where = "line " + std::to_string(i);
     if (line.image.size() < 2)
-      return Error(ErrorCode::kInvalidInput, where + ": its image needs at least 2 points, it has " +
-                                                 std::to_string(line.image.size()));
+      return Error(ErrorCode::kInvalidInput,
+                   where + ": its image needs at least 2 points, it has " + std::to_string(line.image.size()));
     if (line.world.empty())
       return Error(ErrorCode::kInvalidInput, where + ": it needs at least 1 world point");
     for (const auto& p : line.image)
@@ -44,9 +45,8 @@ Status CorrespondenceSet::validate() const
         return Error(ErrorCode::kInvalidInput, where + ": a world point is NaN or infinite");
     for (size_t j = 1; j < line.image.size(); ++j)
       if ((line.image[j] - line.image[j - 1]).norm() < 1e-9)
-        return Error(ErrorCode::kInvalidInput,
-                     where + ": image points " + std::to_string(j - 1) + " and " + std::to_string(j) +
-                         " coincide, so they define no line");
+        return Error(ErrorCode::kInvalidInput, where + ": image points " + std::to_string(j - 1) + " and " +
+                                                   std::to_string(j) + " coincide, so they define no line");
   }
   for (size_t i = 0; i < points.size(); ++i)
     if (!points[i].image.allFinite() || !points[i].world.allFinite())

@@ -16,8 +16,14 @@ namespace insitu_calibration
 {
 namespace
 {
-bool usesLines(DltMethod method) { return method != DltMethod::kPoints; }
-bool usesPoints(DltMethod method) { return method != DltMethod::kLines; }
+bool usesLines(DltMethod method)
+{
+  return method != DltMethod::kPoints;
+}
+bool usesPoints(DltMethod method)
+{
+  return method != DltMethod::kLines;
+}
 
 // In normalised 3D coordinates (mean distance sqrt(3)) a spread below this is taken as exactly degenerate.
 constexpr double kDegenerateSpread = 1e-6;
@@ -118,8 +124,9 @@ Status checkLineGeometry(const std::vector<LineGeometry>& lines)
     directions += l.direction * l.direction.transpose();
   const Eigen::Vector3d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(directions).eigenvalues();
   if (ev(1) < kDegenerateSpread * kDegenerateSpread * ev(2))
-    return Error(ErrorCode::kDegenerate, "all 3D lines are parallel, which leaves the camera undetermined; add lines "
-                                         "in other directions");
+    return Error(ErrorCode::kDegenerate,
+                 "all 3D lines are parallel, which leaves the camera undetermined; add lines "
+                 "in other directions");
   Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
   Eigen::Vector3d b = Eigen::Vector3d::Zero();
   for (const auto& l : lines)
@@ -131,7 +138,8 @@ Status checkLineGeometry(const std::vector<LineGeometry>& lines)
   const Eigen::Vector3d x = a.ldlt().solve(b);
   double worst = 0.0;
   for (const auto& l : lines)
-    worst = std::max(worst, ((Eigen::Matrix3d::Identity() - l.direction * l.direction.transpose()) * (x - l.point)).norm());
+    worst =
+        std::max(worst, ((Eigen::Matrix3d::Identity() - l.direction * l.direction.transpose()) * (x - l.point)).norm());
   if (x.allFinite() && worst < kDegenerateSpread)
     return Error(ErrorCode::kDegenerate, "all 3D lines pass through one point, which leaves the camera undetermined");
   return Success{};
@@ -188,8 +196,8 @@ Status checkDltInput(const CorrespondenceSet& data, const DltOptions& options)
                      (options.estimate_distortion ? " with distortion" : "") + " needs " + std::to_string(needed) +
                      " (a 3D line gives at most 2, with 2 or more world points; a point gives 2)");
   if (lines && !points && data.lines.size() < 6)
-    return Error(ErrorCode::kNotEnoughData, "DLT-Lines needs at least 6 lines in general position, got " +
-                                                std::to_string(data.lines.size()));
+    return Error(ErrorCode::kNotEnoughData,
+                 "DLT-Lines needs at least 6 lines in general position, got " + std::to_string(data.lines.size()));
   if (points && !lines && data.points.size() < 6)
     return Error(ErrorCode::kNotEnoughData,
                  "DLT-Points needs at least 6 points, got " + std::to_string(data.points.size()));
@@ -208,8 +216,9 @@ Status checkDltInput(const CorrespondenceSet& data, const DltOptions& options)
   const std::vector<Eigen::Vector3d> world = selectedWorldPoints(data, options.method);
   const WorldNormalization norm = computeWorldNormalization(world);
   if (allCoplanar(world, norm))
-    return Error(ErrorCode::kDegenerate, "all 3D points lie in one plane, which leaves the camera undetermined "
-                                         "(a plane only fixes a homography); add data off that plane");
+    return Error(ErrorCode::kDegenerate,
+                 "all 3D points lie in one plane, which leaves the camera undetermined "
+                 "(a plane only fixes a homography); add data off that plane");
   if (lines && !points)
   {
     std::vector<LineGeometry> geometry;
@@ -282,9 +291,10 @@ Expected<DltResult> solveDlt(const CorrespondenceSet& data, const DltOptions& op
     if (!linear)
       return linear.error();
     if (linear->null_space_gap < 1e-12)
-      return Error(ErrorCode::kDegenerate, "the correspondences leave more than one camera that fits them exactly "
-                                           "(the configuration is degenerate); add lines in other directions and "
-                                           "depths");
+      return Error(ErrorCode::kDegenerate,
+                   "the correspondences leave more than one camera that fits them exactly "
+                   "(the configuration is degenerate); add lines in other directions and "
+                   "depths");
     if (options.estimate_distortion)
     {
       // The model must stay one-to-one over the image: 1 + lambda r^2 > 0 (barrel) and lambda r^2 < 1 (pincushion).
@@ -303,11 +313,11 @@ Expected<DltResult> solveDlt(const CorrespondenceSet& data, const DltOptions& op
       return decomposed.error();
 
     result.projection = decomposed->projection;
-    result.camera = CameraModel(decomposed->intrinsics,
-                                DivisionModel{options.estimate_distortion ? linear->lambda : 0.0,
-                                              options.estimate_distortion ? center
-                                                                          : decomposed->intrinsics.principalPoint()},
-                                decomposed->pose);
+    result.camera =
+        CameraModel(decomposed->intrinsics,
+                    DivisionModel{options.estimate_distortion ? linear->lambda : 0.0,
+                                  options.estimate_distortion ? center : decomposed->intrinsics.principalPoint()},
+                    decomposed->pose);
     result.algebraic_residual = linear->algebraic_residual;
     result.null_space_gap = linear->null_space_gap;
     result.constraints = linear->constraints;

@@ -136,10 +136,9 @@ Expected<RansacResult> ransacDlt(const CorrespondenceSet& data, const DltOptions
     // Adaptive stop: iterations for `confidence` of drawing one all-inlier sample.
     const double w = static_cast<double>(best.inlier_count) / data.lines.size();
     const double all_inliers = std::pow(w, static_cast<double>(minimal));
-    needed = all_inliers >= 1.0 ? 0.0
-             : all_inliers <= 0.0
-                 ? options.max_iterations
-                 : std::log(1.0 - options.confidence) / std::log(1.0 - all_inliers);
+    needed = all_inliers >= 1.0   ? 0.0
+             : all_inliers <= 0.0 ? options.max_iterations
+                                  : std::log(1.0 - options.confidence) / std::log(1.0 - all_inliers);
   }
   if (best.inlier_count < minimal)
     return Error(ErrorCode::kNoSolution, "RANSAC found no camera that fits " + std::to_string(minimal) +

@@ -123,8 +123,7 @@ SyntheticLines makeSyntheticLines(const CameraModel& camera, int image_width, in
     for (int k = 0; k < world_points; ++k)
     {
       const double t = world_points == 1 ? 0.5 : k / double(world_points - 1);
-      line.world.push_back(a + (b - a) * t +
-                           Eigen::Vector3d(world_noise(rng), world_noise(rng), world_noise(rng)));
+      line.world.push_back(a + (b - a) * t + Eigen::Vector3d(world_noise(rng), world_noise(rng), world_noise(rng)));
     }
     out.segments.push_back({a, b});
     out.data.lines.push_back(std::move(line));
