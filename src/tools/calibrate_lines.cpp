@@ -27,7 +27,7 @@ Options:
   --seed N                RANSAC's random seed (default 1)
   --no-refine             keep the linear DLT result (default: Ceres refinement of geometric errors)
   --loss NAME             refinement's robust loss: huber (default), cauchy or none
-  --loss-scale PX         the robust loss's scale in pixels (default 1)
+  --loss-scale PX         the robust loss's scale in pixels (default: 2.5 x the noise level the residuals show)
   --line-residual KIND    refinement's line error: image (default; every image point to the projected 3D line) or
                           world (every world point's projection to its nearest image part) or both
   --single-focal          refine one focal length (fx = fy)
@@ -92,17 +92,17 @@ int main(int argc, char** argv)
   options.refine = !cli.flag("no-refine") && !cli.flag("paper");
   options.ransac_options.inlier_threshold_px = cli.number("inlier-threshold", 3.0);
   options.ransac_options.seed = static_cast<unsigned>(cli.number("seed", 1));
-  options.refinement.loss_scale_px = cli.number("loss-scale", 1.0);
+  options.refinement.loss_scale_px = cli.number("loss-scale", 0.0);
   options.refinement.single_focal = cli.flag("single-focal");
   options.refinement.estimate_skew = cli.flag("estimate-skew");
   const auto loss = ic::parseRobustLoss(cli.value("loss", "huber"));
   if (!loss || !cli.error().empty() || !(options.ransac_options.inlier_threshold_px > 0) ||
-      !(options.refinement.loss_scale_px > 0))
+      options.refinement.loss_scale_px < 0)
   {
     std::cerr << "calibrate_lines: "
               << (!cli.error().empty() ? cli.error()
                   : !loss              ? "--loss must be huber, cauchy or none"
-                                       : "--inlier-threshold and --loss-scale must be positive")
+                                       : "--inlier-threshold must be positive and --loss-scale not negative")
               << "\n";
     return 2;
   }

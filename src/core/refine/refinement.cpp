@@ -283,6 +283,12 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
         for (double d : lineResiduals(toCamera(p, projector), data.lines[i]))
           r.push_back(d);
     result.initial_rms_px = rmsOf(r);
+    result.loss_scale_px = options.loss_scale_px;
+    if (!(result.loss_scale_px > 0.0))
+    {
+      const double median = summarize(r).median_px;
+      result.loss_scale_px = std::max(0.5, 2.5 * median / 0.6745);
+    }
   }
 
   std::vector<std::vector<size_t>> assignment(data.lines.size());
@@ -327,7 +333,7 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
         {
           auto* cost = new ceres::AutoDiffCostFunction<ImagePointToLineResidual, 1, 2, 2, 1, 1, 3, 3>(
               new ImagePointToLineResidual{projector, line.world.front(), line.world.back(), m});
-          problem->AddResidualBlock(cost, makeLoss(options.loss, options.loss_scale_px).release(), p.focal, p.principal,
+          problem->AddResidualBlock(cost, makeLoss(options.loss, result.loss_scale_px).release(), p.focal, p.principal,
                                     p.skew, p.distortion, p.delta, p.center);
           ++residual_count;
         }
@@ -341,7 +347,7 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
         const Eigen::Vector2d dir = (b - a).normalized();
         auto* cost = new ceres::AutoDiffCostFunction<PointToPartResidual, 1, 2, 2, 1, 1, 3, 3>(
             new PointToPartResidual{projector, line.world[k], a, Eigen::Vector2d(-dir.y(), dir.x())});
-        problem->AddResidualBlock(cost, makeLoss(options.loss, options.loss_scale_px).release(), p.focal, p.principal,
+        problem->AddResidualBlock(cost, makeLoss(options.loss, result.loss_scale_px).release(), p.focal, p.principal,
                                   p.skew, p.distortion, p.delta, p.center);
         ++residual_count;
       }
@@ -350,7 +356,7 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
     {
       auto* cost = new ceres::AutoDiffCostFunction<PointResidual, 2, 2, 2, 1, 1, 3, 3>(
           new PointResidual{projector, point.world, point.image});
-      problem->AddResidualBlock(cost, makeLoss(options.loss, options.loss_scale_px).release(), p.focal, p.principal,
+      problem->AddResidualBlock(cost, makeLoss(options.loss, result.loss_scale_px).release(), p.focal, p.principal,
                                 p.skew, p.distortion, p.delta, p.center);
       residual_count += 2;
     }
@@ -418,8 +424,13 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
       }
       else
       {
-        // Ceres assumes unit-variance residuals: scale by the residual variance (2 cost / degrees of freedom).
-        const double sigma2 = 2.0 * summary.final_cost / static_cast<double>(residual_count - free_parameters);
+        // Ceres assumes unit-variance residuals: scale by the residual variance, from the plain squared residuals
+        // (the robust loss's cost would understate it) over the degrees of freedom.
+        ceres::Problem::EvaluateOptions evaluate_options;
+        evaluate_options.apply_loss_function = false;
+        double plain_cost = 0.0;
+        problem->Evaluate(evaluate_options, &plain_cost, nullptr, nullptr, nullptr);
+        const double sigma2 = 2.0 * plain_cost / static_cast<double>(residual_count - free_parameters);
         u.residual_sigma_px = std::sqrt(sigma2);
         double focal[4], principal[4], distortion[1], delta[9], center[9];
         covariance.GetCovarianceBlock(p.focal, p.focal, focal);

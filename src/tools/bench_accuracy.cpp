@@ -1,0 +1,383 @@
+// bench_accuracy: the accuracy benchmark against ground truth (the paper's Fig. 2 experiment, outliers, number of
+// lines, the OpenCV peer, and the honesty of the reported standard deviations). Writes a CSV and a markdown summary,
+// then plots with scripts/plot_accuracy.py.
+#include <algorithm>
+#include <cstdlib>
+#include <functional>
+#include <numeric>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <tuple>
+#include <sstream>
+
+#include <Eigen/Core>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
+
+#include "command_line.h"
+#include "insitu_calibration/calibration.h"
+#include "insitu_calibration/metrics.h"
+#include "insitu_calibration/synthetic/synthetic_lines.h"
+
+namespace ic = insitu_calibration;
+
+namespace
+{
+const char* kUsage = R"(Usage: bench_accuracy [--trials N] [--out-dir DIR] [--seed S] [--no-plot]
+
+Runs, with N trials per setting (default 100), on synthetic surveillance-like cameras (1280x960, barrel distortion
+displacing the corner by 15 px) looking at 30 random 3D segments in a room (5 image points per line, 2 world points):
+  fig2      image noise sigma 0..4 px in steps of 0.5: DLT-Points unnormalised and normalised (on the segments' end
+            points), DLT-Lines (the paper's linear method), DLT-Lines refined (RANSAC + Ceres, the default path),
+            lines and end points combined and refined, and OpenCV's calibrateCamera on the end points (intrinsic
+            guess from DLT-Points)
+  outliers  0..50 % wrong line correspondences at 1 px: plain DLT-Lines against the robust default path
+  lines     6..200 lines at 1 px: plain DLT-Lines against the default path
+and reports the coverage of the refined result's standard deviations (how often the true error is within 2 sigma).
+Writes DIR/accuracy.csv, DIR/accuracy.md and PNG plots (DIR defaults to ./accuracy). Errors are against the truth:
+relative focal error |fx - fx_true| / fx_true, reprojection error = RMS distance between the estimated and the true
+projection of the segments' end points (px).
+)";
+
+struct Trial
+{
+  ic::CameraModel truth;
+  ic::SyntheticLines lines;
+  std::vector<ic::PointCorrespondence> points;  // noisy end points
+};
+
+Trial makeTrial(unsigned seed, double noise_px, int lines)
+{
+  std::mt19937 rng(seed);
+  Trial t;
+  ic::SyntheticCameraOptions camera_options;
+  t.truth = ic::randomCamera(camera_options, rng);
+  ic::SyntheticLineOptions options;
+  options.lines = lines;
+  options.image_points_per_line = 5;
+  options.world_points_per_line = 2;
+  options.image_noise_px = noise_px;
+  t.lines = ic::makeSyntheticLines(t.truth, camera_options.image_width, camera_options.image_height, options, rng);
+  t.points = ic::endPointCorrespondences(t.truth, t.lines.segments, noise_px, rng);
+  return t;
+}
+
+struct Errors
+{
+  bool ok = false;
+  double focal = 0.0;
+  double reprojection_px = 0.0;
+  double rotation_deg = 0.0;
+  double center_m = 0.0;
+  double lambda = 0.0;
+  // Refined results only: whether the truth is within 2 sigma, per parameter (-1: no sigma).
+  int fx_covered = -1;
+  int cx_covered = -1;
+  int lambda_covered = -1;
+  int position_covered = -1;
+  int rotation_covered = -1;
+};
+
+double reprojectionAgainstTruth(const ic::CameraModel& truth, const std::vector<ic::Segment3d>& segments,
+                                const std::function<std::optional<Eigen::Vector2d>(const Eigen::Vector3d&)>& project)
+{
+  double sum = 0.0;
+  size_t n = 0;
+  for (const auto& s : segments)
+    for (const Eigen::Vector3d& x : {s.a, s.b})
+    {
+      const auto m_true = truth.project(x);
+      const auto m = project(x);
+      if (!m_true)
+        continue;
+      const double d = m ? (*m - *m_true).norm() : 1e3;
+      sum += d * d;
+      ++n;
+    }
+  return n ? std::sqrt(sum / n) : 0.0;
+}
+
+Errors errorsOf(const Trial& t, const ic::CameraModel& estimate)
+{
+  Errors e;
+  e.ok = true;
+  const ic::CameraErrors c = ic::compareCameras(t.truth, estimate);
+  e.focal = std::abs(c.focal_relative);
+  e.rotation_deg = c.rotation_rad * 180.0 / M_PI;
+  e.center_m = c.center_m;
+  e.lambda = c.lambda_relative;
+  e.reprojection_px = reprojectionAgainstTruth(t.truth, t.lines.segments,
+                                               [&](const Eigen::Vector3d& x) { return estimate.project(x); });
+  return e;
+}
+
+Errors runCalibration(const Trial& t, const ic::CorrespondenceSet& data, ic::DltMethod method, bool normalize,
+                      bool robust, double inlier_threshold_px)
+{
+  ic::CalibrationOptions options;
+  options.method = method;
+  options.distortion = ic::DistortionMode::kOn;
+  options.dlt.normalize = normalize;
+  options.ransac = robust;
+  options.refine = robust;
+  options.ransac_options.inlier_threshold_px = inlier_threshold_px;
+  const auto result = ic::calibrateCamera(data, options);
+  if (!result)
+    return {};
+  Errors e = errorsOf(t, result->camera);
+  const ic::CameraUncertainty& u = result->uncertainty;
+  if (robust && u.available)
+  {
+    const ic::Intrinsics& k = result->camera.intrinsics();
+    e.fx_covered = std::abs(k.fx - t.truth.intrinsics().fx) < 2.0 * u.fx;
+    e.cx_covered = std::abs(k.cx - t.truth.intrinsics().cx) < 2.0 * u.cx;
+    e.lambda_covered = std::abs(result->camera.distortion().lambda - t.truth.distortion().lambda) < 2.0 * u.lambda;
+    e.position_covered = e.center_m < 2.0 * u.position_m;
+    e.rotation_covered = e.rotation_deg < 2.0 * u.rotation_deg;
+  }
+  return e;
+}
+
+// OpenCV's calibrateCamera on the end points: a 3D rig needs an intrinsic guess, taken from normalised DLT-Points.
+Errors runOpenCv(const Trial& t, int width, int height)
+{
+  ic::CorrespondenceSet data;
+  data.image_width = width;
+  data.image_height = height;
+  data.points = t.points;
+  ic::DltOptions dlt;
+  dlt.method = ic::DltMethod::kPoints;
+  const auto guess = ic::solveDlt(data, dlt);
+  if (!guess)
+    return {};
+  std::vector<std::vector<cv::Point3f>> object(1);
+  std::vector<std::vector<cv::Point2f>> image(1);
+  for (const auto& p : t.points)
+  {
+    object[0].emplace_back(p.world.x(), p.world.y(), p.world.z());
+    image[0].emplace_back(p.image.x(), p.image.y());
+  }
+  cv::Mat k;
+  const ic::Intrinsics& g = guess->camera.intrinsics();
+  cv::eigen2cv(Eigen::Matrix3d(ic::Intrinsics{g.fx, g.fy, 0.0, g.cx, g.cy}.matrix()), k);
+  cv::Mat distortion = cv::Mat::zeros(5, 1, CV_64F);
+  std::vector<cv::Mat> rvecs, tvecs;
+  try
+  {
+    cv::calibrateCamera(object, image, cv::Size(width, height), k, distortion, rvecs, tvecs,
+                        cv::CALIB_USE_INTRINSIC_GUESS | cv::CALIB_ZERO_TANGENT_DIST | cv::CALIB_FIX_K3);
+  }
+  catch (const cv::Exception&)
+  {
+    return {};
+  }
+  cv::Mat r;
+  cv::Rodrigues(rvecs[0], r);
+  ic::CameraModel estimate;
+  Eigen::Matrix3d k_eigen, r_eigen;
+  cv::cv2eigen(k, k_eigen);
+  cv::cv2eigen(r, r_eigen);
+  estimate.intrinsics() = ic::Intrinsics::fromMatrix(k_eigen);
+  estimate.pose().rotation = r_eigen;
+  estimate.pose().translation = Eigen::Vector3d(tvecs[0].at<double>(0), tvecs[0].at<double>(1), tvecs[0].at<double>(2));
+  Errors e = errorsOf(t, estimate);
+  e.lambda = std::numeric_limits<double>::quiet_NaN();  // a different distortion model
+  e.reprojection_px = reprojectionAgainstTruth(t.truth, t.lines.segments, [&](const Eigen::Vector3d& x) {
+    std::vector<cv::Point2f> out;
+    cv::projectPoints(std::vector<cv::Point3f>{cv::Point3f(x.x(), x.y(), x.z())}, rvecs[0], tvecs[0], k, distortion,
+                      out);
+    return std::optional<Eigen::Vector2d>(Eigen::Vector2d(out[0].x, out[0].y));
+  });
+  return e;
+}
+
+ic::CorrespondenceSet linesOf(const Trial& t) { return t.lines.data; }
+
+ic::CorrespondenceSet pointsOf(const Trial& t)
+{
+  ic::CorrespondenceSet d;
+  d.image_width = t.lines.data.image_width;
+  d.image_height = t.lines.data.image_height;
+  d.points = t.points;
+  return d;
+}
+
+// Swaps the world side of a fraction of the lines with other lines' (wrong correspondences).
+ic::CorrespondenceSet withOutliers(const Trial& t, double fraction, std::mt19937& rng)
+{
+  ic::CorrespondenceSet d = t.lines.data;
+  const size_t n = d.lines.size();
+  const size_t wrong = static_cast<size_t>(std::round(fraction * n));
+  std::vector<size_t> order(n);
+  std::iota(order.begin(), order.end(), 0);
+  std::shuffle(order.begin(), order.end(), rng);
+  for (size_t k = 0; k < wrong; ++k)
+  {
+    // A cyclic shift within the wrong set never gives a line its own world side back.
+    const size_t i = order[k];
+    const size_t j = wrong > 1 ? order[(k + 1) % wrong] : order[(k + 1) % n];
+    d.lines[i].world = t.lines.data.lines[j].world;
+  }
+  return d;
+}
+
+struct Writer
+{
+  std::ofstream csv;
+  std::map<std::tuple<std::string, double, std::string>, std::vector<Errors>> groups;  // (experiment, x, method)
+
+  void add(const std::string& experiment, double x, const std::string& method, int trial, const Errors& e)
+  {
+    csv << experiment << "," << x << "," << method << "," << trial << "," << (e.ok ? 1 : 0) << "," << e.focal << ","
+        << e.reprojection_px << "," << e.rotation_deg << "," << e.center_m << "," << e.lambda << "," << e.fx_covered
+        << "," << e.cx_covered << "," << e.lambda_covered << "," << e.position_covered << "," << e.rotation_covered
+        << "\n";
+    groups[{experiment, x, method}].push_back(e);
+  }
+};
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  ic::CommandLine cli(argc, argv, {"trials", "out-dir", "seed"}, {"no-plot"});
+  if (cli.help())
+  {
+    std::cout << kUsage;
+    return 0;
+  }
+  const int trials = static_cast<int>(cli.number("trials", 100));
+  const unsigned seed = static_cast<unsigned>(cli.number("seed", 1000));
+  const std::string out_dir = cli.value("out-dir", "accuracy");
+  if (!cli.error().empty() || trials <= 0)
+  {
+    std::cerr << "bench_accuracy: " << (cli.error().empty() ? "--trials must be positive" : cli.error()) << "\n\n"
+              << kUsage;
+    return 2;
+  }
+  std::system(("mkdir -p '" + out_dir + "'").c_str());
+  Writer w;
+  w.csv.open(out_dir + "/accuracy.csv");
+  if (!w.csv)
+  {
+    std::cerr << "bench_accuracy: cannot write " << out_dir << "/accuracy.csv\n";
+    return 1;
+  }
+  w.csv << "experiment,x,method,trial,ok,focal_rel,reprojection_px,rotation_deg,center_m,lambda_rel,fx_covered,"
+           "cx_covered,lambda_covered,position_covered,rotation_covered\n";
+  std::cout << "bench_accuracy: " << trials << " trials per setting, seed " << seed << "\n";
+
+  const int width = 1280;
+  const int height = 960;
+  for (int step = 0; step <= 8; ++step)
+  {
+    const double noise = 0.5 * step;
+    const double threshold = std::max(3.0, 4.0 * noise);
+    for (int k = 0; k < trials; ++k)
+    {
+      const Trial t = makeTrial(seed + 1000 * step + k, noise, 30);
+      w.add("fig2", noise, "dlt_points_unnormalised", k,
+            runCalibration(t, pointsOf(t), ic::DltMethod::kPoints, false, false, threshold));
+      w.add("fig2", noise, "dlt_points", k,
+            runCalibration(t, pointsOf(t), ic::DltMethod::kPoints, true, false, threshold));
+      w.add("fig2", noise, "dlt_lines", k, runCalibration(t, linesOf(t), ic::DltMethod::kLines, true, false, threshold));
+      w.add("fig2", noise, "dlt_lines_refined", k,
+            runCalibration(t, linesOf(t), ic::DltMethod::kLines, true, true, threshold));
+      ic::CorrespondenceSet combined = linesOf(t);
+      combined.points = t.points;
+      w.add("fig2", noise, "combined_refined", k,
+            runCalibration(t, combined, ic::DltMethod::kCombined, true, true, threshold));
+      w.add("fig2", noise, "opencv_calibrate_camera", k, runOpenCv(t, width, height));
+    }
+    std::cout << "fig2: sigma " << noise << " px done" << std::endl;
+  }
+  for (int step = 0; step <= 5; ++step)
+  {
+    const double fraction = 0.1 * step;
+    std::mt19937 rng(seed + 77 * step);
+    for (int k = 0; k < trials; ++k)
+    {
+      const Trial t = makeTrial(seed + 50000 + 1000 * step + k, 1.0, 30);
+      const ic::CorrespondenceSet data = withOutliers(t, fraction, rng);
+      w.add("outliers", fraction, "dlt_lines", k, runCalibration(t, data, ic::DltMethod::kLines, true, false, 3.0));
+      w.add("outliers", fraction, "dlt_lines_refined", k,
+            runCalibration(t, data, ic::DltMethod::kLines, true, true, 3.0));
+    }
+    std::cout << "outliers: " << 100 * fraction << " % done" << std::endl;
+  }
+  for (int lines : {7, 8, 10, 15, 20, 30, 50, 100, 200})
+  {
+    for (int k = 0; k < trials; ++k)
+    {
+      const Trial t = makeTrial(seed + 90000 + 1000 * lines + k, 1.0, lines);
+      w.add("lines", lines, "dlt_lines", k, runCalibration(t, linesOf(t), ic::DltMethod::kLines, true, false, 3.0));
+      w.add("lines", lines, "dlt_lines_refined", k,
+            runCalibration(t, linesOf(t), ic::DltMethod::kLines, true, true, 3.0));
+    }
+    std::cout << "lines: " << lines << " done" << std::endl;
+  }
+  w.csv.close();
+
+  // Markdown summary: means over the successful trials, failures counted.
+  std::ofstream md(out_dir + "/accuracy.md");
+  md << "| experiment | x | method | ok / trials | mean focal error % | mean reprojection px | mean rotation deg | "
+        "mean centre mm | mean lambda error % | 2-sigma coverage fx / cx / lambda / position / rotation |\n"
+     << "|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const auto& [key, errors] : w.groups)
+  {
+    const auto& [experiment, x, method] = key;
+    double focal = 0, reprojection = 0, rotation = 0, center = 0, lambda = 0;
+    int ok = 0;
+    int covered[5] = {0, 0, 0, 0, 0};
+    int with_sigma = 0;
+    for (const Errors& e : errors)
+    {
+      if (!e.ok)
+        continue;
+      ++ok;
+      focal += e.focal;
+      reprojection += e.reprojection_px;
+      rotation += e.rotation_deg;
+      center += e.center_m;
+      lambda += e.lambda;
+      if (e.fx_covered >= 0)
+      {
+        ++with_sigma;
+        covered[0] += e.fx_covered;
+        covered[1] += e.cx_covered;
+        covered[2] += e.lambda_covered;
+        covered[3] += e.position_covered;
+        covered[4] += e.rotation_covered;
+      }
+    }
+    char row[512];
+    const double n = std::max(ok, 1);
+    std::string coverage = "";
+    if (with_sigma > 0)
+    {
+      char c[128];
+      std::snprintf(c, sizeof(c), "%.0f / %.0f / %.0f / %.0f / %.0f %%", 100.0 * covered[0] / with_sigma,
+                    100.0 * covered[1] / with_sigma, 100.0 * covered[2] / with_sigma, 100.0 * covered[3] / with_sigma,
+                    100.0 * covered[4] / with_sigma);
+      coverage = c;
+    }
+    std::snprintf(row, sizeof(row), "| %s | %g | %s | %d / %zu | %.4f | %.4f | %.4f | %.3f | %.3f | %s |\n",
+                  experiment.c_str(), x, method.c_str(), ok, errors.size(), 100.0 * focal / n,
+                  reprojection / n, rotation / n, 1000.0 * center / n, 100.0 * lambda / n, coverage.c_str());
+    md << row;
+  }
+  md.close();
+  std::cout << "wrote " << out_dir << "/accuracy.csv and " << out_dir << "/accuracy.md\n";
+
+  if (!cli.flag("no-plot"))
+  {
+    const std::string script = std::string(INSITU_SOURCE_DIR) + "/scripts/plot_accuracy.py";
+    const int status = std::system(("/usr/bin/python3 '" + script + "' '" + out_dir + "'").c_str());
+    if (status != 0)
+    {
+      std::cerr << "bench_accuracy: plotting failed (" << script << ")\n";
+      return 1;
+    }
+  }
+  return 0;
+}
