@@ -192,7 +192,10 @@ Errors runOpenCv(const Trial& t, int width, int height)
   return e;
 }
 
-ic::CorrespondenceSet linesOf(const Trial& t) { return t.lines.data; }
+ic::CorrespondenceSet linesOf(const Trial& t)
+{
+  return t.lines.data;
+}
 
 ic::CorrespondenceSet pointsOf(const Trial& t)
 {
@@ -280,7 +283,8 @@ int main(int argc, char** argv)
             runCalibration(t, pointsOf(t), ic::DltMethod::kPoints, false, false, threshold));
       w.add("fig2", noise, "dlt_points", k,
             runCalibration(t, pointsOf(t), ic::DltMethod::kPoints, true, false, threshold));
-      w.add("fig2", noise, "dlt_lines", k, runCalibration(t, linesOf(t), ic::DltMethod::kLines, true, false, threshold));
+      w.add("fig2", noise, "dlt_lines", k,
+            runCalibration(t, linesOf(t), ic::DltMethod::kLines, true, false, threshold));
       w.add("fig2", noise, "dlt_lines_refined", k,
             runCalibration(t, linesOf(t), ic::DltMethod::kLines, true, true, threshold));
       ic::CorrespondenceSet combined = linesOf(t);
@@ -362,8 +366,8 @@ int main(int argc, char** argv)
       coverage = c;
     }
     std::snprintf(row, sizeof(row), "| %s | %g | %s | %d / %zu | %.4f | %.4f | %.4f | %.3f | %.3f | %s |\n",
-                  experiment.c_str(), x, method.c_str(), ok, errors.size(), 100.0 * focal / n,
-                  reprojection / n, rotation / n, 1000.0 * center / n, 100.0 * lambda / n, coverage.c_str());
+                  experiment.c_str(), x, method.c_str(), ok, errors.size(), 100.0 * focal / n, reprojection / n,
+                  rotation / n, 1000.0 * center / n, 100.0 * lambda / n, coverage.c_str());
     md << row;
   }
   md.close();

@@ -7,16 +7,11 @@
 #include <vector>
 
 #include "insitu_calibration/camera/camera_model.h"
+#include "insitu_calibration/geometry/segment.h"
 #include "insitu_calibration/solvers/correspondences.h"
 
 namespace insitu_calibration
 {
-struct Segment3d
-{
-  Eigen::Vector3d a;
-  Eigen::Vector3d b;
-};
-
 struct SyntheticCameraOptions
 {
   int image_width = 1280;

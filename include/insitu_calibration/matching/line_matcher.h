@@ -1,0 +1,88 @@
+// Finding which surveyed 3D lines a fixed camera sees as which of its image lines, from a rough prior of the camera
+// (what an installer knows from the floor plan), and calibrating the camera on the way:
+//  1. search the prior's uncertainty (yaw, pitch, field of view) for the camera that best explains the image lines
+//     (each image line scored by its distance to the nearest compatible projected 3D line, capped);
+//  2. match: project the 3D lines with the current camera, pair each image line with the 3D line of compatible angle,
+//     small distance and overlapping extent (each 3D line used once);
+//  3. calibrate on the matches robustly (RANSAC + DLT + refinement), re-project with the new camera, re-match with
+//     thresholds tightened to the new residuals, and repeat until the matches stop changing.
+#ifndef INSITU_CALIBRATION_MATCHING_LINE_MATCHER_H
+#define INSITU_CALIBRATION_MATCHING_LINE_MATCHER_H
+
+#include <vector>
+
+#include "insitu_calibration/calibration.h"
+#include "insitu_calibration/camera/camera_model.h"
+#include "insitu_calibration/error.h"
+#include "insitu_calibration/geometry/segment.h"
+
+namespace insitu_calibration
+{
+// What is known of a fixed camera before calibration, with how uncertain it is.
+struct CameraPrior
+{
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  // optical centre in the world, m
+  double position_sigma_m = 0.5;
+  Eigen::Vector3d direction = Eigen::Vector3d::UnitX();  // optical axis in the world (need not be unit)
+  double direction_sigma_deg = 10.0;
+  double roll_deg = 0.0;  // rotation about the optical axis; 0: the image x axis is horizontal (world z up)
+  double horizontal_fov_deg = 60.0;
+  double fov_sigma_relative = 0.2;
+};
+
+// The pin-hole camera the prior describes, optionally perturbed (yaw about world z, pitch about the camera's x
+// axis, field of view scaled).
+CameraModel cameraFromPrior(const CameraPrior& prior, int image_width, int image_height, double yaw_deg = 0.0,
+                            double pitch_deg = 0.0, double fov_scale = 1.0);
+
+struct LineMatcherOptions
+{
+  double max_angle_deg = 5.0;  // image line vs projected 3D line, once the search has run
+  double initial_max_distance_px = 40.0;
+  double min_distance_px = 4.0;       // thresholds never tighten below this
+  double distance_factor = 4.0;       // re-matching threshold: this times the calibration's RMS error
+  double min_overlap = 0.3;           // fraction of the image line's length the projected 3D line must cover
+  double min_image_length_px = 30.0;  // shorter image lines are not matched
+  int world_points_per_line = 6;      // samples along the visible part of a matched 3D line
+  int max_iterations = 10;
+  int search_steps = 9;  // per dimension of the prior search (odd: includes the prior itself)
+  CalibrationOptions calibration;
+};
+
+struct LineMatch
+{
+  size_t image_line;
+  size_t map_line;
+  double distance_px;  // mean distance of the image line's points to the projected 3D line
+};
+
+struct LineMatchResult
+{
+  std::vector<LineMatch> matches;     // the final matches (inliers of the final calibration)
+  CorrespondenceSet correspondences;  // built from them
+  CalibrationResult calibration;
+  CameraModel search_camera;  // the camera the prior search found
+  int iterations = 0;
+  bool converged = false;  // the match set stopped changing
+};
+
+// map_lines: 3D segments in the world; image_lines: distorted-pixel polylines of the fixed camera.
+Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_lines,
+                                            const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                                            const CameraPrior& prior, int image_width, int image_height,
+                                            const LineMatcherOptions& options = {});
+
+// Step 2 alone: matches under a given camera.
+std::vector<LineMatch> matchLines(const std::vector<Segment3d>& map_lines,
+                                  const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                                  const CameraModel& camera, int image_width, int image_height, double max_angle_deg,
+                                  double max_distance_px, const LineMatcherOptions& options);
+
+// The part of a 3D segment the camera sees (in front, inside the image), as parameters [t0, t1] along a -> b;
+// nullopt when no part is visible.
+std::optional<std::pair<double, double>> visibleInterval(const CameraModel& camera, const Segment3d& segment,
+                                                         int image_width, int image_height);
+
+}  // namespace insitu_calibration
+
+#endif  // INSITU_CALIBRATION_MATCHING_LINE_MATCHER_H

@@ -1,0 +1,446 @@
+#include "insitu_calibration/matching/line_matcher.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <set>
+
+#include <Eigen/Geometry>
+
+#include "insitu_calibration/metrics.h"
+
+namespace insitu_calibration
+{
+namespace
+{
+constexpr double kDegToRad = M_PI / 180.0;
+
+bool inside(const Eigen::Vector2d& m, int width, int height)
+{
+  return m.x() >= 0.0 && m.y() >= 0.0 && m.x() <= width - 1.0 && m.y() <= height - 1.0;
+}
+
+// An image line summarised for matching: its points, chord direction and length.
+struct ImageLine
+{
+  const std::vector<Eigen::Vector2d>* points;
+  Eigen::Vector2d first;
+  Eigen::Vector2d last;
+  Eigen::Vector2d mid;
+  Eigen::Vector2d direction;
+  double length;
+};
+
+// A 3D line as the current camera sees it: the visible interval and its distorted projection.
+struct ProjectedLine
+{
+  bool visible = false;
+  double t0 = 0.0;
+  double t1 = 1.0;
+  std::vector<Eigen::Vector2d> polyline;
+  Eigen::Vector2d first;
+  Eigen::Vector2d last;
+  Eigen::Vector2d direction;
+  double length = 0.0;
+};
+
+std::vector<ImageLine> summarize(const std::vector<std::vector<Eigen::Vector2d>>& image_lines)
+{
+  std::vector<ImageLine> out;
+  for (const auto& l : image_lines)
+  {
+    ImageLine s;
+    s.points = &l;
+    s.first = l.empty() ? Eigen::Vector2d::Zero() : l.front();
+    s.last = l.empty() ? Eigen::Vector2d::Zero() : l.back();
+    s.mid = 0.5 * (s.first + s.last);
+    s.length = (s.last - s.first).norm();
+    s.direction = s.length > 0.0 ? Eigen::Vector2d((s.last - s.first) / s.length) : Eigen::Vector2d::UnitX();
+    out.push_back(s);
+  }
+  return out;
+}
+
+ProjectedLine project(const CameraModel& camera, const Segment3d& segment, int width, int height, int samples)
+{
+  ProjectedLine p;
+  const auto interval = visibleInterval(camera, segment, width, height);
+  if (!interval)
+    return p;
+  p.t0 = interval->first;
+  p.t1 = interval->second;
+  for (int k = 0; k < samples; ++k)
+  {
+    const double t = p.t0 + (p.t1 - p.t0) * k / double(samples - 1);
+    if (const auto m = camera.project(segment.pointAt(t)))
+      p.polyline.push_back(*m);
+  }
+  if (p.polyline.size() < 2)
+    return p;
+  p.first = p.polyline.front();
+  p.last = p.polyline.back();
+  p.length = (p.last - p.first).norm();
+  if (!(p.length > 1.0))
+    return p;
+  p.direction = (p.last - p.first) / p.length;
+  p.visible = true;
+  return p;
+}
+
+// Angle between undirected directions, degrees.
+double angleBetween(const Eigen::Vector2d& a, const Eigen::Vector2d& b)
+{
+  return std::acos(std::min(1.0, std::abs(a.dot(b)))) / kDegToRad;
+}
+
+// Fraction of the image line's chord covered by the projected line's chord (projected onto the image line).
+double overlap(const ImageLine& image, const ProjectedLine& projected)
+{
+  if (!(image.length > 0.0))
+    return 0.0;
+  const double s0 = (projected.first - image.first).dot(image.direction);
+  const double s1 = (projected.last - image.first).dot(image.direction);
+  const double lo = std::max(0.0, std::min(s0, s1));
+  const double hi = std::min(image.length, std::max(s0, s1));
+  return std::max(0.0, hi - lo) / image.length;
+}
+
+// Mean distance of the image line's points to the projected polyline.
+double meanDistance(const ImageLine& image, const ProjectedLine& projected)
+{
+  double sum = 0.0;
+  for (const auto& m : *image.points)
+    sum += distanceToPolyline(m, projected.polyline);
+  return sum / image.points->size();
+}
+
+// Fast distance for the search: the image chord's end points and midpoint to the projected chord's line.
+double chordDistance(const ImageLine& image, const ProjectedLine& projected)
+{
+  const Eigen::Vector2d normal(-projected.direction.y(), projected.direction.x());
+  return (std::abs(normal.dot(image.first - projected.first)) + std::abs(normal.dot(image.mid - projected.first)) +
+          std::abs(normal.dot(image.last - projected.first))) /
+         3.0;
+}
+
+// How badly a camera explains the image lines: each line's distance to its nearest compatible projection, capped.
+double searchScore(const CameraModel& camera, const std::vector<Segment3d>& map_lines,
+                   const std::vector<ImageLine>& image, int width, int height, double max_angle_deg, double cap_px)
+{
+  std::vector<ProjectedLine> projected;
+  projected.reserve(map_lines.size());
+  for (const auto& s : map_lines)
+  {
+    ProjectedLine p = project(camera, s, width, height, 2);
+    if (p.visible)
+      projected.push_back(std::move(p));
+  }
+  double score = 0.0;
+  for (const auto& l : image)
+  {
+    double best = cap_px;
+    for (const auto& p : projected)
+    {
+      if (angleBetween(l.direction, p.direction) > max_angle_deg || overlap(l, p) < 0.3)
+        continue;
+      best = std::min(best, chordDistance(l, p));
+    }
+    score += best;
+  }
+  return score;
+}
+
+struct SearchState
+{
+  double yaw = 0.0;
+  double pitch = 0.0;
+  double roll = 0.0;
+  double fov_scale = 1.0;
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+};
+
+CameraModel cameraOf(const CameraPrior& prior, int width, int height, const SearchState& s)
+{
+  CameraPrior p = prior;
+  p.position += s.offset;
+  p.roll_deg += s.roll;
+  return cameraFromPrior(p, width, height, s.yaw, s.pitch, s.fov_scale);
+}
+
+// A grid over yaw, pitch and field of view within 1.5 sigma, then a pattern search over all seven values.
+CameraModel searchPrior(const std::vector<Segment3d>& map_lines, const std::vector<ImageLine>& image,
+                        const CameraPrior& prior, int width, int height, int steps)
+{
+  const double angle_range = 1.5 * prior.direction_sigma_deg;
+  const double fov_range = 1.5 * prior.fov_sigma_relative;
+  const int n = std::max(1, steps);
+  const double angle_step = n > 1 ? 2.0 * angle_range / (n - 1) : 0.0;
+  const double fov_step = n > 1 ? 2.0 * fov_range / (n - 1) : 0.0;
+  // Coarse: the angle tolerance covers what the grid spacing leaves.
+  const double coarse_angle = std::max(5.0, 1.5 * angle_step);
+  const double cap = 0.08 * std::hypot(width, height);
+  SearchState best;
+  double best_score = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      for (int k = 0; k < n; ++k)
+      {
+        SearchState s;
+        s.yaw = -angle_range + i * angle_step;
+        s.pitch = -angle_range + j * angle_step;
+        s.fov_scale = 1.0 - fov_range + k * fov_step;
+        const double score =
+            searchScore(cameraOf(prior, width, height, s), map_lines, image, width, height, coarse_angle, cap);
+        if (score < best_score)
+        {
+          best_score = score;
+          best = s;
+        }
+      }
+  // Pattern search: try +-step on each value, keep improvements, halve the steps when none helps.
+  double steps_now[7] = {angle_step / 2,
+                         angle_step / 2,
+                         angle_step / 2,
+                         fov_step / 2,
+                         prior.position_sigma_m / 2,
+                         prior.position_sigma_m / 2,
+                         prior.position_sigma_m / 2};
+  double tolerance = coarse_angle;
+  for (int round = 0; round < 6; ++round)
+  {
+    tolerance = std::max(3.0, tolerance * 0.75);
+    best_score = searchScore(cameraOf(prior, width, height, best), map_lines, image, width, height, tolerance, cap);
+    bool improved = true;
+    for (int sweep = 0; sweep < 8 && improved; ++sweep)
+    {
+      improved = false;
+      for (int v = 0; v < 7; ++v)
+        for (double sign : {-1.0, 1.0})
+        {
+          SearchState s = best;
+          const double d = sign * steps_now[v];
+          switch (v)
+          {
+            case 0:
+              s.yaw += d;
+              break;
+            case 1:
+              s.pitch += d;
+              break;
+            case 2:
+              s.roll += d;
+              break;
+            case 3:
+              s.fov_scale += d;
+              break;
+            default:
+              s.offset(v - 4) += d;
+          }
+          const double score =
+              searchScore(cameraOf(prior, width, height, s), map_lines, image, width, height, tolerance, cap);
+          if (score < best_score - 1e-9)
+          {
+            best_score = score;
+            best = s;
+            improved = true;
+          }
+        }
+    }
+    for (double& step : steps_now)
+      step *= 0.5;
+  }
+  return cameraOf(prior, width, height, best);
+}
+
+CorrespondenceSet correspondencesOf(const std::vector<LineMatch>& matches, const std::vector<Segment3d>& map_lines,
+                                    const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                                    const CameraModel& camera, int width, int height, int world_points)
+{
+  CorrespondenceSet set;
+  set.image_width = width;
+  set.image_height = height;
+  for (const auto& m : matches)
+  {
+    const Segment3d& s = map_lines[m.map_line];
+    const auto interval = visibleInterval(camera, s, width, height);
+    const double t0 = interval ? interval->first : 0.0;
+    const double t1 = interval ? interval->second : 1.0;
+    LineCorrespondence line;
+    line.image = image_lines[m.image_line];
+    const int n = std::max(2, world_points);
+    for (int k = 0; k < n; ++k)
+      line.world.push_back(s.pointAt(t0 + (t1 - t0) * k / double(n - 1)));
+    set.lines.push_back(std::move(line));
+  }
+  return set;
+}
+}  // namespace
+
+CameraModel cameraFromPrior(const CameraPrior& prior, int image_width, int image_height, double yaw_deg,
+                            double pitch_deg, double fov_scale)
+{
+  Intrinsics in;
+  const double hfov = std::clamp(prior.horizontal_fov_deg * fov_scale, 1.0, 179.0) * kDegToRad;
+  in.fx = in.fy = 0.5 * image_width / std::tan(0.5 * hfov);
+  in.cx = 0.5 * (image_width - 1);
+  in.cy = 0.5 * (image_height - 1);
+  // Optical axis: the prior's direction turned by yaw about world z and pitched down/up about the camera's x axis.
+  Eigen::Vector3d forward = prior.direction.normalized();
+  forward = Eigen::AngleAxisd(yaw_deg * kDegToRad, Eigen::Vector3d::UnitZ()) * forward;
+  Eigen::Vector3d right = forward.cross(Eigen::Vector3d::UnitZ());
+  if (right.norm() < 1e-6)  // looking straight up or down: any horizontal right vector
+    right = Eigen::Vector3d::UnitX();
+  right.normalize();
+  forward = Eigen::AngleAxisd(-pitch_deg * kDegToRad, right) * forward;
+  Eigen::Vector3d down = forward.cross(right).normalized();
+  const Eigen::AngleAxisd roll(prior.roll_deg * kDegToRad, forward);
+  right = roll * right;
+  down = roll * down;
+  Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
+  world_from_camera.linear().col(0) = right;
+  world_from_camera.linear().col(1) = down;
+  world_from_camera.linear().col(2) = forward;
+  world_from_camera.translation() = prior.position;
+  return CameraModel(in, DivisionModel{0.0, in.principalPoint()}, CameraPose::fromWorldFromCamera(world_from_camera));
+}
+
+std::optional<std::pair<double, double>> visibleInterval(const CameraModel& camera, const Segment3d& segment,
+                                                         int image_width, int image_height)
+{
+  constexpr int kSamples = 64;
+  double t0 = 2.0;
+  double t1 = -1.0;
+  for (int k = 0; k <= kSamples; ++k)
+  {
+    const double t = k / double(kSamples);
+    const auto m = camera.project(segment.pointAt(t));
+    if (m && inside(*m, image_width, image_height))
+    {
+      t0 = std::min(t0, t);
+      t1 = std::max(t1, t);
+    }
+  }
+  if (t1 <= t0)
+    return std::nullopt;
+  return std::make_pair(t0, t1);
+}
+
+std::vector<LineMatch> matchLines(const std::vector<Segment3d>& map_lines,
+                                  const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                                  const CameraModel& camera, int image_width, int image_height, double max_angle_deg,
+                                  double max_distance_px, const LineMatcherOptions& options)
+{
+  const std::vector<ImageLine> image = summarize(image_lines);
+  std::vector<ProjectedLine> projected;
+  for (const auto& s : map_lines)
+    projected.push_back(project(camera, s, image_width, image_height, 16));
+
+  // All compatible pairs, then greedy by distance so that each image line and each 3D line is used once.
+  std::vector<LineMatch> candidates;
+  for (size_t i = 0; i < image.size(); ++i)
+  {
+    if (image[i].points->size() < 2 || image[i].length < options.min_image_length_px)
+      continue;
+    for (size_t j = 0; j < projected.size(); ++j)
+    {
+      const ProjectedLine& p = projected[j];
+      if (!p.visible || angleBetween(image[i].direction, p.direction) > max_angle_deg ||
+          overlap(image[i], p) < options.min_overlap)
+        continue;
+      if (chordDistance(image[i], p) > 2.0 * max_distance_px)
+        continue;
+      const double d = meanDistance(image[i], p);
+      if (d <= max_distance_px)
+        candidates.push_back({i, j, d});
+    }
+  }
+  std::sort(candidates.begin(), candidates.end(),
+            [](const LineMatch& a, const LineMatch& b) { return a.distance_px < b.distance_px; });
+  std::set<size_t> used_image;
+  std::set<size_t> used_map;
+  std::vector<LineMatch> matches;
+  for (const auto& c : candidates)
+  {
+    if (used_image.count(c.image_line) || used_map.count(c.map_line))
+      continue;
+    used_image.insert(c.image_line);
+    used_map.insert(c.map_line);
+    matches.push_back(c);
+  }
+  std::sort(matches.begin(), matches.end(),
+            [](const LineMatch& a, const LineMatch& b) { return a.image_line < b.image_line; });
+  return matches;
+}
+
+Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_lines,
+                                            const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                                            const CameraPrior& prior, int image_width, int image_height,
+                                            const LineMatcherOptions& options)
+{
+  if (map_lines.empty())
+    return Error(ErrorCode::kNotEnoughData, "the line map is empty: survey the area the camera sees first");
+  if (image_lines.empty())
+    return Error(ErrorCode::kNotEnoughData, "no lines were found in the camera's image");
+  if (image_width <= 0 || image_height <= 0)
+    return Error(ErrorCode::kInvalidInput, "the image size is not positive");
+  if (!prior.position.allFinite() || !prior.direction.allFinite() || !(prior.direction.norm() > 0.0) ||
+      !(prior.horizontal_fov_deg > 0.0 && prior.horizontal_fov_deg < 180.0))
+    return Error(ErrorCode::kInvalidInput,
+                 "the camera prior needs a finite position, a non-zero direction and a "
+                 "horizontal field of view between 0 and 180 degrees");
+
+  LineMatchResult result;
+  const std::vector<ImageLine> image = summarize(image_lines);
+  result.search_camera = searchPrior(map_lines, image, prior, image_width, image_height, options.search_steps);
+  CameraModel camera = result.search_camera;
+  double max_distance = options.initial_max_distance_px;
+  double max_angle = options.max_angle_deg;
+  std::vector<LineMatch> previous;
+  std::optional<CalibrationResult> calibrated;
+  std::vector<LineMatch> used;
+  CorrespondenceSet used_set;
+  for (int iteration = 0; iteration < options.max_iterations; ++iteration)
+  {
+    result.iterations = iteration + 1;
+    std::vector<LineMatch> matches =
+        matchLines(map_lines, image_lines, camera, image_width, image_height, max_angle, max_distance, options);
+    const bool same =
+        !previous.empty() && matches.size() == previous.size() &&
+        std::equal(matches.begin(), matches.end(), previous.begin(), [](const LineMatch& a, const LineMatch& b) {
+          return a.image_line == b.image_line && a.map_line == b.map_line;
+        });
+    if (same && calibrated)
+    {
+      result.converged = true;
+      break;
+    }
+    CorrespondenceSet set = correspondencesOf(matches, map_lines, image_lines, camera, image_width, image_height,
+                                              options.world_points_per_line);
+    auto calibration = calibrateCamera(set, options.calibration);
+    if (!calibration)
+    {
+      if (calibrated)
+        break;  // keep the last good calibration
+      return Error(calibration.error().code(), "calibration on " + std::to_string(matches.size()) +
+                                                   " matched lines failed: " + calibration.error().message());
+    }
+    calibrated = *calibration;
+    used = matches;
+    used_set = set;
+    previous = matches;
+    camera = calibration->camera;
+    max_distance = std::max(options.min_distance_px, options.distance_factor * calibration->reprojection.rms_px);
+    max_angle = std::max(2.0, std::min(options.max_angle_deg, 10.0 * calibration->reprojection.rms_px / 20.0 + 2.0));
+  }
+  if (!calibrated)
+    return Error(ErrorCode::kNoSolution, "no calibration could be made from the matches");
+
+  result.calibration = *calibrated;
+  for (size_t k = 0; k < used.size(); ++k)
+    if (k < calibrated->inlier_lines.size() && calibrated->inlier_lines[k])
+      result.matches.push_back(used[k]);
+  result.correspondences = used_set;
+  return result;
+}
+
+}  // namespace insitu_calibration

@@ -1,0 +1,141 @@
+// The matcher finds the right 3D line for each image line from a rough prior and calibrates the camera.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "insitu_calibration/matching/line_matcher.h"
+#include "insitu_calibration/metrics.h"
+#include "insitu_calibration/synthetic/synthetic_lines.h"
+
+namespace ic = insitu_calibration;
+
+namespace
+{
+constexpr int kWidth = 1280;
+constexpr int kHeight = 960;
+
+void addBox(std::vector<ic::Segment3d>* out, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi)
+{
+  const Eigen::Vector3d d = hi - lo;
+  for (int axis = 0; axis < 3; ++axis)
+    for (int u = 0; u < 2; ++u)
+      for (int v = 0; v < 2; ++v)
+      {
+        Eigen::Vector3d a = lo;
+        a((axis + 1) % 3) += u * d((axis + 1) % 3);
+        a((axis + 2) % 3) += v * d((axis + 2) % 3);
+        Eigen::Vector3d b = a;
+        b(axis) += d(axis);
+        out->push_back({a, b});
+      }
+}
+
+// A room of 8 x 6 x 3 m with furniture and posters: mostly axis-aligned edges, as in a building.
+std::vector<ic::Segment3d> makeRoom(std::mt19937& rng)
+{
+  std::vector<ic::Segment3d> lines;
+  addBox(&lines, Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(8, 6, 3));
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int k = 0; k < 8; ++k)
+  {
+    const Eigen::Vector3d lo(1.0 + 5.5 * u(rng), 1.0 + 4.0 * u(rng), 0.0);
+    addBox(&lines, lo, lo + Eigen::Vector3d(0.4 + 0.8 * u(rng), 0.4 + 0.8 * u(rng), 0.4 + 1.4 * u(rng)));
+  }
+  for (int k = 0; k < 6; ++k)  // posters on the far walls
+  {
+    const double x = 1.0 + 5.0 * u(rng);
+    const double z = 0.8 + 1.2 * u(rng);
+    addBox(&lines, Eigen::Vector3d(x, 5.99, z), Eigen::Vector3d(x + 0.6, 5.99, z + 0.8));
+    const double y = 1.0 + 3.5 * u(rng);
+    addBox(&lines, Eigen::Vector3d(7.99, y, z), Eigen::Vector3d(7.99, y + 0.7, z + 0.5));
+  }
+  return lines;
+}
+
+std::vector<std::vector<Eigen::Vector2d>> imageLines(const ic::CameraModel& camera,
+                                                     const std::vector<ic::Segment3d>& lines, double noise,
+                                                     int spurious, std::mt19937& rng)
+{
+  std::normal_distribution<double> n(0.0, 1.0);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<std::vector<Eigen::Vector2d>> out;
+  for (const auto& s : lines)
+  {
+    const auto interval = ic::visibleInterval(camera, s, kWidth, kHeight);
+    if (!interval)
+      continue;
+    std::vector<Eigen::Vector2d> polyline;
+    for (int k = 0; k < 6; ++k)
+    {
+      const double t = interval->first + (interval->second - interval->first) * k / 5.0;
+      polyline.push_back(*camera.project(s.pointAt(t)) + noise * Eigen::Vector2d(n(rng), n(rng)));
+    }
+    if ((polyline.back() - polyline.front()).norm() > 40.0)
+      out.push_back(polyline);
+  }
+  for (int k = 0; k < spurious; ++k)
+  {
+    const Eigen::Vector2d a(u(rng) * kWidth, u(rng) * kHeight);
+    const Eigen::Vector2d b = a + 150.0 * Eigen::Vector2d(n(rng), n(rng));
+    out.push_back({a, 0.5 * (a + b), b});
+  }
+  return out;
+}
+}  // namespace
+
+TEST(LineMatcher, ConvergesFromAnOffPrior)
+{
+  int converged = 0;
+  const int trials = 6;
+  for (int trial = 0; trial < trials; ++trial)
+  {
+    std::mt19937 rng(40 + trial);
+    const std::vector<ic::Segment3d> room = makeRoom(rng);
+    ic::SyntheticCameraOptions camera_options;
+    camera_options.focal_min_px = 800;
+    camera_options.focal_max_px = 1000;
+    const ic::CameraModel truth = ic::randomCamera(camera_options, rng);
+    const auto image = imageLines(truth, room, 0.3, 10, rng);
+
+    // The installer's prior: 0.5 m off, the direction 10 degrees off, the field of view 20 % off.
+    ic::CameraPrior prior;
+    std::normal_distribution<double> n(0.0, 1.0);
+    prior.position = truth.pose().center() + 0.5 * Eigen::Vector3d(n(rng), n(rng), n(rng)).normalized();
+    const Eigen::Vector3d axis = truth.pose().rotation.row(2).transpose();
+    const Eigen::Vector3d tilt_axis = axis.cross(Eigen::Vector3d(n(rng), n(rng), n(rng))).normalized();
+    prior.direction = Eigen::AngleAxisd(10.0 * M_PI / 180.0, tilt_axis) * axis;
+    prior.horizontal_fov_deg =
+        2.0 * std::atan(0.5 * kWidth / truth.intrinsics().fx) * 180.0 / M_PI * (trial % 2 ? 1.2 : 0.8);
+
+    const auto result = ic::matchAndCalibrate(room, image, prior, kWidth, kHeight);
+    ASSERT_TRUE(result) << "trial " << trial << ": " << result.error().describe();
+    const ic::CameraErrors e = ic::compareCameras(truth, result->calibration.camera);
+    std::printf(
+        "trial %d: %zu image lines, %zu matches, %d iterations, focal %.3f %%, rotation %.3f deg, "
+        "position %.1f mm\n",
+        trial, image.size(), result->matches.size(), result->iterations, 100 * e.focal_relative,
+        e.rotation_rad * 180 / M_PI, 1000 * e.center_m);
+    EXPECT_LT(std::abs(e.focal_relative), 0.01) << "trial " << trial;
+    EXPECT_LT(e.rotation_rad * 180 / M_PI, 0.5) << "trial " << trial;
+    EXPECT_LT(e.center_m, 0.03) << "trial " << trial;
+    converged += result->converged ? 1 : 0;
+  }
+  EXPECT_EQ(converged, trials);
+}
+
+TEST(LineMatcher, RefusesEmptyInput)
+{
+  ic::CameraPrior prior;
+  EXPECT_EQ(ic::matchAndCalibrate({}, {{{0, 0}, {1, 1}}}, prior, kWidth, kHeight).error().code(),
+            ic::ErrorCode::kNotEnoughData);
+  EXPECT_EQ(ic::matchAndCalibrate({{Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX()}}, {}, prior, kWidth, kHeight)
+                .error()
+                .code(),
+            ic::ErrorCode::kNotEnoughData);
+  prior.horizontal_fov_deg = 0.0;
+  EXPECT_EQ(ic::matchAndCalibrate({{Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX()}}, {{{0, 0}, {1, 1}}}, prior,
+                                  kWidth, kHeight)
+                .error()
+                .code(),
+            ic::ErrorCode::kInvalidInput);
+}
