@@ -21,7 +21,7 @@ bool inside(const Eigen::Vector2d& m, int width, int height)
 }
 
 // An image line summarised for matching: its points, chord direction and length.
-struct ImageLine
+struct ImageChord
 {
   const std::vector<Eigen::Vector2d>* points;
   Eigen::Vector2d first;
@@ -44,12 +44,12 @@ struct ProjectedLine
   double length = 0.0;
 };
 
-std::vector<ImageLine> summarize(const std::vector<std::vector<Eigen::Vector2d>>& image_lines)
+std::vector<ImageChord> summarize(const std::vector<std::vector<Eigen::Vector2d>>& image_lines)
 {
-  std::vector<ImageLine> out;
+  std::vector<ImageChord> out;
   for (const auto& l : image_lines)
   {
-    ImageLine s;
+    ImageChord s;
     s.points = &l;
     s.first = l.empty() ? Eigen::Vector2d::Zero() : l.front();
     s.last = l.empty() ? Eigen::Vector2d::Zero() : l.back();
@@ -94,7 +94,7 @@ double angleBetween(const Eigen::Vector2d& a, const Eigen::Vector2d& b)
 }
 
 // Fraction of the image line's chord covered by the projected line's chord (projected onto the image line).
-double overlap(const ImageLine& image, const ProjectedLine& projected)
+double overlap(const ImageChord& image, const ProjectedLine& projected)
 {
   if (!(image.length > 0.0))
     return 0.0;
@@ -106,7 +106,7 @@ double overlap(const ImageLine& image, const ProjectedLine& projected)
 }
 
 // Mean distance of the image line's points to the projected polyline.
-double meanDistance(const ImageLine& image, const ProjectedLine& projected)
+double meanDistance(const ImageChord& image, const ProjectedLine& projected)
 {
   double sum = 0.0;
   for (const auto& m : *image.points)
@@ -115,7 +115,7 @@ double meanDistance(const ImageLine& image, const ProjectedLine& projected)
 }
 
 // Fast distance for the search: the image chord's end points and midpoint to the projected chord's line.
-double chordDistance(const ImageLine& image, const ProjectedLine& projected)
+double chordDistance(const ImageChord& image, const ProjectedLine& projected)
 {
   const Eigen::Vector2d normal(-projected.direction.y(), projected.direction.x());
   return (std::abs(normal.dot(image.first - projected.first)) + std::abs(normal.dot(image.mid - projected.first)) +
@@ -125,7 +125,7 @@ double chordDistance(const ImageLine& image, const ProjectedLine& projected)
 
 // How badly a camera explains the image lines: each line's distance to its nearest compatible projection, capped.
 double searchScore(const CameraModel& camera, const std::vector<Segment3d>& map_lines,
-                   const std::vector<ImageLine>& image, int width, int height, double max_angle_deg, double cap_px)
+                   const std::vector<ImageChord>& image, int width, int height, double max_angle_deg, double cap_px)
 {
   std::vector<ProjectedLine> projected;
   projected.reserve(map_lines.size());
@@ -168,7 +168,7 @@ CameraModel cameraOf(const CameraPrior& prior, int width, int height, const Sear
 }
 
 // A grid over yaw, pitch and field of view within 1.5 sigma, then a pattern search over all seven values.
-CameraModel searchPrior(const std::vector<Segment3d>& map_lines, const std::vector<ImageLine>& image,
+CameraModel searchPrior(const std::vector<Segment3d>& map_lines, const std::vector<ImageChord>& image,
                         const CameraPrior& prior, int width, int height, int steps)
 {
   const double angle_range = 1.5 * prior.direction_sigma_deg;
@@ -330,7 +330,7 @@ std::vector<LineMatch> matchLines(const std::vector<Segment3d>& map_lines,
                                   const CameraModel& camera, int image_width, int image_height, double max_angle_deg,
                                   double max_distance_px, const LineMatcherOptions& options)
 {
-  const std::vector<ImageLine> image = summarize(image_lines);
+  const std::vector<ImageChord> image = summarize(image_lines);
   std::vector<ProjectedLine> projected;
   for (const auto& s : map_lines)
     projected.push_back(project(camera, s, image_width, image_height, 16));
@@ -390,7 +390,7 @@ Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_li
                  "horizontal field of view between 0 and 180 degrees");
 
   LineMatchResult result;
-  const std::vector<ImageLine> image = summarize(image_lines);
+  const std::vector<ImageChord> image = summarize(image_lines);
   result.search_camera = searchPrior(map_lines, image, prior, image_width, image_height, options.search_steps);
   CameraModel camera = result.search_camera;
   double max_distance = options.initial_max_distance_px;
