@@ -1,0 +1,54 @@
+// Depth along an image segment, taken on the nearer side of a depth discontinuity: an image edge at a depth
+// discontinuity is the occluding contour of the front surface, so its 3D points lie on the front surface.
+//
+// At every sample of the segment the depth is read on a band of pixels across it (band_px each side). The near
+// cluster is the set of readings within a jump of the nearest one (max(jump_min_m, jump_ratio z)). Inverse depth,
+// affine in the image on a plane, is fitted to the near cluster against the pixels' signed offsets from the edge and
+// evaluated on the edge itself: the depth of the front surface at the edge, without the bias of a reading one or two
+// pixels away on a slanted surface and without mixing in the background.
+#ifndef INSITU_CALIBRATION_LINES_DEPTH_SAMPLER_H
+#define INSITU_CALIBRATION_LINES_DEPTH_SAMPLER_H
+
+#include <limits>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "insitu_calibration/error.h"
+#include "insitu_calibration/lines/segment_detector.h"
+
+namespace insitu_calibration
+{
+struct DepthSamplerOptions
+{
+  double step_px = 2.0;               // between samples along the segment
+  int band_px = 4;                    // pixels read on each side of the segment
+  double end_margin_px = 3.0;         // no sample this close to an end point (corners mix surfaces)
+  double jump_ratio = 0.03;           // a depth discontinuity: readings farther than max(jump_min_m, jump_ratio z)
+  double jump_min_m = 0.03;           //   behind the nearest reading
+  double max_extrapolation_px = 2.5;  // the near cluster must come this close to the edge
+};
+
+struct DepthSample
+{
+  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();  // on the segment, px
+  double t = 0.0;                                   // (pixel - a) . (b - a) / |b - a|^2, in [0, 1]
+  double depth_m = 0.0;                             // optical-frame z of the front surface at the edge
+  bool discontinuity = false;                       // far readings were present and ignored
+};
+
+// Depth image -> 32FC1 metres, NaN where there is no measurement (0 in 16UC1, 0/NaN/inf in 32FC1, or outside
+// [min_range_m, max_range_m]). Errors: empty image, type other than 16UC1 (mm) / 32FC1 (m) (kInvalidInput), no
+// valid pixel at all (kNotEnoughData: "all zero or NaN").
+Expected<cv::Mat> depthToMeters(const cv::Mat& depth, double min_range_m = 0.0,
+                                double max_range_m = std::numeric_limits<double>::infinity());
+
+// Samples along the segment (in 32FC1 metres from depthToMeters). Samples without a usable near depth are left out:
+// the result may be empty.
+std::vector<DepthSample> sampleDepthAlongSegment(const cv::Mat& depth_m, const Segment2d& segment,
+                                                 const DepthSamplerOptions& options = DepthSamplerOptions());
+
+}  // namespace insitu_calibration
+
+#endif  // INSITU_CALIBRATION_LINES_DEPTH_SAMPLER_H

@@ -1,0 +1,68 @@
+// The 2D half for a fixed camera: detect segments, merge the fragments of each straight 3D edge into one polyline
+// (curved under radial distortion), and fine-tune every part on the image gradient (Eq. 8). The fine-tuned
+// polylines are LineCorrespondence::image (solvers/correspondences.h) once matched to 3D lines.
+#ifndef INSITU_CALIBRATION_LINES_IMAGE_LINES_H
+#define INSITU_CALIBRATION_LINES_IMAGE_LINES_H
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "insitu_calibration/camera/camera_model.h"
+#include "insitu_calibration/error.h"
+#include "insitu_calibration/lines/gradient_refiner.h"
+#include "insitu_calibration/lines/polyline_merger.h"
+#include "insitu_calibration/lines/segment_detector.h"
+
+namespace insitu_calibration
+{
+struct ImageLineOptions
+{
+  SegmentDetectorOptions detector;
+  PolylineMergeOptions merge;
+  RefinerOptions refiner;
+  double min_part_support = 0.5;  // a line is dropped when fewer than this fraction of its parts found the edge
+};
+
+struct ImageLine
+{
+  std::vector<Eigen::Vector2d> detected;  // polyline from the merged detections, before fine-tuning (distorted px)
+  std::vector<Eigen::Vector2d> points;    // fine-tuned polyline (distorted px): LineCorrespondence::image
+  std::vector<RefinedSegment> parts;      // fine-tuning of each part (parts[i] joins points[i], points[i + 1])
+  std::vector<int> fragments;             // indices into ImageLineStats' detected segments
+  double length_px = 0.0;
+  double contrast = 0.0;  // mean over the parts that found the edge, grey levels
+};
+
+struct ImageLineStats
+{
+  std::vector<Segment2d> segments;  // raw detections
+  int polylines = 0;                // after merging
+  int lines = 0;                    // after fine-tuning
+  int rejected = 0;                 // polylines whose fine-tuning found no edge
+  double detect_ms = 0.0;
+  double merge_ms = 0.0;
+  double refine_ms = 0.0;  // includes building the LineRefiner
+  std::string note;        // why the result is empty, when it is
+};
+
+// Fine-tuned lines of one image. distortion: the current estimate (lambda = 0 with the image centre before the first
+// calibration). Errors: empty or unsupported image, non-finite distortion (kInvalidInput). An image without lines
+// gives an empty vector and stats->note says why.
+Expected<std::vector<ImageLine>> extractImageLines(const cv::Mat& image, const DivisionModel& distortion,
+                                                   const ImageLineOptions& options = ImageLineOptions(),
+                                                   ImageLineStats* stats = nullptr);
+// Same with the distortion of a camera model (the pose and intrinsics are not used).
+Expected<std::vector<ImageLine>> extractImageLines(const cv::Mat& image, const CameraModel& camera,
+                                                   const ImageLineOptions& options = ImageLineOptions(),
+                                                   ImageLineStats* stats = nullptr);
+
+// Fine-tunes the polylines again (the paper's loop: after re-centring the distortion). Lines whose fine-tuning
+// fails keep their points. Returns the largest vertex displacement in px.
+double refineImageLines(const LineRefiner& refiner, std::vector<ImageLine>& lines);
+
+}  // namespace insitu_calibration
+
+#endif  // INSITU_CALIBRATION_LINES_IMAGE_LINES_H

@@ -1,0 +1,63 @@
+// Accuracy of extracted lines against true 3D edges: the measures of the line-extraction tests and of bench_lines,
+// meant for the simulator-based checks as well.
+#ifndef INSITU_CALIBRATION_LINES_LINE_EVALUATION_H
+#define INSITU_CALIBRATION_LINES_LINE_EVALUATION_H
+
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "insitu_calibration/camera/camera_model.h"
+#include "insitu_calibration/synthetic/synthetic_lines.h"
+
+namespace insitu_calibration
+{
+// The image of the part of a true 3D segment in front of the camera, as its undistorted straight line.
+struct TrueEdgeImage
+{
+  int edge = -1;                                // index into the 3D segments
+  Eigen::Vector2d a = Eigen::Vector2d::Zero();  // undistorted px
+  Eigen::Vector2d b = Eigen::Vector2d::Zero();
+};
+
+// Segments clipped to z >= near_m in the camera frame; segments fully behind are left out.
+std::vector<TrueEdgeImage> projectEdges(const CameraModel& camera, const std::vector<Segment3d>& segments,
+                                        double near_m = 0.05);
+
+// Distance (px, distorted image) from a distorted pixel to the curved image of a true edge: the pixel is
+// undistorted, its foot on the straight undistorted edge is distorted back, and the distance taken (exact to
+// second order in the distance). nullopt when the foot falls beyond the edge's ends (by more than margin_px) or the
+// model cannot (un)distort.
+std::optional<double> distanceToEdge(const DivisionModel& distortion, const TrueEdgeImage& edge,
+                                     const Eigen::Vector2d& pixel, double margin_px = 0.0);
+
+struct ImageLineError
+{
+  int edge = -1;        // matched true edge (index into the 3D segments), -1 if none
+  double rms_px = 0.0;  // over the samples of the polyline
+  double max_px = 0.0;
+  int samples = 0;
+};
+
+// Samples the polyline every step_px and matches it to the true edge with the smallest RMS distance among those
+// that cover at least min_coverage of the samples, all within max_distance_px.
+ImageLineError measureImageLine(const std::vector<Eigen::Vector2d>& polyline, const DivisionModel& distortion,
+                                const std::vector<TrueEdgeImage>& edges, double max_distance_px = 2.0,
+                                double step_px = 1.0, double min_coverage = 0.9);
+
+struct Line3dError
+{
+  int edge = -1;            // matched true edge, -1 if none within the limits
+  double angle_deg = 0.0;   // between the directions
+  double distance_m = 0.0;  // RMS of the distances of the estimate's end points to the true (infinite) line
+};
+
+// Matches an estimated 3D segment to the true edge with the smallest end-point distance among those within
+// max_angle_deg and max_distance_m, and whose extent overlaps the estimate's.
+Line3dError measureLine3d(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const std::vector<Segment3d>& truth,
+                          double max_distance_m = 0.1, double max_angle_deg = 5.0);
+
+}  // namespace insitu_calibration
+
+#endif  // INSITU_CALIBRATION_LINES_LINE_EVALUATION_H

@@ -1,0 +1,154 @@
+#include "insitu_calibration/lines/depth_sampler.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Dense>
+
+namespace insitu_calibration
+{
+Expected<cv::Mat> depthToMeters(const cv::Mat& depth, double min_range_m, double max_range_m)
+{
+  if (depth.empty())
+    return Error(ErrorCode::kInvalidInput, "the depth image is empty");
+  if (depth.type() != CV_16UC1 && depth.type() != CV_32FC1)
+    return Error(ErrorCode::kInvalidInput,
+                 "depth must be 16UC1 (millimetres) or 32FC1 (metres), not " + cv::typeToString(depth.type()));
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float lo = static_cast<float>(std::max(min_range_m, 0.0));
+  const float hi = static_cast<float>(max_range_m);
+  cv::Mat out(depth.size(), CV_32FC1);
+  size_t valid = 0;
+  for (int y = 0; y < depth.rows; ++y)
+  {
+    float* o = out.ptr<float>(y);
+    if (depth.type() == CV_16UC1)
+    {
+      const uint16_t* d = depth.ptr<uint16_t>(y);
+      for (int x = 0; x < depth.cols; ++x)
+      {
+        const float z = d[x] * 0.001f;
+        const bool ok = d[x] != 0 && z >= lo && z <= hi;
+        o[x] = ok ? z : nan;
+        valid += ok;
+      }
+    }
+    else
+    {
+      const float* d = depth.ptr<float>(y);
+      for (int x = 0; x < depth.cols; ++x)
+      {
+        const float z = d[x];
+        const bool ok = std::isfinite(z) && z > 0.0f && z >= lo && z <= hi;
+        o[x] = ok ? z : nan;
+        valid += ok;
+      }
+    }
+  }
+  if (valid == 0)
+    return Error(
+        ErrorCode::kNotEnoughData,
+        "the depth image has no valid pixel (all zero or NaN" +
+            std::string(min_range_m > 0.0 || std::isfinite(max_range_m) ? ", or outside the accepted range)" : ")"));
+  return out;
+}
+
+std::vector<DepthSample> sampleDepthAlongSegment(const cv::Mat& depth_m, const Segment2d& segment,
+                                                 const DepthSamplerOptions& options)
+{
+  std::vector<DepthSample> out;
+  if (depth_m.empty() || depth_m.type() != CV_32FC1 || !segment.a.allFinite() || !segment.b.allFinite())
+    return out;
+  const double length = segment.length();
+  if (!(length > 2.0 * options.end_margin_px) || !(options.step_px > 0.0))
+    return out;
+  const Eigen::Vector2d d = (segment.b - segment.a) / length;
+  const Eigen::Vector2d n(-d.y(), d.x());
+  const int band = std::max(1, options.band_px);
+  const double usable = length - 2.0 * options.end_margin_px;
+  const int count = static_cast<int>(std::floor(usable / options.step_px)) + 1;
+  const double start = options.end_margin_px + 0.5 * (usable - (count - 1) * options.step_px);
+  out.reserve(count);
+
+  std::vector<double> offsets, depths;
+  offsets.reserve(2 * band + 1);
+  depths.reserve(2 * band + 1);
+  for (int i = 0; i < count; ++i)
+  {
+    const double s = start + i * options.step_px;
+    const Eigen::Vector2d p = segment.a + s * d;
+    offsets.clear();
+    depths.clear();
+    double z_min = std::numeric_limits<double>::infinity();
+    for (int j = -band; j <= band; ++j)
+    {
+      const Eigen::Vector2d q = p + static_cast<double>(j) * n;
+      const int x = static_cast<int>(std::lround(q.x()));
+      const int y = static_cast<int>(std::lround(q.y()));
+      if (x < 0 || y < 0 || x >= depth_m.cols || y >= depth_m.rows)
+        continue;
+      const float z = depth_m.at<float>(y, x);
+      if (!std::isfinite(z))
+        continue;
+      // The signed offset of the pixel centre from the edge, across it.
+      offsets.push_back((Eigen::Vector2d(x, y) - p).dot(n));
+      depths.push_back(z);
+      z_min = std::min(z_min, static_cast<double>(z));
+    }
+    if (depths.empty())
+      continue;
+    const double jump = std::max(options.jump_min_m, options.jump_ratio * z_min);
+    // Near cluster: inverse depth, affine in the offset on each side of the edge and continuous across it (a
+    // crease: both sides' slopes; an occluding contour: the near side only), evaluated at offset 0.
+    Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d atb = Eigen::Vector3d::Zero();
+    double nearest_offset = std::numeric_limits<double>::infinity();
+    double near_lo = std::numeric_limits<double>::infinity(), near_hi = 0.0;
+    int left = 0, right = 0;
+    bool far_seen = false;
+    for (size_t k = 0; k < depths.size(); ++k)
+    {
+      if (depths[k] > z_min + jump)
+      {
+        far_seen = true;
+        continue;
+      }
+      const double o = offsets[k];
+      const Eigen::Vector3d row(1.0, std::min(o, 0.0), std::max(o, 0.0));
+      ata += row * row.transpose();
+      atb += row / depths[k];
+      nearest_offset = std::min(nearest_offset, std::abs(o));
+      near_lo = std::min(near_lo, depths[k]);
+      near_hi = std::max(near_hi, depths[k]);
+      left += o < -0.25;
+      right += o > 0.25;
+    }
+    if (nearest_offset > options.max_extrapolation_px)
+      continue;
+    // Keep the slope of a side only when it has two readings or more.
+    for (int side = 1; side <= 2; ++side)
+    {
+      if ((side == 1 ? left : right) >= 2)
+        continue;
+      ata.row(side).setZero();
+      ata.col(side).setZero();
+      ata(side, side) = 1.0;
+      atb(side) = 0.0;
+    }
+    const double inverse_depth = ata.ldlt().solve(atb)(0);
+    if (!(inverse_depth > 0.0))
+      continue;
+    double z = 1.0 / inverse_depth;
+    // Never beyond the near cluster's readings by more than a jump.
+    z = std::clamp(z, near_lo - jump, near_hi + jump);
+    DepthSample sample;
+    sample.pixel = p;
+    sample.t = s / length;
+    sample.depth_m = z;
+    sample.discontinuity = far_seen;
+    out.push_back(sample);
+  }
+  return out;
+}
+
+}  // namespace insitu_calibration

@@ -1,0 +1,409 @@
+#include "insitu_calibration/lines/gradient_refiner.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+#include "insitu_calibration/lines/segment_detector.h"
+
+namespace insitu_calibration
+{
+namespace
+{
+// Bilinear interpolation of a CV_32FC1 image (at least 2x2); false outside the image.
+inline bool bilinear(const cv::Mat& img, double x, double y, double* value)
+{
+  if (!(x >= 0.0 && y >= 0.0 && x <= img.cols - 1 && y <= img.rows - 1))
+    return false;
+  const int x0 = std::min(static_cast<int>(x), img.cols - 2);
+  const int y0 = std::min(static_cast<int>(y), img.rows - 2);
+  const double fx = x - x0;
+  const double fy = y - y0;
+  const float* r0 = img.ptr<float>(y0);
+  const float* r1 = img.ptr<float>(y0 + 1);
+  *value = (1.0 - fy) * ((1.0 - fx) * r0[x0] + fx * r0[x0 + 1]) + fy * ((1.0 - fx) * r1[x0] + fx * r1[x0 + 1]);
+  return true;
+}
+
+inline Eigen::Vector2d perpendicular(const Eigen::Vector2d& d)
+{
+  return {-d.y(), d.x()};
+}
+
+Expected<cv::Mat> toGrayFloat(const cv::Mat& image)
+{
+  if (image.empty())
+    return Error(ErrorCode::kInvalidInput, "the image is empty");
+  cv::Mat out;
+  try
+  {
+    switch (image.type())
+    {
+      case CV_16UC1:
+        image.convertTo(out, CV_32F, 1.0 / 257.0);
+        return out;
+      case CV_32FC1: {
+        double max_value = 0.0;
+        cv::minMaxLoc(image, nullptr, &max_value);
+        image.convertTo(out, CV_32F, max_value <= 1.0 ? 255.0 : 1.0);
+        return out;
+      }
+      default: {
+        auto gray = toGray8(image);
+        if (!gray)
+          return gray.error();
+        gray->convertTo(out, CV_32F);
+        return out;
+      }
+    }
+  }
+  catch (const cv::Exception& e)
+  {
+    return Error(ErrorCode::kInvalidInput, std::string("OpenCV could not convert the image: ") + e.what());
+  }
+}
+
+struct WeightedLineFit
+{
+  double offset = 0.0;
+  double slope = 0.0;
+  bool ok = false;
+};
+
+// Weighted least squares of c = offset + slope * s over the samples with use[i].
+WeightedLineFit fitOffsetSlope(const std::vector<double>& s, const std::vector<double>& c, const std::vector<double>& w,
+                               const std::vector<char>& use)
+{
+  double sw = 0.0, ss = 0.0, sc = 0.0;
+  for (size_t i = 0; i < s.size(); ++i)
+  {
+    if (!use[i])
+      continue;
+    sw += w[i];
+    ss += w[i] * s[i];
+    sc += w[i] * c[i];
+  }
+  WeightedLineFit fit;
+  if (!(sw > 0.0))
+    return fit;
+  const double ms = ss / sw;
+  const double mc = sc / sw;
+  double sss = 0.0, ssc = 0.0;
+  for (size_t i = 0; i < s.size(); ++i)
+  {
+    if (!use[i])
+      continue;
+    sss += w[i] * (s[i] - ms) * (s[i] - ms);
+    ssc += w[i] * (s[i] - ms) * (c[i] - mc);
+  }
+  if (!(sss > 1e-9 * sw))
+    return fit;
+  fit.slope = ssc / sss;
+  fit.offset = mc - fit.slope * ms;
+  fit.ok = true;
+  return fit;
+}
+
+double medianOf(std::vector<double> v)
+{
+  if (v.empty())
+    return 0.0;
+  const size_t mid = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + mid, v.end());
+  return v[mid];
+}
+
+}  // namespace
+
+Expected<LineRefiner> LineRefiner::create(const cv::Mat& image, const RefinerOptions& options)
+{
+  if (!(options.half_width_px >= 1.0) || !(options.profile_step_px > 0.0) ||
+      !(options.profile_step_px <= options.half_width_px) || !(options.sample_step_px > 0.0) ||
+      !(options.search_px >= 0.0) || !(options.extension_px >= 0.0) || options.max_iterations < 1 ||
+      !(options.min_support >= 0.0 && options.min_support <= 1.0))
+    return Error(ErrorCode::kInvalidInput,
+                 "invalid fine-tuning options (need half_width_px >= 1, "
+                 "0 < profile_step_px <= half_width_px, sample_step_px > 0, "
+                 "search_px >= 0, extension_px >= 0, max_iterations >= 1, "
+                 "min_support in [0, 1])");
+  auto gray = toGrayFloat(image);
+  if (!gray)
+    return gray.error();
+  if (gray->cols < 2 || gray->rows < 2)
+    return Error(ErrorCode::kInvalidInput, "the image is smaller than 2x2 pixels");
+  if (options.smoothing_sigma_px > 0.0)
+  {
+    try
+    {
+      cv::GaussianBlur(*gray, *gray, cv::Size(), options.smoothing_sigma_px, options.smoothing_sigma_px,
+                       cv::BORDER_REPLICATE);
+    }
+    catch (const cv::Exception& e)
+    {
+      return Error(ErrorCode::kInvalidInput, std::string("OpenCV could not smooth the image: ") + e.what());
+    }
+  }
+  return LineRefiner(std::move(*gray), options);
+}
+
+Expected<RefinedSegment> LineRefiner::refineSegment(const Eigen::Vector2d& a, const Eigen::Vector2d& b) const
+{
+  return refineSegment(a, b, options_.extension_px, options_.extension_px);
+}
+
+Expected<RefinedSegment> LineRefiner::refineSegment(const Eigen::Vector2d& a, const Eigen::Vector2d& b,
+                                                    double extension_a_px, double extension_b_px) const
+{
+  const RefinerOptions& o = options_;
+  if (!a.allFinite() || !b.allFinite() || !std::isfinite(extension_a_px) || !std::isfinite(extension_b_px))
+    return Error(ErrorCode::kInvalidInput, "segment end points must be finite");
+  const double length = (b - a).norm();
+  if (!(length >= 2.0))
+    return Error(ErrorCode::kInvalidInput, "segment shorter than 2 px");
+
+  Eigen::Vector2d d = (b - a) / length;
+  Eigen::Vector2d n = perpendicular(d);
+  Eigen::Vector2d p0 = 0.5 * (a + b);
+  const double h = 0.5 * length;
+
+  // Sample positions along the line (s = 0 at the centre), within the region of interest.
+  std::vector<double> s;
+  std::vector<char> inside;
+  const double s_begin = -h - std::max(0.0, extension_a_px);
+  const double s_end = h + std::max(0.0, extension_b_px);
+  const int count = static_cast<int>(std::floor((s_end - s_begin) / o.sample_step_px)) + 1;
+  const double s_offset = 0.5 * ((s_end - s_begin) - (count - 1) * o.sample_step_px);
+  for (int i = 0; i < count; ++i)
+  {
+    const double si = s_begin + s_offset + i * o.sample_step_px;
+    s.push_back(si);
+    inside.push_back(std::abs(si) <= h + 1e-9);
+  }
+  const size_t n_inside = std::count(inside.begin(), inside.end(), 1);
+  if (n_inside < 3)
+    return Error(ErrorCode::kInvalidInput, "segment too short for the sample step");
+  double s_abs_max = 0.0;
+  for (double si : s)
+    s_abs_max = std::max(s_abs_max, std::abs(si));
+
+  // 1. Coarse search: Eq. 8 literally, sum of |dI/dn| on the line, over a grid of offsets and tilts.
+  if (o.search_px > 0.0)
+  {
+    const int half_steps = static_cast<int>(std::ceil(o.search_px / 0.5));
+    const int table_size = 2 * half_steps + 1;  // t_k = (k - half_steps) * 0.5
+    const int grid_size = table_size + 2;       // intensities at t_k +- 0.5
+    std::vector<double> table(s.size() * table_size, -1.0);
+    std::vector<double> intensity(grid_size);
+    for (size_t i = 0; i < s.size(); ++i)
+    {
+      const Eigen::Vector2d q = p0 + s[i] * d;
+      bool ok = true;
+      for (int m = 0; m < grid_size && ok; ++m)
+      {
+        const double t = (m - half_steps - 1) * 0.5;
+        const Eigen::Vector2d x = q + t * n;
+        ok = bilinear(image_, x.x(), x.y(), &intensity[m]);
+      }
+      if (!ok)
+        continue;
+      for (int k = 0; k < table_size; ++k)
+        table[i * table_size + k] = std::abs(intensity[k + 2] - intensity[k]);
+    }
+    double best_score = -1.0;
+    int best_k = half_steps;
+    int best_q = 0;
+    const int tilt_steps = 2 * half_steps;
+    for (int q = -tilt_steps; q <= tilt_steps; ++q)
+    {
+      const double phi = q * 0.5 / std::max(1.0, s_abs_max);
+      for (int k = 0; k < table_size; ++k)
+      {
+        double score = 0.0;
+        for (size_t i = 0; i < s.size(); ++i)
+        {
+          const int kk = k + static_cast<int>(std::lround(phi * s[i] / 0.5));
+          if (kk < 0 || kk >= table_size)
+            continue;
+          const double v = table[i * table_size + kk];
+          if (v > 0.0)
+            score += v;
+        }
+        // Prefer the input line on ties (flat regions).
+        if (score > best_score + 1e-9 ||
+            (std::abs(score - best_score) <= 1e-9 &&
+             std::abs(k - half_steps) + std::abs(q) < std::abs(best_k - half_steps) + std::abs(best_q)))
+        {
+          best_score = score;
+          best_k = k;
+          best_q = q;
+        }
+      }
+    }
+    const double delta = (best_k - half_steps) * 0.5;
+    const double phi = best_q * 0.5 / std::max(1.0, s_abs_max);
+    p0 += delta * n;
+    d = (d + phi * n).normalized();
+    n = perpendicular(d);
+  }
+
+  // 2. Sub-pixel: centroids of dI/dn in a window of half-width w about the line, weighted line fit, iterate.
+  const double w = o.half_width_px;
+  const int profile_count = static_cast<int>(std::floor(2.0 * w / o.profile_step_px + 1e-9)) + 1;
+  const double t0 = -0.5 * (profile_count - 1) * o.profile_step_px;
+  const double centroid_limit = 0.5 * (profile_count - 1) * o.profile_step_px - 0.5;
+  std::vector<double> intensity(profile_count);
+  std::vector<double> raw_weight(s.size()), centroid(s.size()), weight(s.size());
+  std::vector<char> valid(s.size()), use(s.size());
+  double polarity = 0.0;
+  RefinedSegment result;
+  double support = 0.0;
+  double residual_rms = 0.0;
+  int used = 0;
+  double contrast_sum = 0.0;
+  int iteration = 0;
+  for (iteration = 1; iteration <= o.max_iterations; ++iteration)
+  {
+    for (size_t i = 0; i < s.size(); ++i)
+    {
+      const Eigen::Vector2d q = p0 + s[i] * d;
+      bool ok = true;
+      for (int j = 0; j < profile_count && ok; ++j)
+      {
+        const Eigen::Vector2d x = q + (t0 + j * o.profile_step_px) * n;
+        ok = bilinear(image_, x.x(), x.y(), &intensity[j]);
+      }
+      valid[i] = ok;
+      if (!ok)
+        continue;
+      double moment = 0.0;
+      for (int j = 0; j + 1 < profile_count; ++j)
+        moment += (t0 + (j + 0.5) * o.profile_step_px) * (intensity[j + 1] - intensity[j]);
+      raw_weight[i] = intensity[profile_count - 1] - intensity[0];
+      centroid[i] = raw_weight[i] != 0.0 ? moment / raw_weight[i] : 0.0;
+    }
+    if (iteration == 1)
+    {
+      double sum = 0.0;
+      for (size_t i = 0; i < s.size(); ++i)
+        if (valid[i] && inside[i])
+          sum += raw_weight[i];
+      polarity = sum >= 0.0 ? 1.0 : -1.0;
+    }
+    size_t supported = 0;
+    for (size_t i = 0; i < s.size(); ++i)
+    {
+      weight[i] = polarity * raw_weight[i];
+      valid[i] = valid[i] && weight[i] >= o.min_contrast && std::abs(centroid[i]) <= centroid_limit;
+      use[i] = valid[i];
+      if (valid[i] && inside[i])
+        ++supported;
+    }
+    support = static_cast<double>(supported) / static_cast<double>(n_inside);
+    if (support < o.min_support || supported < 3)
+      return Error(ErrorCode::kNotEnoughData, "no edge under the segment: " + std::to_string(supported) + " of " +
+                                                  std::to_string(n_inside) + " samples see a contrast of at least " +
+                                                  std::to_string(o.min_contrast) + " grey levels");
+    WeightedLineFit fit = fitOffsetSlope(s, centroid, weight, use);
+    if (!fit.ok)
+      return Error(ErrorCode::kDegenerate, "the edge samples do not determine a line");
+    // Robust step: drop centroids far from the fitted line (corners, crossing edges), then refit.
+    std::vector<double> abs_residuals;
+    for (size_t i = 0; i < s.size(); ++i)
+      if (use[i])
+        abs_residuals.push_back(std::abs(centroid[i] - fit.offset - fit.slope * s[i]));
+    const double threshold = std::max(o.outlier_px, 3.0 * 1.4826 * medianOf(abs_residuals));
+    used = 0;
+    for (size_t i = 0; i < s.size(); ++i)
+    {
+      if (use[i] && std::abs(centroid[i] - fit.offset - fit.slope * s[i]) > threshold)
+        use[i] = 0;
+      used += use[i];
+    }
+    if (used < 3)
+      return Error(ErrorCode::kNotEnoughData, "too few edge samples after outlier rejection");
+    fit = fitOffsetSlope(s, centroid, weight, use);
+    if (!fit.ok)
+      return Error(ErrorCode::kDegenerate, "the edge samples do not determine a line");
+    double r2 = 0.0, wsum = 0.0;
+    contrast_sum = 0.0;
+    for (size_t i = 0; i < s.size(); ++i)
+    {
+      if (!use[i])
+        continue;
+      const double r = centroid[i] - fit.offset - fit.slope * s[i];
+      r2 += weight[i] * r * r;
+      wsum += weight[i];
+      contrast_sum += weight[i];
+    }
+    residual_rms = std::sqrt(r2 / wsum);
+
+    p0 += fit.offset * n;
+    d = (d + fit.slope * n).normalized();
+    n = perpendicular(d);
+    const double move = std::abs(fit.offset) + std::abs(fit.slope) * s_abs_max;
+    if (move < o.convergence_px)
+      break;
+  }
+
+  result.line = Eigen::Vector3d(n.x(), n.y(), -n.dot(p0));
+  result.a = p0 + (a - p0).dot(d) * d;
+  result.b = p0 + (b - p0).dot(d) * d;
+  result.contrast = contrast_sum / std::max(1, used);
+  result.support = support;
+  result.residual_px = residual_rms;
+  result.shift_px = std::max((result.a - a).norm(), (result.b - b).norm());
+  result.iterations = std::min(iteration, o.max_iterations);
+  result.samples = used;
+  return result;
+}
+
+Expected<RefinedPolyline> LineRefiner::refinePolyline(const std::vector<Eigen::Vector2d>& points) const
+{
+  if (points.size() < 2)
+    return Error(ErrorCode::kInvalidInput, "a polyline needs at least 2 points");
+  const size_t parts = points.size() - 1;
+  RefinedPolyline out;
+  out.parts.resize(parts);
+  std::vector<char> ok(parts, 0);
+  for (size_t i = 0; i < parts; ++i)
+  {
+    const double ext_a = i == 0 ? options_.extension_px : 0.0;
+    const double ext_b = i + 1 == parts ? options_.extension_px : 0.0;
+    auto part = refineSegment(points[i], points[i + 1], ext_a, ext_b);
+    if (part)
+    {
+      out.parts[i] = *part;
+      ok[i] = 1;
+    }
+    else
+    {
+      ++out.failed_parts;
+      out.parts[i].a = points[i];
+      out.parts[i].b = points[i + 1];
+    }
+  }
+  if (out.failed_parts == static_cast<int>(parts))
+    return Error(ErrorCode::kNotEnoughData, "no part of the polyline lies on an edge");
+  out.points.resize(points.size());
+  for (size_t k = 0; k < points.size(); ++k)
+  {
+    Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+    int votes = 0;
+    if (k > 0 && ok[k - 1])
+    {
+      sum += out.parts[k - 1].b;
+      ++votes;
+    }
+    if (k < parts && ok[k])
+    {
+      sum += out.parts[k].a;
+      ++votes;
+    }
+    out.points[k] = votes ? Eigen::Vector2d(sum / votes) : points[k];
+    out.max_shift_px = std::max(out.max_shift_px, (out.points[k] - points[k]).norm());
+  }
+  return out;
+}
+
+}  // namespace insitu_calibration

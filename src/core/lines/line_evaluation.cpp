@@ -1,0 +1,143 @@
+#include "insitu_calibration/lines/line_evaluation.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace insitu_calibration
+{
+std::vector<TrueEdgeImage> projectEdges(const CameraModel& camera, const std::vector<Segment3d>& segments,
+                                        double near_m)
+{
+  std::vector<TrueEdgeImage> out;
+  const Eigen::Matrix3d k = camera.intrinsics().matrix();
+  for (size_t i = 0; i < segments.size(); ++i)
+  {
+    Eigen::Vector3d a = camera.toCamera(segments[i].a);
+    Eigen::Vector3d b = camera.toCamera(segments[i].b);
+    if (a.z() < near_m && b.z() < near_m)
+      continue;
+    if (a.z() < near_m)
+      a = b + (a - b) * ((b.z() - near_m) / (b.z() - a.z()));
+    if (b.z() < near_m)
+      b = a + (b - a) * ((a.z() - near_m) / (a.z() - b.z()));
+    const Eigen::Vector3d pa = k * a, pb = k * b;
+    TrueEdgeImage e;
+    e.edge = static_cast<int>(i);
+    e.a = pa.hnormalized();
+    e.b = pb.hnormalized();
+    if ((e.b - e.a).norm() > 1e-6)
+      out.push_back(e);
+  }
+  return out;
+}
+
+std::optional<double> distanceToEdge(const DivisionModel& distortion, const TrueEdgeImage& edge,
+                                     const Eigen::Vector2d& pixel, double margin_px)
+{
+  const auto u = distortion.undistort(pixel);
+  if (!u)
+    return std::nullopt;
+  const Eigen::Vector2d ab = edge.b - edge.a;
+  const double len = ab.norm();
+  const double s = (*u - edge.a).dot(ab) / len;
+  if (s < -margin_px || s > len + margin_px)
+    return std::nullopt;
+  const auto foot = distortion.distort(edge.a + ab * (s / len));
+  if (!foot)
+    return std::nullopt;
+  return (pixel - *foot).norm();
+}
+
+ImageLineError measureImageLine(const std::vector<Eigen::Vector2d>& polyline, const DivisionModel& distortion,
+                                const std::vector<TrueEdgeImage>& edges, double max_distance_px, double step_px,
+                                double min_coverage)
+{
+  ImageLineError best;
+  if (polyline.size() < 2)
+    return best;
+  std::vector<Eigen::Vector2d> samples;
+  for (size_t i = 0; i + 1 < polyline.size(); ++i)
+  {
+    const Eigen::Vector2d d = polyline[i + 1] - polyline[i];
+    const int steps = std::max(1, static_cast<int>(std::ceil(d.norm() / step_px)));
+    for (int k = 0; k < steps; ++k)
+      samples.push_back(polyline[i] + d * (static_cast<double>(k) / steps));
+  }
+  samples.push_back(polyline.back());
+  double best_rms = std::numeric_limits<double>::infinity();
+  for (const auto& edge : edges)
+  {
+    // Quick rejection on the end points.
+    const auto d0 = distanceToEdge(distortion, edge, polyline.front(), 1e9);
+    const auto d1 = distanceToEdge(distortion, edge, polyline.back(), 1e9);
+    if (!d0 || !d1 || *d0 > 3.0 * max_distance_px + 5.0 || *d1 > 3.0 * max_distance_px + 5.0)
+      continue;
+    double sum2 = 0.0, max_d = 0.0;
+    int n = 0;
+    bool too_far = false;
+    for (const auto& p : samples)
+    {
+      const auto d = distanceToEdge(distortion, edge, p);
+      if (!d)
+        continue;
+      if (*d > max_distance_px)
+      {
+        too_far = true;
+        break;
+      }
+      sum2 += *d * *d;
+      max_d = std::max(max_d, *d);
+      ++n;
+    }
+    if (too_far || n < min_coverage * samples.size() || n == 0)
+      continue;
+    const double rms = std::sqrt(sum2 / n);
+    if (rms < best_rms)
+    {
+      best_rms = rms;
+      best.edge = edge.edge;
+      best.rms_px = rms;
+      best.max_px = max_d;
+      best.samples = n;
+    }
+  }
+  return best;
+}
+
+Line3dError measureLine3d(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const std::vector<Segment3d>& truth,
+                          double max_distance_m, double max_angle_deg)
+{
+  Line3dError best;
+  const Eigen::Vector3d d = (b - a).normalized();
+  double best_distance = std::numeric_limits<double>::infinity();
+  for (size_t i = 0; i < truth.size(); ++i)
+  {
+    const Eigen::Vector3d ta = truth[i].a;
+    const Eigen::Vector3d td = (truth[i].b - truth[i].a);
+    const double tlen = td.norm();
+    if (!(tlen > 0.0))
+      continue;
+    const Eigen::Vector3d tu = td / tlen;
+    const double angle = std::acos(std::min(1.0, std::abs(tu.dot(d)))) * 180.0 / M_PI;
+    if (angle > max_angle_deg)
+      continue;
+    auto distance = [&](const Eigen::Vector3d& p) { return ((p - ta) - (p - ta).dot(tu) * tu).norm(); };
+    const double da = distance(a), db = distance(b);
+    const double rms = std::sqrt(0.5 * (da * da + db * db));
+    if (rms > max_distance_m)
+      continue;
+    const double sa = (a - ta).dot(tu), sb = (b - ta).dot(tu);
+    if (std::max(sa, sb) < 0.0 || std::min(sa, sb) > tlen)
+      continue;
+    if (rms < best_distance)
+    {
+      best_distance = rms;
+      best.edge = static_cast<int>(i);
+      best.angle_deg = angle;
+      best.distance_m = rms;
+    }
+  }
+  return best;
+}
+
+}  // namespace insitu_calibration

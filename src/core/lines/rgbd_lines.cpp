@@ -1,0 +1,117 @@
+#include "insitu_calibration/lines/rgbd_lines.h"
+
+#include <chrono>
+
+namespace insitu_calibration
+{
+namespace
+{
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t)
+{
+  return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+}
+}  // namespace
+
+RgbdLineOptions::RgbdLineOptions()
+{
+  detector.min_length_px = 25.0;
+  refiner.extension_px = 0.0;
+  refiner.search_px = 1.5;
+}
+
+RgbdLineExtractor::RgbdLineExtractor(const RgbdLineOptions& options) : options_(options), detector_(options.detector) {}
+
+Expected<std::vector<Line3d>> RgbdLineExtractor::extract(const RgbdFrame& frame, RgbdLineStats* stats)
+{
+  RgbdLineStats local;
+  RgbdLineStats& st = stats ? *stats : local;
+  st = RgbdLineStats();
+  if (auto s = validateFrame(frame); !s)
+    return s.error();
+
+  auto t = Clock::now();
+  auto depth = depthToMeters(frame.depth, options_.min_range_m, options_.max_range_m);
+  if (!depth)
+    return depth.error();
+  st.depth_ms += msSince(t);
+
+  t = Clock::now();
+  auto segments = detector_.detect(frame.rgb);
+  if (!segments)
+    return segments.error();
+  st.segments = static_cast<int>(segments->size());
+  st.detect_ms = msSince(t);
+
+  if (options_.refine_segments && !segments->empty())
+  {
+    t = Clock::now();
+    auto refiner = LineRefiner::create(frame.rgb, options_.refiner);
+    if (!refiner)
+      return refiner.error();
+    for (auto& s : *segments)
+    {
+      auto refined = refiner->refineSegment(s.a, s.b);
+      if (refined)
+      {
+        s.a = refined->a;
+        s.b = refined->b;
+      }
+    }
+    st.refine_ms = msSince(t);
+  }
+
+  std::vector<Line3d> lines;
+  Line3dFitOptions fit = options_.fit;
+  for (size_t i = 0; i < segments->size(); ++i)
+  {
+    const Segment2d& segment = (*segments)[i];
+    t = Clock::now();
+    const std::vector<DepthSample> samples = sampleDepthAlongSegment(*depth, segment, options_.sampler);
+    st.depth_ms += msSince(t);
+    if (samples.size() < static_cast<size_t>(std::max(2, fit.min_inliers)))
+    {
+      ++st.no_depth;
+      continue;
+    }
+    t = Clock::now();
+    fit.seed = options_.fit.seed + static_cast<uint32_t>(i);
+    auto line = fitLine3dToDepthSamples(segment, samples, frame.camera, fit);
+    st.fit_ms += msSince(t);
+    if (!line)
+    {
+      if (line.error().code() == ErrorCode::kDegenerate)
+        ++st.too_short;
+      else if (line.error().code() == ErrorCode::kNotEnoughData)
+        ++st.no_depth;
+      else
+        ++st.no_line;
+      continue;
+    }
+    line->a = frame.T_map_camera * line->a;
+    line->b = frame.T_map_camera * line->b;
+    line->stamp = frame.stamp;
+    lines.push_back(*line);
+  }
+  st.lines = static_cast<int>(lines.size());
+  if (lines.empty())
+  {
+    if (st.segments == 0)
+      st.note =
+          "no line segment of at least " + std::to_string(options_.detector.min_length_px) + " px in the RGB image";
+    else
+      st.note = std::to_string(st.segments) + " segments, none became a 3D line (" + std::to_string(st.no_depth) +
+                " without depth, " + std::to_string(st.no_line) + " without a consensus, " +
+                std::to_string(st.too_short) + " too short)";
+  }
+  return lines;
+}
+
+Expected<std::vector<Line3d>> extractRgbdLines(const RgbdFrame& frame, const RgbdLineOptions& options,
+                                               RgbdLineStats* stats)
+{
+  RgbdLineExtractor extractor(options);
+  return extractor.extract(frame, stats);
+}
+
+}  // namespace insitu_calibration

@@ -1,0 +1,233 @@
+// 2D lines: detection, merging of fragments into polylines, fine-tuning on the gradient (Eq. 8), bad input.
+// Ground truth: rectangles rendered with anti-aliasing and noise by synthetic/line_scene.h.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <iostream>
+
+#include "insitu_calibration/lines/image_lines.h"
+#include "insitu_calibration/lines/line_evaluation.h"
+#include "insitu_calibration/synthetic/line_scene.h"
+
+namespace ic = insitu_calibration;
+
+namespace
+{
+constexpr unsigned kSeed = 20240604;
+
+struct RectangleScene
+{
+  ic::LineScene scene;
+  ic::CameraModel camera;
+  int width = 0;
+  int height = 0;
+  std::vector<ic::Segment3d> rectangle;  // the 4 true edges
+};
+
+// A dark rectangle (grey 60) on a bright background (grey 190), fronto-parallel at 1 m in front of a camera with
+// f = 500 px: the rectangle's centre at pixel (cx_px, cy_px), half sizes in px, rotated by angle_deg in the image.
+RectangleScene makeRectangle(int width, int height, double cx_px, double cy_px, double half_w_px, double half_h_px,
+                             double angle_deg, double lambda = 0.0)
+{
+  RectangleScene r;
+  r.width = width;
+  r.height = height;
+  ic::Intrinsics k;
+  k.fx = k.fy = 500.0;
+  k.cx = 0.5 * (width - 1);
+  k.cy = 0.5 * (height - 1);
+  ic::DivisionModel dm;
+  dm.lambda = lambda;
+  dm.center = k.principalPoint();
+  r.camera = ic::CameraModel(k, dm, ic::CameraPose());
+  const double c = std::cos(angle_deg * M_PI / 180.0), s = std::sin(angle_deg * M_PI / 180.0);
+  auto corner = [&](double sx, double sy) {
+    const double u = cx_px + c * sx * half_w_px - s * sy * half_h_px;
+    const double v = cy_px + s * sx * half_w_px + c * sy * half_h_px;
+    return Eigen::Vector3d((u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0);
+  };
+  const Eigen::Vector3d p0 = corner(-1, -1), p1 = corner(1, -1), p3 = corner(-1, 1);
+  r.scene.quads.push_back({p0, p1 - p0, p3 - p0, 60.0});
+  r.scene.quads.push_back({{-50, -50, 3.0}, {100, 0, 0}, {0, 100, 0}, 190.0});
+  const auto edges = r.scene.edges();
+  r.rectangle.assign(edges.begin(), edges.begin() + 4);
+  return r;
+}
+
+}  // namespace
+
+TEST(ImageLines, RenderedRectangleFineTunedWithinTenthPixel)
+{
+  std::cout << "seed " << kSeed << std::endl;
+  std::mt19937 rng(kSeed);
+  ic::RenderOptions render;
+  render.supersamples = 64;
+  render.noise_sigma = 3.0;
+  for (const double angle : {0.0, 7.0, 17.0, 33.0, 45.0})
+  {
+    const RectangleScene r = makeRectangle(320, 240, 161.3, 118.6, 90.0, 60.0, angle);
+    const cv::Mat image = ic::renderGrey(r.scene, r.camera, r.width, r.height, render, rng);
+    const auto truth = ic::projectEdges(r.camera, r.rectangle);
+    ASSERT_EQ(truth.size(), 4u);
+    for (const auto kind : {ic::SegmentDetectorKind::kFastLineDetector, ic::SegmentDetectorKind::kLsd})
+    {
+      ic::ImageLineOptions options;
+      options.detector.kind = kind;
+      ic::ImageLineStats stats;
+      const auto lines = ic::extractImageLines(image, r.camera, options, &stats);
+      ASSERT_TRUE(lines.ok()) << lines.error().describe();
+      std::vector<int> matched(4, 0);
+      for (const auto& line : *lines)
+      {
+        const ic::ImageLineError before = ic::measureImageLine(line.detected, r.camera.distortion(), truth);
+        const ic::ImageLineError after = ic::measureImageLine(line.points, r.camera.distortion(), truth);
+        ASSERT_GE(after.edge, 0) << "a line that is not a rectangle edge, angle " << angle;
+        ++matched[after.edge];
+        std::cout << ic::toString(kind) << " angle " << angle << " edge " << after.edge << ": detected rms "
+                  << before.rms_px << " max " << before.max_px << " px, fine-tuned rms " << after.rms_px << " max "
+                  << after.max_px << " px" << std::endl;
+        EXPECT_LT(after.max_px, 0.1) << "angle " << angle << " edge " << after.edge;
+        EXPECT_GT(line.length_px, 90.0);
+      }
+      // One line per edge: the fragments were merged.
+      for (int e = 0; e < 4; ++e)
+        EXPECT_EQ(matched[e], 1) << ic::toString(kind) << " angle " << angle << " edge " << e;
+    }
+  }
+}
+
+TEST(ImageLines, DistortedRectangleGivesOneCurvedPolylinePerSide)
+{
+  std::cout << "seed " << kSeed << std::endl;
+  std::mt19937 rng(kSeed);
+  ic::RenderOptions render;
+  render.supersamples = 64;
+  render.noise_sigma = 2.0;
+  // Barrel distortion moving the image corner 12 px inwards on 640 x 480.
+  const double corner_r = std::hypot(319.5, 239.5);
+  const double lambda = -12.0 / (corner_r * corner_r * (corner_r - 12.0));
+  RectangleScene r = makeRectangle(640, 480, 321.0, 238.0, 270.0, 190.0, 4.0, lambda);
+  // Bars in front (0.8 m) interrupt the sides: each side is detected in fragments that must be merged.
+  auto bar = [&](double u0, double v0, double u1, double v1) {
+    const double z = 0.8, f = 500.0, cx = 319.5, cy = 239.5;
+    const Eigen::Vector3d p0((u0 - cx) * z / f, (v0 - cy) * z / f, z);
+    r.scene.quads.push_back({p0, {(u1 - u0) * z / f, 0, 0}, {0, (v1 - v0) * z / f, 0}, 125.0});
+  };
+  bar(200, 0, 215, 479);
+  bar(420, 0, 440, 479);
+  bar(0, 300, 639, 312);
+  const cv::Mat image = ic::renderGrey(r.scene, r.camera, r.width, r.height, render, rng);
+  // Every scene edge is a candidate; the rectangle's 4 must each be found once, as one polyline.
+  const auto truth = ic::projectEdges(r.camera, r.scene.edges());
+  for (const bool known_distortion : {false, true})
+  {
+    ic::DivisionModel dm;
+    dm.center = r.camera.distortion().center;
+    dm.lambda = known_distortion ? lambda : 0.0;
+    ic::ImageLineStats stats;
+    const auto lines = ic::extractImageLines(image, dm, ic::ImageLineOptions(), &stats);
+    ASSERT_TRUE(lines.ok()) << lines.error().describe();
+    std::vector<int> matched(4, 0);
+    for (const auto& line : *lines)
+    {
+      const auto before = ic::measureImageLine(line.detected, r.camera.distortion(), truth);
+      const auto after = ic::measureImageLine(line.points, r.camera.distortion(), truth);
+      ASSERT_GE(after.edge, 0);
+      if (after.edge >= 4)
+        continue;  // a bar
+      ++matched[after.edge];
+      std::cout << "lambda " << dm.lambda << " edge " << after.edge << ": " << line.points.size() << " points, "
+                << line.fragments.size() << " fragments, detected rms " << before.rms_px << " px, fine-tuned rms "
+                << after.rms_px << " max " << after.max_px << " px" << std::endl;
+      EXPECT_GE(line.points.size(), 4u);  // a curve: several parts
+      EXPECT_LT(after.max_px, 0.1);
+      EXPECT_GT(line.length_px, 300.0);
+    }
+    for (int e = 0; e < 4; ++e)
+      EXPECT_EQ(matched[e], 1) << "lambda " << dm.lambda << " edge " << e << " (" << stats.segments.size()
+                               << " segments)";
+  }
+}
+
+TEST(ImageLines, RefinerConvergesFromAnOffsetSegment)
+{
+  std::mt19937 rng(kSeed);
+  ic::RenderOptions render;
+  render.noise_sigma = 2.0;
+  const RectangleScene r = makeRectangle(320, 240, 160.0, 120.0, 100.0, 70.0, 21.0);
+  const cv::Mat image = ic::renderGrey(r.scene, r.camera, r.width, r.height, render, rng);
+  const auto truth = ic::projectEdges(r.camera, r.rectangle);
+  auto refiner = ic::LineRefiner::create(image);
+  ASSERT_TRUE(refiner.ok());
+  for (const auto& edge : truth)
+  {
+    // The middle 80 % of the edge, moved 1.5 px across and tilted so its ends differ by 1 px.
+    const Eigen::Vector2d d = (edge.b - edge.a).normalized();
+    const Eigen::Vector2d n(-d.y(), d.x());
+    const Eigen::Vector2d a = edge.a + 0.1 * (edge.b - edge.a) + 1.5 * n;
+    const Eigen::Vector2d b = edge.b - 0.1 * (edge.b - edge.a) + 2.5 * n;
+    const auto refined = refiner->refineSegment(a, b);
+    ASSERT_TRUE(refined.ok()) << refined.error().describe();
+    for (const auto& p : {refined->a, refined->b})
+    {
+      const auto dist = ic::distanceToEdge(r.camera.distortion(), edge, p);
+      ASSERT_TRUE(dist.has_value());
+      EXPECT_LT(*dist, 0.1);
+    }
+    EXPECT_GT(refined->contrast, 100.0);  // 190 - 60
+    EXPECT_GT(refined->support, 0.9);
+  }
+  // A segment over a flat region finds no edge.
+  const auto flat = refiner->refineSegment({150.0, 110.0}, {170.0, 125.0});
+  ASSERT_FALSE(flat.ok());
+  EXPECT_EQ(flat.error().code(), ic::ErrorCode::kNotEnoughData);
+}
+
+TEST(ImageLines, BadInputGivesErrorsOrEmptyResultsWithAReason)
+{
+  const ic::DivisionModel dm;
+  // Empty image.
+  auto empty = ic::extractImageLines(cv::Mat(), dm);
+  ASSERT_FALSE(empty.ok());
+  EXPECT_EQ(empty.error().code(), ic::ErrorCode::kInvalidInput);
+  // Unsupported type.
+  auto wrong_type = ic::extractImageLines(cv::Mat(50, 50, CV_64FC3, cv::Scalar(0)), dm);
+  ASSERT_FALSE(wrong_type.ok());
+  EXPECT_EQ(wrong_type.error().code(), ic::ErrorCode::kInvalidInput);
+  // Non-finite distortion.
+  ic::DivisionModel nan_dm;
+  nan_dm.lambda = std::nan("");
+  auto bad_model = ic::extractImageLines(cv::Mat(50, 50, CV_8UC1, cv::Scalar(0)), nan_dm);
+  ASSERT_FALSE(bad_model.ok());
+  EXPECT_EQ(bad_model.error().code(), ic::ErrorCode::kInvalidInput);
+  // A flat image: no error, no line, and a reason.
+  ic::ImageLineStats stats;
+  auto flat = ic::extractImageLines(cv::Mat(120, 160, CV_8UC3, cv::Scalar(90, 90, 90)), dm, {}, &stats);
+  ASSERT_TRUE(flat.ok());
+  EXPECT_TRUE(flat->empty());
+  EXPECT_FALSE(stats.note.empty());
+  // Tiny image.
+  auto tiny = ic::extractImageLines(cv::Mat(1, 1, CV_8UC1, cv::Scalar(0)), dm);
+  EXPECT_TRUE(!tiny.ok() || tiny->empty());
+  // Refiner.
+  EXPECT_FALSE(ic::LineRefiner::create(cv::Mat()).ok());
+  ic::RefinerOptions bad_options;
+  bad_options.half_width_px = 0.0;
+  EXPECT_FALSE(ic::LineRefiner::create(cv::Mat(10, 10, CV_8UC1), bad_options).ok());
+  auto refiner = ic::LineRefiner::create(cv::Mat(40, 40, CV_8UC1, cv::Scalar(0)));
+  ASSERT_TRUE(refiner.ok());
+  EXPECT_FALSE(refiner->refineSegment({std::nan(""), 1.0}, {10.0, 10.0}).ok());
+  EXPECT_FALSE(refiner->refineSegment({5.0, 5.0}, {5.0, 5.0}).ok());
+  EXPECT_FALSE(refiner->refinePolyline({{5.0, 5.0}}).ok());
+  // A segment leaving the image is not an error that throws: it finds no edge.
+  EXPECT_FALSE(refiner->refineSegment({-100.0, -100.0}, {-50.0, -60.0}).ok());
+  // Detector on every supported type.
+  ic::SegmentDetector detector;
+  for (const int type : {CV_8UC1, CV_8UC3, CV_8UC4, CV_16UC1, CV_32FC1})
+  {
+    cv::Mat img(60, 80, type, cv::Scalar::all(0));
+    auto segments = detector.detect(img);
+    ASSERT_TRUE(segments.ok()) << cv::typeToString(type) << ": " << segments.error().describe();
+    EXPECT_TRUE(segments->empty());
+  }
+}

@@ -1,0 +1,159 @@
+// The 3D line map: observations of one edge from many poses merge into one line with its support and extent; other
+// edges stay apart; memory grows with edges, not frames.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <iostream>
+#include <random>
+
+#include "insitu_calibration/lines/line_map.h"
+
+namespace ic = insitu_calibration;
+
+namespace
+{
+constexpr unsigned kSeed = 777;
+
+double angleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b)
+{
+  return std::acos(std::min(1.0, std::abs(a.normalized().dot(b.normalized())))) * 180.0 / M_PI;
+}
+
+double distanceToLine(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b)
+{
+  const Eigen::Vector3d d = (b - a).normalized();
+  return ((p - a) - (p - a).dot(d) * d).norm();
+}
+
+// One RGB-D observation of the true segment a-b from a sensor at `sensor`: a random part of it (40-90 %), each end
+// point moved along its viewing ray by the Xtion's depth noise (sigma = 1.425e-3 z^2) and across by 1 mm.
+ic::Line3d observe(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& sensor, std::mt19937& rng,
+                   double* lo = nullptr, double* hi = nullptr)
+{
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  const double len = 0.4 + 0.5 * unit(rng);
+  const double start = unit(rng) * (1.0 - len);
+  auto noisy = [&](const Eigen::Vector3d& p) {
+    const Eigen::Vector3d ray = p - sensor;
+    const double z = ray.norm();
+    // Correlated along the segment (one fit from many samples): a tenth of the per-pixel noise.
+    return Eigen::Vector3d(p + ray.normalized() * 0.1 * 1.425e-3 * z * z * normal(rng) +
+                           Eigen::Vector3d(normal(rng), normal(rng), normal(rng)) * 0.001);
+  };
+  ic::Line3d o;
+  o.a = noisy(a + start * (b - a));
+  o.b = noisy(a + (start + len) * (b - a));
+  o.inliers = 60;
+  o.samples = 70;
+  o.rms_m = 0.005;
+  o.range_m = (0.5 * (o.a + o.b) - sensor).norm();
+  if (lo)
+    *lo = std::min(*lo, start);
+  if (hi)
+    *hi = std::max(*hi, start + len);
+  return o;
+}
+
+Eigen::Vector3d randomSensor(std::mt19937& rng)
+{
+  std::uniform_real_distribution<double> x(1.0, 5.0), y(1.5, 4.0), z(0.6, 1.2);
+  return {x(rng), y(rng), z(rng)};
+}
+
+}  // namespace
+
+TEST(LineMap, SameEdgeFromDifferentPosesMergesIntoOneLine)
+{
+  std::cout << "seed " << kSeed << std::endl;
+  std::mt19937 rng(kSeed);
+  // A door's vertical edge, its top edge, a parallel edge 8 cm beside the vertical one (a door frame's other edge),
+  // and a collinear edge 0.5 m beyond the top edge (another door).
+  const Eigen::Vector3d v_a(1.0, 0.01, 0.0), v_b(1.0, 0.01, 2.05);
+  const Eigen::Vector3d t_a(1.0, 0.01, 2.05), t_b(1.9, 0.01, 2.05);
+  const Eigen::Vector3d p_a(1.08, 0.01, 0.0), p_b(1.08, 0.01, 2.05);
+  const Eigen::Vector3d c_a(2.4, 0.01, 2.05), c_b(3.3, 0.01, 2.05);
+  ic::LineMap map;
+  double lo = 1.0, hi = 0.0;
+  const int poses = 40;
+  for (int i = 0; i < poses; ++i)
+  {
+    const Eigen::Vector3d sensor = randomSensor(rng);
+    map.insert(observe(v_a, v_b, sensor, rng, &lo, &hi));
+    map.insert(observe(t_a, t_b, sensor, rng));
+    map.insert(observe(p_a, p_b, sensor, rng));
+    map.insert(observe(c_a, c_b, sensor, rng));
+  }
+  ASSERT_EQ(map.size(), 4u);
+  int found = 0;
+  for (const auto& line : map.lines())
+  {
+    EXPECT_EQ(line.support, poses);
+    if (distanceToLine(line.point, v_a, v_b) < 0.02 && angleDeg(line.direction, v_b - v_a) < 1.0)
+    {
+      ++found;
+      std::cout << "vertical edge: support " << line.support << ", angle " << angleDeg(line.direction, v_b - v_a)
+                << " deg, distance " << distanceToLine(line.a(), v_a, v_b) * 1000 << " / "
+                << distanceToLine(line.b(), v_a, v_b) * 1000 << " mm, extent z " << line.a().z() << " .. "
+                << line.b().z() << " (observed " << lo * 2.05 << " .. " << hi * 2.05 << ")" << std::endl;
+      EXPECT_LT(angleDeg(line.direction, v_b - v_a), 0.3);
+      EXPECT_LT(distanceToLine(line.a(), v_a, v_b), 0.005);
+      EXPECT_LT(distanceToLine(line.b(), v_a, v_b), 0.005);
+      // The extent is the union of the observed parts.
+      const double z0 = std::min(line.a().z(), line.b().z()), z1 = std::max(line.a().z(), line.b().z());
+      EXPECT_NEAR(z0, lo * 2.05, 0.03);
+      EXPECT_NEAR(z1, hi * 2.05, 0.03);
+      const auto pts = line.samplePoints(5);
+      ASSERT_EQ(pts.size(), 5u);
+      EXPECT_NEAR((pts.front() - line.a()).norm(), 0.0, 1e-12);
+      EXPECT_NEAR((pts.back() - line.b()).norm(), 0.0, 1e-12);
+    }
+  }
+  EXPECT_EQ(found, 1);
+  EXPECT_EQ(map.lines(poses).size(), 4u);
+  EXPECT_EQ(map.lines(poses + 1).size(), 0u);
+}
+
+TEST(LineMap, MemoryGrowsWithEdgesNotFrames)
+{
+  std::mt19937 rng(kSeed);
+  const std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> edges = {
+      {{0, 0, 0}, {6, 0, 0}}, {{0, 0, 2.7}, {6, 0, 2.7}}, {{6, 0, 0}, {6, 0, 2.7}}, {{2, 5, 1}, {3.2, 5, 1}}};
+  ic::LineMap map;
+  for (int frame = 0; frame < 5000; ++frame)
+  {
+    const Eigen::Vector3d sensor = randomSensor(rng);
+    for (const auto& [a, b] : edges)
+      map.insert(observe(a, b, sensor, rng));
+    ASSERT_LE(map.size(), edges.size()) << "frame " << frame;
+  }
+  EXPECT_EQ(map.size(), edges.size());
+  for (const auto& line : map.lines())
+    EXPECT_EQ(line.support, 5000);
+}
+
+TEST(LineMap, FragmentsOfOneEdgeFuseWhenABridgingObservationArrives)
+{
+  ic::LineMap map;
+  auto obs = [](Eigen::Vector3d a, Eigen::Vector3d b) {
+    ic::Line3d o;
+    o.a = a;
+    o.b = b;
+    o.inliers = 50;
+    o.rms_m = 0.003;
+    o.range_m = 2.0;
+    return o;
+  };
+  map.insert(obs({0, 0, 1}, {1, 0, 1}));
+  map.insert(obs({1.5, 0, 1}, {2.5, 0, 1}));  // 0.5 m gap: a separate line for now
+  ASSERT_EQ(map.size(), 2u);
+  const int index = map.insert(obs({0.8, 0, 1}, {1.7, 0, 1}));  // bridges both
+  ASSERT_EQ(map.size(), 1u);
+  EXPECT_EQ(index, 0);
+  EXPECT_EQ(map.lines()[0].support, 3);
+  EXPECT_NEAR(map.lines()[0].length(), 2.5, 1e-9);
+  // Bad observations are ignored.
+  EXPECT_EQ(map.insert(obs({1, 1, 1}, {1, 1, 1})), -1);
+  EXPECT_EQ(map.insert(obs({std::nan(""), 0, 0}, {1, 1, 1})), -1);
+  EXPECT_EQ(map.size(), 1u);
+}

@@ -1,0 +1,350 @@
+// 3D lines from RGB-D: RANSAC on points with outliers, depth on the near side of discontinuities, whole frames
+// rendered with Xtion-like depth noise (16UC1 millimetres and 32FC1 metres), bad input.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <iostream>
+
+#include <opencv2/imgproc.hpp>
+
+#include "insitu_calibration/lines/line_evaluation.h"
+#include "insitu_calibration/lines/rgbd_lines.h"
+#include "insitu_calibration/synthetic/line_scene.h"
+
+namespace ic = insitu_calibration;
+
+namespace
+{
+constexpr unsigned kSeed = 424242;
+constexpr double kXtionNoisePerM = 1.425e-3;  // sigma_z = k z^2 (Khoshelham & Elberink 2012)
+
+double median(std::vector<double> v)
+{
+  if (v.empty())
+    return std::nan("");
+  std::sort(v.begin(), v.end());
+  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+}
+
+double angleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b)
+{
+  return std::acos(std::min(1.0, std::abs(a.normalized().dot(b.normalized())))) * 180.0 / M_PI;
+}
+
+double distanceToLine(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b)
+{
+  const Eigen::Vector3d d = (b - a).normalized();
+  return ((p - a) - (p - a).dot(d) * d).norm();
+}
+
+ic::RgbdCamera xtionCamera()
+{
+  ic::RgbdCamera c;
+  c.width = 640;
+  c.height = 480;
+  c.intrinsics.fx = c.intrinsics.fy = 570.3;
+  c.intrinsics.cx = 319.5;
+  c.intrinsics.cy = 239.5;
+  return c;
+}
+
+// The optical frame at position, looking at target (z forward, x right, y down; world z up).
+Eigen::Isometry3d lookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& target)
+{
+  const Eigen::Vector3d z = (target - position).normalized();
+  const Eigen::Vector3d x = z.cross(Eigen::Vector3d::UnitZ()).normalized();
+  const Eigen::Vector3d y = z.cross(x);
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.linear().col(0) = x;
+  t.linear().col(1) = y;
+  t.linear().col(2) = z;
+  t.translation() = position;
+  return t;
+}
+
+ic::RgbdFrame renderFrame(const ic::LineScene& scene, const Eigen::Isometry3d& T_map_camera, bool millimetres,
+                          std::mt19937& rng)
+{
+  ic::RgbdFrame f;
+  f.camera = xtionCamera();
+  f.T_map_camera = T_map_camera;
+  const ic::CameraModel model(f.camera.intrinsics, ic::DivisionModel{0.0, f.camera.intrinsics.principalPoint()},
+                              ic::CameraPose::fromWorldFromCamera(T_map_camera));
+  ic::RenderOptions render;
+  render.supersamples = 16;
+  render.noise_sigma = 2.0;
+  render.blur_sigma_px = 0.5;
+  cv::Mat grey = ic::renderGrey(scene, model, 640, 480, render, rng);
+  cv::cvtColor(grey, f.rgb, cv::COLOR_GRAY2BGR);
+  f.depth = ic::makeSensorDepth(ic::renderDepth(scene, model, 640, 480), kXtionNoisePerM, millimetres, rng);
+  return f;
+}
+
+}  // namespace
+
+TEST(Line3dFitter, RansacFindsTheLineAmongThirtyPercentOutliers)
+{
+  std::cout << "seed " << kSeed << std::endl;
+  std::mt19937 rng(kSeed);
+  const Eigen::Vector3d a(0.5, -0.3, 2.0), b(1.2, 0.4, 3.1);
+  const Eigen::Vector3d d = (b - a).normalized();
+  const Eigen::Vector3d n1 = d.unitOrthogonal(), n2 = d.cross(n1);
+  std::normal_distribution<double> noise(0.0, 0.003);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (int trial = 0; trial < 20; ++trial)
+  {
+    std::vector<Eigen::Vector3d> points;
+    double u_min = 1.0, u_max = 0.0;
+    for (int i = 0; i < 70; ++i)
+    {
+      const double u = unit(rng);
+      u_min = std::min(u_min, u);
+      u_max = std::max(u_max, u);
+      points.push_back(a + u * (b - a) + noise(rng) * n1 + noise(rng) * n2);
+    }
+    // 30 % outliers in the box around the segment, at least 5 cm off the line.
+    while (points.size() < 100)
+    {
+      const Eigen::Vector3d p(0.3 + unit(rng) * 1.1, -0.5 + unit(rng) * 1.1, 1.8 + unit(rng) * 1.5);
+      if (distanceToLine(p, a, b) > 0.05)
+        points.push_back(p);
+    }
+    std::shuffle(points.begin(), points.end(), rng);
+    ic::Line3dFitOptions options;
+    options.threshold_m = 0.01;
+    options.threshold_per_m2 = 0.0;
+    options.seed = kSeed + trial;
+    const auto line = ic::fitLine3d(points, options);
+    ASSERT_TRUE(line.ok()) << line.error().describe();
+    EXPECT_GE(line->inliers, 68);
+    EXPECT_LE(line->inliers, 72);  // an outlier may fall within 1 cm of the line by chance, not more
+    EXPECT_LT(angleDeg(line->direction(), b - a), 0.5);
+    EXPECT_LT(distanceToLine(line->a, a, b), 0.003);
+    EXPECT_LT(distanceToLine(line->b, a, b), 0.003);
+    // The extent is the inliers' (the ends of the line lie at the extreme inliers, up to their noise).
+    const Eigen::Vector3d e0 = a + u_min * (b - a), e1 = a + u_max * (b - a);
+    EXPECT_LT(std::min((line->a - e0).norm() + (line->b - e1).norm(), (line->a - e1).norm() + (line->b - e0).norm()),
+              0.02);
+    EXPECT_LT(line->rms_m, 0.006);
+    // Deterministic for a seed.
+    const auto again = ic::fitLine3d(points, options);
+    ASSERT_TRUE(again.ok());
+    EXPECT_EQ((again->a - line->a).norm(), 0.0);
+  }
+}
+
+TEST(Line3dFitter, BadPointSetsGiveErrors)
+{
+  ic::Line3dFitOptions options;
+  EXPECT_EQ(ic::fitLine3d({}, options).error().code(), ic::ErrorCode::kNotEnoughData);
+  EXPECT_EQ(ic::fitLine3d({Eigen::Vector3d(1, 2, 3)}, options).error().code(), ic::ErrorCode::kNotEnoughData);
+  std::vector<Eigen::Vector3d> nan(50, Eigen::Vector3d::Constant(std::nan("")));
+  EXPECT_EQ(ic::fitLine3d(nan, options).error().code(), ic::ErrorCode::kNotEnoughData);
+  // All points equal: no line (no throw, whatever PCL thinks of the samples).
+  std::vector<Eigen::Vector3d> same(50, Eigen::Vector3d(1, 2, 3));
+  EXPECT_FALSE(ic::fitLine3d(same, options).ok());
+  // Too short.
+  std::vector<Eigen::Vector3d> tiny;
+  for (int i = 0; i < 50; ++i)
+    tiny.push_back(Eigen::Vector3d(1, 2, 3) + Eigen::Vector3d(0.001 * i, 0, 0));
+  EXPECT_EQ(ic::fitLine3d(tiny, options).error().code(), ic::ErrorCode::kDegenerate);
+  ic::Line3dFitOptions bad;
+  bad.probability = 1.5;
+  EXPECT_EQ(ic::fitLine3d(tiny, bad).error().code(), ic::ErrorCode::kInvalidInput);
+}
+
+TEST(DepthSampler, TakesTheNearSideOfADiscontinuityAndTheEdgeDepthOnASlantedSurface)
+{
+  // Left of x = 100.5: a plane slanted in x (inverse depth affine in the image), 1.5 m at the edge and 1 cm deeper
+  // per px there, like a wall seen at a grazing angle; right: the background at 3.2 m.
+  cv::Mat depth(200, 200, CV_32FC1);
+  for (int y = 0; y < 200; ++y)
+    for (int x = 0; x < 200; ++x)
+      depth.at<float>(y, x) = x <= 100 ? static_cast<float>(1.0 / (1.0 / 1.5 - 0.01 / 2.25 * (x - 100.5))) : 3.2f;
+  ic::Segment2d edge{{100.5, 20.0}, {100.5, 180.0}};
+  for (const bool flip : {false, true})
+  {
+    const ic::Segment2d s = flip ? ic::Segment2d{edge.b, edge.a} : edge;
+    const auto samples = ic::sampleDepthAlongSegment(depth, s);
+    ASSERT_GT(samples.size(), 70u);
+    for (const auto& sample : samples)
+    {
+      EXPECT_NEAR(sample.depth_m, 1.5, 1e-4);
+      EXPECT_TRUE(sample.discontinuity);
+    }
+  }
+  // A crease (no discontinuity): two planes meeting at x = 100, both sloping away (a convex corner at 2 m).
+  for (int y = 0; y < 200; ++y)
+    for (int x = 0; x < 200; ++x)
+      depth.at<float>(y, x) = static_cast<float>(1.0 / (0.5 - 0.001 * std::abs(x - 100.0)));
+  const auto crease = ic::sampleDepthAlongSegment(depth, ic::Segment2d{{100.0, 20.0}, {100.0, 180.0}});
+  ASSERT_GT(crease.size(), 70u);
+  for (const auto& sample : crease)
+  {
+    EXPECT_NEAR(sample.depth_m, 2.0, 2e-4);
+    EXPECT_FALSE(sample.discontinuity);
+  }
+}
+
+TEST(DepthSampler, MillimetresAndMetresAgree)
+{
+  std::mt19937 rng(kSeed);
+  cv::Mat truth(100, 120, CV_32FC1);
+  for (int y = 0; y < 100; ++y)
+    for (int x = 0; x < 120; ++x)
+      truth.at<float>(y, x) = x < 60 ? 1.2f + 0.001f * y : 2.5f;
+  const cv::Mat mm = ic::makeSensorDepth(truth, 0.0, true, rng);
+  const cv::Mat m = ic::makeSensorDepth(truth, 0.0, false, rng);
+  ASSERT_EQ(mm.type(), CV_16UC1);
+  ASSERT_EQ(m.type(), CV_32FC1);
+  const auto from_mm = ic::depthToMeters(mm);
+  const auto from_m = ic::depthToMeters(m);
+  ASSERT_TRUE(from_mm.ok());
+  ASSERT_TRUE(from_m.ok());
+  const ic::Segment2d s{{59.5, 10.0}, {59.5, 90.0}};
+  const auto a = ic::sampleDepthAlongSegment(*from_mm, s);
+  const auto b = ic::sampleDepthAlongSegment(*from_m, s);
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_FALSE(a.empty());
+  for (size_t i = 0; i < a.size(); ++i)
+  {
+    EXPECT_NEAR(a[i].depth_m, b[i].depth_m, 0.0006);  // millimetre quantisation
+    EXPECT_NEAR(a[i].depth_m, 1.2 + 0.001 * a[i].pixel.y(), 0.001);
+  }
+  // Ranges: readings outside are no measurement.
+  const auto near_only = ic::depthToMeters(m, 0.5, 2.0);
+  ASSERT_TRUE(near_only.ok());
+  EXPECT_TRUE(std::isnan(near_only->at<float>(50, 100)));
+  EXPECT_FALSE(std::isnan(near_only->at<float>(50, 10)));
+}
+
+TEST(RgbdLines, RenderedFramesGiveLinesWithinACentimetreAndHalfADegree)
+{
+  std::cout << "seed " << kSeed << std::endl;
+  std::mt19937 rng(kSeed);
+  ic::LineScene scene = ic::makeRoomScene(rng);
+  const std::vector<ic::Segment3d> truth = scene.edges();
+  const std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> views = {
+      {{3.0, 2.8, 0.9}, {1.5, 0.0, 0.9}},  // door and box 1
+      {{3.2, 2.0, 1.0}, {6.0, 2.4, 0.8}},  // door on x = 6
+      {{2.5, 2.5, 0.8}, {2.8, 5.0, 1.2}},  // posters, skirting
+      {{2.0, 3.0, 1.2}, {4.4, 3.6, 0.5}},  // box 2
+  };
+  std::vector<double> distance, angle, distance_pca, angle_pca;
+  int lines_total = 0, matched_total = 0;
+  for (const bool millimetres : {true, false})
+  {
+    for (const auto& [position, target] : views)
+    {
+      const ic::RgbdFrame frame = renderFrame(scene, lookAt(position, target), millimetres, rng);
+      for (const auto refinement : {ic::Line3dRefinement::kInterpretationPlane, ic::Line3dRefinement::kPca})
+      {
+        ic::RgbdLineOptions options;
+        options.fit.refinement = refinement;
+        ic::RgbdLineStats stats;
+        const auto lines = ic::extractRgbdLines(frame, options, &stats);
+        ASSERT_TRUE(lines.ok()) << lines.error().describe();
+        for (const auto& line : *lines)
+        {
+          if (line.range_m > 3.0)
+            continue;
+          const ic::Line3dError e = ic::measureLine3d(line.a, line.b, truth, 0.1, 5.0);
+          const bool plane = refinement == ic::Line3dRefinement::kInterpretationPlane;
+          if (plane)
+            ++lines_total;
+          if (e.edge < 0)
+            continue;
+          if (plane)
+          {
+            ++matched_total;
+            distance.push_back(e.distance_m);
+            angle.push_back(e.angle_deg);
+          }
+          else
+          {
+            distance_pca.push_back(e.distance_m);
+            angle_pca.push_back(e.angle_deg);
+          }
+        }
+        if (refinement == ic::Line3dRefinement::kInterpretationPlane)
+          std::cout << (millimetres ? "16UC1" : "32FC1") << " view: " << stats.segments << " segments, " << stats.lines
+                    << " lines (" << stats.no_depth << " no depth, " << stats.no_line << " no consensus, "
+                    << stats.too_short << " too short)" << std::endl;
+      }
+    }
+  }
+  std::cout << "within 3 m: " << matched_total << " of " << lines_total << " lines on a true edge; median error "
+            << median(distance) * 1000 << " mm, " << median(angle)
+            << " deg (PCA refinement: " << median(distance_pca) * 1000 << " mm, " << median(angle_pca) << " deg)"
+            << std::endl;
+  ASSERT_GT(lines_total, 40);
+  EXPECT_GT(matched_total, 0.9 * lines_total);
+  EXPECT_LT(median(distance), 0.01);
+  EXPECT_LT(median(angle), 0.5);
+}
+
+TEST(RgbdLines, BadInputGivesTypedErrors)
+{
+  std::mt19937 rng(kSeed);
+  ic::LineScene scene = ic::makeRoomScene(rng);
+  const ic::RgbdFrame good = renderFrame(scene, lookAt({3.0, 2.8, 0.9}, {1.5, 0.0, 0.9}), true, rng);
+  ic::RgbdLineExtractor extractor;
+  {
+    auto lines = extractor.extract(good);
+    ASSERT_TRUE(lines.ok()) << lines.error().describe();
+    EXPECT_FALSE(lines->empty());
+  }
+  auto expectError = [&](const ic::RgbdFrame& f, ic::ErrorCode code, const std::string& what) {
+    ic::RgbdLineStats stats;
+    auto r = extractor.extract(f, &stats);
+    ASSERT_FALSE(r.ok()) << what;
+    EXPECT_EQ(r.error().code(), code) << what << ": " << r.error().describe();
+    std::cout << what << " -> " << r.error().describe() << std::endl;
+  };
+  ic::RgbdFrame f = good;
+  f.rgb = cv::Mat();
+  expectError(f, ic::ErrorCode::kInvalidInput, "empty RGB");
+  f = good;
+  f.depth = cv::Mat();
+  expectError(f, ic::ErrorCode::kInvalidInput, "empty depth");
+  f = good;
+  f.depth = cv::Mat(480, 640, CV_16UC1, cv::Scalar(0));
+  expectError(f, ic::ErrorCode::kNotEnoughData, "all-zero depth");
+  f = good;
+  f.depth = cv::Mat(480, 640, CV_32FC1, cv::Scalar(std::nan("")));
+  expectError(f, ic::ErrorCode::kNotEnoughData, "all-NaN depth");
+  f = good;
+  f.depth = cv::Mat(480, 640, CV_8UC1, cv::Scalar(1));
+  expectError(f, ic::ErrorCode::kInvalidInput, "8-bit depth");
+  f = good;
+  f.camera.intrinsics.fx = 0.0;
+  expectError(f, ic::ErrorCode::kInvalidInput, "zero focal length");
+  f = good;
+  cv::resize(good.depth, f.depth, cv::Size(320, 240), 0, 0, cv::INTER_NEAREST);
+  expectError(f, ic::ErrorCode::kInvalidInput, "depth size mismatch");
+  f = good;
+  f.camera.width = 1280;
+  f.camera.height = 960;
+  expectError(f, ic::ErrorCode::kInvalidInput, "camera_info size mismatch");
+  f = good;
+  f.T_map_camera.translation().x() = std::nan("");
+  expectError(f, ic::ErrorCode::kInvalidInput, "NaN pose");
+  // A frame with depth but no line: empty, with a reason.
+  f = good;
+  f.rgb = cv::Mat(480, 640, CV_8UC3, cv::Scalar(128, 128, 128));
+  ic::RgbdLineStats stats;
+  auto none = extractor.extract(f, &stats);
+  ASSERT_TRUE(none.ok());
+  EXPECT_TRUE(none->empty());
+  EXPECT_FALSE(stats.note.empty());
+  // A frame with lines but no depth near them: empty, with a reason.
+  f = good;
+  f.depth = cv::Mat(480, 640, CV_16UC1, cv::Scalar(0));
+  f.depth.at<uint16_t>(5, 5) = 1500;
+  none = extractor.extract(f, &stats);
+  ASSERT_TRUE(none.ok());
+  EXPECT_TRUE(none->empty());
+  std::cout << "no depth near the lines -> " << stats.note << std::endl;
+  EXPECT_FALSE(stats.note.empty());
+}
