@@ -38,7 +38,7 @@ struct CalibrationOptions
   RefinementOptions refinement;  // estimate_distortion is set from the distortion decision
 };
 
-struct CalibrationResult
+struct CameraCalibration
 {
   CameraModel camera;              // the final camera (refined when refinement ran)
   CameraModel linear_camera;       // the DLT's camera, before refinement
@@ -55,13 +55,13 @@ struct CalibrationResult
   bool converged = true;          // the principal-point iteration and the refinement both converged
 };
 
-Expected<CalibrationResult> calibrateCamera(const CorrespondenceSet& data, const CalibrationOptions& options = {});
+Expected<CameraCalibration> calibrateCamera(const CorrespondenceSet& data, const CalibrationOptions& options = {});
 
-CalibrationFile toCalibrationFile(const CorrespondenceSet& data, const CalibrationResult& result,
+CalibrationFile toCalibrationFile(const CorrespondenceSet& data, const CameraCalibration& result,
                                   const std::string& world_frame);
 
 // A few lines for people: the camera, its errors, and what was estimated.
-std::string describeCalibration(const CalibrationResult& result);
+std::string describeCalibration(const CameraCalibration& result);
 
 }  // namespace insitu_calibration
 

@@ -21,7 +21,7 @@ namespace
 {
 // The DLT with the principal-point iteration, then the refinement, on lines already selected.
 Status solveAndRefine(const CorrespondenceSet& inliers, const DltOptions& dlt, const CalibrationOptions& options,
-                      CalibrationResult* result)
+                      CameraCalibration* result)
 {
   auto solved = solveDlt(inliers, dlt);
   if (!solved)
@@ -51,9 +51,9 @@ Status solveAndRefine(const CorrespondenceSet& inliers, const DltOptions& dlt, c
 }
 }  // namespace
 
-Expected<CalibrationResult> calibrateCamera(const CorrespondenceSet& data, const CalibrationOptions& options)
+Expected<CameraCalibration> calibrateCamera(const CorrespondenceSet& data, const CalibrationOptions& options)
 {
-  CalibrationResult result;
+  CameraCalibration result;
   DltOptions dlt = options.dlt;
   dlt.method = options.method;
   CorrespondenceSet selected = data;
@@ -123,7 +123,7 @@ Expected<CalibrationResult> calibrateCamera(const CorrespondenceSet& data, const
   return result;
 }
 
-CalibrationFile toCalibrationFile(const CorrespondenceSet& data, const CalibrationResult& result,
+CalibrationFile toCalibrationFile(const CorrespondenceSet& data, const CameraCalibration& result,
                                   const std::string& world_frame)
 {
   CalibrationFile file;
@@ -162,7 +162,7 @@ CalibrationFile toCalibrationFile(const CorrespondenceSet& data, const Calibrati
   return file;
 }
 
-std::string describeCalibration(const CalibrationResult& r)
+std::string describeCalibration(const CameraCalibration& r)
 {
   const Intrinsics& k = r.camera.intrinsics();
   const DivisionModel& d = r.camera.distortion();

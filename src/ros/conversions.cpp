@@ -52,7 +52,7 @@ std::vector<geometry_msgs::TransformStamped> cameraTransforms(const CalibrationF
   return {link, optical};
 }
 
-insitu_calibration::CalibrationResult toResultMsg(const CalibrationFile& file, const CalibrationResult* result,
+insitu_calibration::CalibrationResult toResultMsg(const CalibrationFile& file, const CameraCalibration* result,
                                                   const std::string& world_frame)
 {
   insitu_calibration::CalibrationResult msg;

@@ -60,7 +60,7 @@ struct LineMatchResult
 {
   std::vector<LineMatch> matches;     // the final matches (inliers of the final calibration)
   CorrespondenceSet correspondences;  // built from them
-  CalibrationResult calibration;
+  CameraCalibration calibration;
   CameraModel search_camera;  // the camera the prior search found
   int iterations = 0;
   bool converged = false;  // the match set stopped changing

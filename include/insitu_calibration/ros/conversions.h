@@ -27,7 +27,7 @@ std::vector<geometry_msgs::TransformStamped> cameraTransforms(const CalibrationF
                                                               const std::string& optical_frame, const ros::Time& stamp);
 
 // The service's per-camera result.
-insitu_calibration::CalibrationResult toResultMsg(const CalibrationFile& file, const CalibrationResult* result,
+insitu_calibration::CalibrationResult toResultMsg(const CalibrationFile& file, const CameraCalibration* result,
                                                   const std::string& world_frame);
 
 Eigen::Isometry3d toEigen(const geometry_msgs::Transform& transform);

@@ -396,7 +396,7 @@ Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_li
   double max_distance = options.initial_max_distance_px;
   double max_angle = options.max_angle_deg;
   std::vector<LineMatch> previous;
-  std::optional<CalibrationResult> calibrated;
+  std::optional<CameraCalibration> calibrated;
   std::vector<LineMatch> used;
   CorrespondenceSet used_set;
   for (int iteration = 0; iteration < options.max_iterations; ++iteration)
