@@ -1,0 +1,300 @@
+#include "insitu_calibration/simulation/survey.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <tuple>
+
+#include "insitu_calibration/io/atomic_file.h"
+#include "insitu_calibration/simulation/random.h"
+#include "insitu_calibration/simulation/sensor_models.h"
+#include "insitu_calibration/simulation/true_edges.h"
+#include "io/yaml_util.h"
+
+namespace insitu_calibration
+{
+namespace simulation
+{
+namespace
+{
+enum StreamKind : uint64_t
+{
+  kDepthStream = 1,
+  kXtionRgbStream = 2,
+  kFixedStream = 3,
+  kDriftStream = 4,
+};
+
+using Clock = std::chrono::steady_clock;
+double secondsSince(Clock::time_point t)
+{
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+int64_t periodNs(double rate_hz)
+{
+  return std::llround(1e9 / rate_hz);
+}
+}  // namespace
+
+SurveySimulator::SurveySimulator(World world, const SurveyOptions& options)
+    : world_(std::make_unique<World>(std::move(world))),
+      renderer_(std::make_unique<Renderer>(*world_)),
+      options_(options),
+      trajectory_(world_->route)
+{}
+
+Expected<SurveySimulator> SurveySimulator::create(World world, const SurveyOptions& options)
+{
+  if (!(options.duration_s > 0.0 && options.duration_s <= 24 * 3600.0))
+    return Error(ErrorCode::kInvalidInput, "the duration must be positive (and at most a day)");
+  if (!(options.rate_hz > 0.0 && options.rate_hz <= 1000.0))
+    return Error(ErrorCode::kInvalidInput, "the RGB-D rate must be in (0, 1000] Hz");
+  if (!(options.tf_min_rate_hz > 0.0))
+    return Error(ErrorCode::kInvalidInput, "the tf rate must be positive");
+  if (options.fixed_rate_hz && !(*options.fixed_rate_hz > 0.0 && *options.fixed_rate_hz <= 1000.0))
+    return Error(ErrorCode::kInvalidInput, "the fixed cameras' rate must be in (0, 1000] Hz");
+  SurveySimulator s(std::move(world), options);
+  s.duration_ns_ = std::llround(options.duration_s * 1e9);
+  const int64_t image_period = periodNs(options.rate_hz);
+  const int64_t m =
+      std::max<int64_t>(1, static_cast<int64_t>(std::ceil(options.tf_min_rate_hz / options.rate_hz - 1e-9)));
+  s.tf_period_ns_ = std::max<int64_t>(1, image_period / m);
+  const int64_t aligned_image_period = s.tf_period_ns_ * m;
+
+  s.events_.push_back({0, SurveyEventKind::kStaticTf, -1, 0});
+  for (int64_t t = 0, i = 0; t <= s.duration_ns_; t += s.tf_period_ns_, ++i)
+  {
+    s.tf_stamps_.push_back(t);
+    s.events_.push_back({t, SurveyEventKind::kTf, -1, static_cast<int>(i)});
+  }
+  for (int64_t t = 0, i = 0; t < s.duration_ns_; t += aligned_image_period, ++i)
+  {
+    s.xtion_stamps_.push_back(t);
+    s.events_.push_back({t, SurveyEventKind::kXtion, -1, static_cast<int>(i)});
+  }
+  for (size_t c = 0; c < s.world_->fixed_cameras.size(); ++c)
+  {
+    const int64_t period = periodNs(s.fixedRateHz(static_cast<int>(c)));
+    s.fixed_stamps_.emplace_back();
+    for (int64_t t = std::llround(s.world_->fixed_cameras[c].phase_s * 1e9), i = 0; t < s.duration_ns_;
+         t += period, ++i)
+    {
+      s.fixed_stamps_[c].push_back(t);
+      s.events_.push_back({t, SurveyEventKind::kFixed, static_cast<int>(c), static_cast<int>(i)});
+    }
+  }
+  std::stable_sort(s.events_.begin(), s.events_.end(), [](const SurveyEvent& a, const SurveyEvent& b) {
+    return std::make_tuple(a.stamp_ns, static_cast<int>(a.kind), a.camera) <
+           std::make_tuple(b.stamp_ns, static_cast<int>(b.kind), b.camera);
+  });
+
+  if (options.odom_drift)
+  {
+    FastRandom rng(streamSeed(options.seed, kDriftStream));
+    const double dt = s.tf_period_ns_ * 1e-9;
+    Pose2d d;
+    for (size_t i = 0; i < s.tf_stamps_.size(); ++i)
+    {
+      if (i > 0)
+      {
+        d.x += options.odom_drift_xy * std::sqrt(dt) * rng.exactGaussian();
+        d.y += options.odom_drift_xy * std::sqrt(dt) * rng.exactGaussian();
+        d.yaw += options.odom_drift_yaw_deg * M_PI / 180.0 * std::sqrt(dt) * rng.exactGaussian();
+      }
+      s.drift_.push_back(d);
+    }
+  }
+  s.fixed_clean_.resize(s.world_->fixed_cameras.size());
+  return s;
+}
+
+double SurveySimulator::fixedRateHz(int camera) const
+{
+  return options_.fixed_rate_hz ? *options_.fixed_rate_hz : world_->fixed_cameras[camera].rate_hz;
+}
+
+std::vector<NamedTransform> SurveySimulator::staticTransforms() const
+{
+  return xtionStaticTransforms(world_->xtion);
+}
+
+Eigen::Isometry3d SurveySimulator::mapFromBase(int64_t stamp_ns) const
+{
+  return trajectory_.mapFromBase(static_cast<double>(stamp_ns) * 1e-9);
+}
+
+std::vector<NamedTransform> SurveySimulator::dynamicTransforms(int64_t stamp_ns) const
+{
+  const Eigen::Isometry3d map_from_base = mapFromBase(stamp_ns);
+  Eigen::Isometry3d odom_from_map = Eigen::Isometry3d::Identity();
+  if (!drift_.empty())
+  {
+    const size_t i = std::min(drift_.size() - 1, static_cast<size_t>(std::max<int64_t>(0, stamp_ns / tf_period_ns_)));
+    odom_from_map = pose2dToIsometry(drift_[i]);
+  }
+  return {{"map", "odom", odom_from_map.inverse()}, {"odom", "base_link", odom_from_map * map_from_base}};
+}
+
+ViewCamera SurveySimulator::xtionCamera(int64_t stamp_ns) const
+{
+  const XtionConfig& x = world_->xtion;
+  ViewCamera v;
+  v.width = x.width;
+  v.height = x.height;
+  v.intrinsics = x.intrinsics;
+  v.world_from_camera = mapFromBase(stamp_ns) * baseFromRgbOptical(x);
+  return v;
+}
+
+ViewCamera SurveySimulator::fixedCamera(int camera) const
+{
+  const FixedCameraConfig& c = world_->fixed_cameras[camera];
+  return ViewCamera::fromModel(c.camera, c.width, c.height);
+}
+
+XtionFrame SurveySimulator::xtionFrame(int index) const
+{
+  const XtionConfig& x = world_->xtion;
+  XtionFrame f;
+  f.stamp_ns = xtion_stamps_.at(index);
+  const ViewCamera cam = xtionCamera(f.stamp_ns);
+  f.map_from_optical = cam.world_from_camera;
+  RenderOptions ro;
+  ro.supersampling = x.supersampling;
+  auto t0 = Clock::now();
+  RenderedView view = renderer_->render(cam, ro);
+  timings_.xtion_render_s += secondsSince(t0);
+  t0 = Clock::now();
+  f.depth_mm = simulateXtionDepth(view, *world_, cam, x.depth, options_.depth_noise,
+                                  streamSeed(options_.seed, kDepthStream, 0, index));
+  if (options_.image_noise && x.rgb_noise_sigma > 0.0)
+    f.rgb = addImageNoise(view.rgb, {x.rgb_noise_sigma, 0.0}, streamSeed(options_.seed, kXtionRgbStream, 0, index));
+  else
+    f.rgb = view.rgb;
+  timings_.xtion_sensor_s += secondsSince(t0);
+  ++timings_.xtion_frames;
+  return f;
+}
+
+const cv::Mat& SurveySimulator::fixedCleanImage(int camera) const
+{
+  cv::Mat& clean = fixed_clean_.at(camera);
+  if (clean.empty())
+  {
+    const auto t0 = Clock::now();
+    RenderOptions ro;
+    ro.supersampling = world_->fixed_cameras[camera].supersampling;
+    clean = renderer_->render(fixedCamera(camera), ro).rgb;
+    timings_.fixed_render_s += secondsSince(t0);
+  }
+  return clean;
+}
+
+FixedFrame SurveySimulator::fixedFrame(int camera, int index) const
+{
+  FixedFrame f;
+  f.camera = camera;
+  f.stamp_ns = fixed_stamps_.at(camera).at(index);
+  const cv::Mat& clean = fixedCleanImage(camera);
+  const auto t0 = Clock::now();
+  f.image = options_.image_noise ? addImageNoise(clean, world_->fixed_cameras[camera].noise,
+                                                 streamSeed(options_.seed, kFixedStream, camera, index))
+                                 : clean.clone();
+  timings_.fixed_noise_s += secondsSince(t0);
+  ++timings_.fixed_frames;
+  return f;
+}
+
+CalibrationFile SurveySimulator::groundTruth(int camera) const
+{
+  const FixedCameraConfig& c = world_->fixed_cameras.at(camera);
+  CalibrationFile f;
+  f.camera_name = c.name;
+  f.image_width = c.width;
+  f.image_height = c.height;
+  f.world_frame = "map";
+  f.camera = c.camera;
+  return f;
+}
+
+void renderWholeSurvey(const SurveySimulator& survey)
+{
+  for (const SurveyEvent& e : survey.events())
+  {
+    if (e.kind == SurveyEventKind::kXtion)
+      survey.xtionFrame(e.index);
+    else if (e.kind == SurveyEventKind::kFixed)
+      survey.fixedFrame(e.camera, e.index);
+  }
+}
+
+std::string truthDirectoryFor(const std::string& bag_path)
+{
+  const std::filesystem::path p(bag_path);
+  return (p.parent_path() / (p.stem().string() + "_truth")).string();
+}
+
+Status writeGroundTruth(const SurveySimulator& survey, const std::string& directory,
+                        const std::vector<std::string>& topics)
+{
+  std::error_code ec;
+  std::filesystem::create_directories(directory, ec);
+  if (ec)
+    return Error(ErrorCode::kIoError, "cannot create " + directory + ": " + ec.message());
+  const World& world = survey.world();
+  for (size_t c = 0; c < world.fixed_cameras.size(); ++c)
+  {
+    const Status s =
+        saveCalibrationFile(directory + "/" + world.fixed_cameras[c].name + ".yaml", survey.groundTruth(c));
+    if (!s)
+      return s;
+  }
+  if (const Status s = saveTrueEdges(directory + "/edges.yaml", computeTrueEdges(world), world.name); !s)
+    return s;
+
+  const SurveyOptions& o = survey.options();
+  const XtionConfig& x = world.xtion;
+  YAML::Emitter out;
+  out.SetDoublePrecision(12);
+  out << YAML::BeginMap;
+  out << YAML::Key << "world" << YAML::Value << world.name;
+  out << YAML::Key << "world_file" << YAML::Value << world.source;
+  out << YAML::Key << "seed" << YAML::Value << o.seed;
+  out << YAML::Key << "start_time_ns" << YAML::Value << o.start_time_ns;
+  out << YAML::Key << "duration_s" << YAML::Value << o.duration_s;
+  out << YAML::Key << "rgbd_rate_hz" << YAML::Value << o.rate_hz;
+  out << YAML::Key << "rgbd_frames" << YAML::Value << survey.xtionFrameCount();
+  out << YAML::Key << "tf_rate_hz" << YAML::Value << survey.tfRateHz();
+  out << YAML::Key << "depth_noise" << YAML::Value << o.depth_noise;
+  out << YAML::Key << "image_noise" << YAML::Value << o.image_noise;
+  out << YAML::Key << "odom_drift" << YAML::Value << o.odom_drift;
+  out << YAML::Key << "xtion" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "frame_id" << YAML::Value << "camera_rgb_optical_frame";
+  out << YAML::Key << "width" << YAML::Value << x.width;
+  out << YAML::Key << "height" << YAML::Value << x.height;
+  yaml_util::emitMatrix(out, "camera_matrix", x.intrinsics.matrix());
+  out << YAML::Key << "depth_sigma_coefficient" << YAML::Value << x.depth.sigma_coefficient;
+  out << YAML::Key << "depth_max_range_m" << YAML::Value << x.depth.max_range_m;
+  out << YAML::EndMap;
+  out << YAML::Key << "fixed_cameras" << YAML::Value << YAML::BeginSeq;
+  for (size_t c = 0; c < world.fixed_cameras.size(); ++c)
+  {
+    const FixedCameraConfig& f = world.fixed_cameras[c];
+    out << YAML::Flow << YAML::BeginMap;
+    out << YAML::Key << "name" << YAML::Value << f.name;
+    out << YAML::Key << "rate_hz" << YAML::Value << survey.fixedRateHz(static_cast<int>(c));
+    out << YAML::Key << "frame_id" << YAML::Value << f.name + "_optical_frame";
+    out << YAML::Key << "truth" << YAML::Value << f.name + ".yaml";
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+  out << YAML::Key << "edges" << YAML::Value << "edges.yaml";
+  out << YAML::Key << "topics" << YAML::Value << topics;
+  out << YAML::EndMap;
+  return writeFileAtomically(directory + "/survey.yaml", std::string(out.c_str()) + "\n");
+}
+
+}  // namespace simulation
+}  // namespace insitu_calibration
