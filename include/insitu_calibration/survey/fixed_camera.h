@@ -1,0 +1,116 @@
+// One fixed camera of the building as the calibration node handles it, without ROS: its configuration (a prior or
+// a manual correspondence file), the temporal median of its recent images, the lines of that median, their matches
+// to the 3D line map, and its calibration with the sanity checks a published calibration must pass.
+#ifndef INSITU_CALIBRATION_SURVEY_FIXED_CAMERA_H
+#define INSITU_CALIBRATION_SURVEY_FIXED_CAMERA_H
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "insitu_calibration/calibration.h"
+#include "insitu_calibration/geometry/segment.h"
+#include "insitu_calibration/io/calibration_file.h"
+#include "insitu_calibration/lines/image_lines.h"
+#include "insitu_calibration/matching/line_matcher.h"
+#include "insitu_calibration/survey/temporal_median.h"
+
+namespace insitu_calibration
+{
+struct FixedCameraConfig
+{
+  std::string name;
+  std::string image_topic;
+  int image_width = 0;
+  int image_height = 0;
+  std::optional<CameraPrior> prior;  // automatic matching against the line map
+  std::string correspondence_file;   // or the paper's hand-picked workflow: calibrate_lines' input format
+
+  // Errors: empty name, non-positive size, neither a prior nor a correspondence file.
+  Status validate() const;
+};
+
+struct FixedCameraOptions
+{
+  size_t median_images = 15;
+  ImageLineOptions image_lines;
+  LineMatcherOptions matcher;
+  int max_loops = 3;                // the paper's loop: extract lines with the current distortion, calibrate, repeat
+  double loop_tolerance_px = 0.05;  // ... until the principal point and the corner distortion move less than this
+  // Sanity checks of a result before it is published.
+  double min_focal_ratio = 0.2;  // focal length / image width
+  double max_focal_ratio = 10.0;
+  double max_rms_px = 1.5;
+  size_t min_matched_lines = 8;
+  double max_prior_distance_sigmas = 6.0;  // the camera must be within this many position sigmas of its prior
+};
+
+struct FixedCameraStatus
+{
+  bool has_image = false;
+  size_t images = 0;
+  size_t image_lines = 0;
+  size_t map_lines = 0;
+  size_t map_lines_visible = 0;
+  size_t matched_lines = 0;
+  double coverage_percent = 0.0;
+  bool calibrated = false;
+  bool ready = false;
+  std::string message;
+};
+
+struct FixedCameraResult
+{
+  CameraCalibration calibration;
+  CalibrationFile file;
+  std::vector<std::vector<Eigen::Vector2d>> matched_image_lines;
+  std::vector<Segment3d> matched_map_lines;
+  int loops = 0;
+  std::string summary;  // how good the result is, in words
+};
+
+class FixedCamera
+{
+public:
+  FixedCamera(const FixedCameraConfig& config, const FixedCameraOptions& options);
+
+  const FixedCameraConfig& config() const { return config_; }
+  // Adds an image to the median buffer. Errors: empty, or a size other than the configured one.
+  Status addImage(const cv::Mat& image);
+  cv::Mat medianImage() const { return median_.median(); }
+
+  // Calibrates from the line map (prior) or the correspondence file, and keeps the result when it passes the
+  // sanity checks. Errors say what is missing or wrong.
+  Expected<FixedCameraResult> calibrate(const std::vector<Segment3d>& map_lines, const std::string& world_frame);
+  FixedCameraStatus status(const std::vector<Segment3d>& map_lines) const;
+
+  const std::optional<CalibrationFile>& calibration() const { return calibration_; }
+  const std::optional<FixedCameraResult>& lastResult() const { return last_result_; }
+  void setCalibration(const CalibrationFile& calibration) { calibration_ = calibration; }
+  // Forgets images, matches and calibration.
+  void reset();
+
+  // The camera used to look at the map: the calibration when there is one, else the prior's.
+  std::optional<CameraModel> currentCamera() const;
+
+private:
+  Expected<FixedCameraResult> calibrateFromFile(const std::string& world_frame);
+  Expected<FixedCameraResult> calibrateFromMap(const std::vector<Segment3d>& map_lines, const std::string& world_frame);
+  Status check(const CameraCalibration& calibration, size_t matched_lines) const;
+
+  FixedCameraConfig config_;
+  FixedCameraOptions options_;
+  TemporalMedian median_;
+  std::optional<CalibrationFile> calibration_;
+  std::optional<FixedCameraResult> last_result_;
+  size_t last_matched_ = 0;
+};
+
+// Share of the image (a 4 x 4 grid of cells) that the lines' points touch, in percent.
+double imageCoverage(const std::vector<std::vector<Eigen::Vector2d>>& lines, int width, int height);
+
+}  // namespace insitu_calibration
+
+#endif  // INSITU_CALIBRATION_SURVEY_FIXED_CAMERA_H

@@ -1,0 +1,282 @@
+#include "insitu_calibration/survey/fixed_camera.h"
+
+#include <cmath>
+#include <cstdio>
+
+#include "insitu_calibration/io/correspondence_file.h"
+
+namespace insitu_calibration
+{
+namespace
+{
+std::string describeResult(const CameraCalibration& c, size_t matched)
+{
+  char buffer[512];
+  const Intrinsics& k = c.camera.intrinsics();
+  std::snprintf(buffer, sizeof(buffer),
+                "calibrated on %zu lines (%zu inliers): fx %.1f fy %.1f px, principal point %.1f %.1f, lambda %.3g; "
+                "RMS %.3f px, median %.3f px%s",
+                matched, c.inlier_count, k.fx, k.fy, k.cx, k.cy, c.camera.distortion().lambda, c.reprojection.rms_px,
+                c.reprojection.median_px, c.converged ? "" : " (not fully converged)");
+  std::string out = buffer;
+  if (c.uncertainty.available)
+  {
+    std::snprintf(buffer, sizeof(buffer), "; 1 sigma: fx %.2f px, position %.1f mm, rotation %.3f deg",
+                  c.uncertainty.fx, 1000.0 * c.uncertainty.position_m, c.uncertainty.rotation_deg);
+    out += buffer;
+  }
+  return out;
+}
+
+// How far the division model moves the top-left image corner, px.
+double cornerDisplacement(const DivisionModel& d)
+{
+  const auto u = d.undistort(Eigen::Vector2d(0.0, 0.0));
+  return u ? u->norm() : 0.0;
+}
+}  // namespace
+
+Status FixedCameraConfig::validate() const
+{
+  if (name.empty())
+    return Error(ErrorCode::kInvalidInput, "a camera needs a name");
+  if (image_width <= 0 || image_height <= 0)
+    return Error(ErrorCode::kInvalidInput, "camera '" + name + "': image_width and image_height must be positive");
+  if (!prior && correspondence_file.empty())
+    return Error(ErrorCode::kInvalidInput,
+                 "camera '" + name + "': give either a prior (position, direction, field of view) or a "
+                                     "correspondence_file");
+  return Success{};
+}
+
+double imageCoverage(const std::vector<std::vector<Eigen::Vector2d>>& lines, int width, int height)
+{
+  if (width <= 0 || height <= 0)
+    return 0.0;
+  bool cells[4][4] = {};
+  for (const auto& line : lines)
+    for (size_t j = 1; j < line.size(); ++j)
+      for (int k = 0; k <= 8; ++k)
+      {
+        const Eigen::Vector2d m = line[j - 1] + (line[j] - line[j - 1]) * (k / 8.0);
+        const int cx = static_cast<int>(4.0 * m.x() / width);
+        const int cy = static_cast<int>(4.0 * m.y() / height);
+        if (cx >= 0 && cx < 4 && cy >= 0 && cy < 4)
+          cells[cy][cx] = true;
+      }
+  int n = 0;
+  for (auto& row : cells)
+    for (bool c : row)
+      n += c ? 1 : 0;
+  return 100.0 * n / 16.0;
+}
+
+FixedCamera::FixedCamera(const FixedCameraConfig& config, const FixedCameraOptions& options)
+  : config_(config), options_(options), median_(options.median_images)
+{
+}
+
+Status FixedCamera::addImage(const cv::Mat& image)
+{
+  if (image.empty())
+    return Error(ErrorCode::kInvalidInput, "camera '" + config_.name + "': empty image");
+  if (image.cols != config_.image_width || image.rows != config_.image_height)
+    return Error(ErrorCode::kInvalidInput, "camera '" + config_.name + "': image of " + std::to_string(image.cols) +
+                                               "x" + std::to_string(image.rows) + " where " +
+                                               std::to_string(config_.image_width) + "x" +
+                                               std::to_string(config_.image_height) + " is configured");
+  return median_.add(image);
+}
+
+void FixedCamera::reset()
+{
+  median_.clear();
+  calibration_.reset();
+  last_result_.reset();
+  last_matched_ = 0;
+}
+
+std::optional<CameraModel> FixedCamera::currentCamera() const
+{
+  if (calibration_)
+    return calibration_->camera;
+  if (config_.prior)
+    return cameraFromPrior(*config_.prior, config_.image_width, config_.image_height);
+  return std::nullopt;
+}
+
+Status FixedCamera::check(const CameraCalibration& c, size_t matched_lines) const
+{
+  const Intrinsics& k = c.camera.intrinsics();
+  const double w = config_.image_width;
+  if (k.fx < options_.min_focal_ratio * w || k.fx > options_.max_focal_ratio * w || k.fy < options_.min_focal_ratio * w ||
+      k.fy > options_.max_focal_ratio * w)
+    return Error(ErrorCode::kNoSolution,
+                 "the focal length (" + std::to_string(k.fx) + " px) is outside the plausible range " +
+                     std::to_string(options_.min_focal_ratio * w) + " .. " +
+                     std::to_string(options_.max_focal_ratio * w) + " px; the matches are probably wrong");
+  if (c.reprojection.rms_px > options_.max_rms_px)
+    return Error(ErrorCode::kNoSolution, "the reprojection error (RMS " + std::to_string(c.reprojection.rms_px) +
+                                             " px) is above the limit of " + std::to_string(options_.max_rms_px) +
+                                             " px; survey more of the camera's view or check its prior");
+  if (matched_lines < options_.min_matched_lines)
+    return Error(ErrorCode::kNotEnoughData, "only " + std::to_string(matched_lines) + " lines matched (" +
+                                                std::to_string(options_.min_matched_lines) +
+                                                " needed); survey more of the camera's view");
+  if (config_.prior)
+  {
+    const double distance = (c.camera.pose().center() - config_.prior->position).norm();
+    const double limit = options_.max_prior_distance_sigmas * config_.prior->position_sigma_m;
+    if (distance > limit)
+      return Error(ErrorCode::kNoSolution, "the camera came out " + std::to_string(distance) +
+                                               " m from its prior position (more than " + std::to_string(limit) +
+                                               " m); the matches are probably wrong, or the prior is");
+  }
+  if (!c.camera.pose().rotation.allFinite() || !c.camera.pose().translation.allFinite())
+    return Error(ErrorCode::kNoSolution, "the pose is not finite");
+  return Success{};
+}
+
+Expected<FixedCameraResult> FixedCamera::calibrateFromFile(const std::string& world_frame)
+{
+  auto data = loadCorrespondenceFile(config_.correspondence_file);
+  if (!data)
+    return data.error();
+  data->camera_name = config_.name;
+  if (data->image_width != config_.image_width || data->image_height != config_.image_height)
+    return Error(ErrorCode::kInvalidInput, config_.correspondence_file + " is for a " +
+                                               std::to_string(data->image_width) + "x" +
+                                               std::to_string(data->image_height) + " image, the camera is " +
+                                               std::to_string(config_.image_width) + "x" +
+                                               std::to_string(config_.image_height));
+  auto calibration = calibrateCamera(*data, options_.matcher.calibration);
+  if (!calibration)
+    return calibration.error();
+  FixedCameraResult result;
+  result.calibration = *calibration;
+  for (size_t i = 0; i < data->lines.size(); ++i)
+    if (i < calibration->inlier_lines.size() && calibration->inlier_lines[i])
+    {
+      result.matched_image_lines.push_back(data->lines[i].image);
+      result.matched_map_lines.push_back({data->lines[i].world.front(), data->lines[i].world.back()});
+    }
+  result.file = toCalibrationFile(*data, *calibration, world_frame);
+  result.loops = 1;
+  return result;
+}
+
+Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segment3d>& map_lines,
+                                                          const std::string& world_frame)
+{
+  if (median_.empty())
+    return Error(ErrorCode::kNotEnoughData, "no image has arrived from " + config_.image_topic + " yet");
+  if (map_lines.empty())
+    return Error(ErrorCode::kNotEnoughData, "the 3D line map is empty: drive the robot through the camera's view");
+  const cv::Mat median = median_.median();
+  DivisionModel distortion{0.0, Eigen::Vector2d(0.5 * (config_.image_width - 1), 0.5 * (config_.image_height - 1))};
+  std::optional<FixedCameraResult> best;
+  std::string last_error;
+  for (int loop = 0; loop < options_.max_loops; ++loop)
+  {
+    ImageLineStats stats;
+    const auto lines = extractImageLines(median, distortion, options_.image_lines, &stats);
+    if (!lines)
+      return lines.error();
+    if (lines->empty())
+      return Error(ErrorCode::kNotEnoughData, "no lines were found in the median image (" + stats.note + ")");
+    std::vector<std::vector<Eigen::Vector2d>> polylines;
+    for (const auto& l : *lines)
+      polylines.push_back(l.points);
+    auto matched = matchAndCalibrate(map_lines, polylines, *config_.prior, config_.image_width,
+                                     config_.image_height, options_.matcher);
+    if (!matched)
+    {
+      if (best)
+        break;
+      return matched.error();
+    }
+    last_matched_ = matched->matches.size();
+    FixedCameraResult result;
+    result.calibration = matched->calibration;
+    result.loops = loop + 1;
+    for (const auto& m : matched->matches)
+    {
+      result.matched_image_lines.push_back(polylines[m.image_line]);
+      result.matched_map_lines.push_back(map_lines[m.map_line]);
+    }
+    CorrespondenceSet named = matched->correspondences;
+    named.camera_name = config_.name;
+    result.file = toCalibrationFile(named, matched->calibration, world_frame);
+    const DivisionModel next = matched->calibration.camera.distortion();
+    const double moved =
+        std::max((next.center - distortion.center).norm(),
+                 std::abs(cornerDisplacement(next) - cornerDisplacement(distortion)));
+    best = std::move(result);
+    distortion = next;
+    if (moved < options_.loop_tolerance_px)
+      break;
+  }
+  return *best;
+}
+
+Expected<FixedCameraResult> FixedCamera::calibrate(const std::vector<Segment3d>& map_lines,
+                                                   const std::string& world_frame)
+{
+  if (const Status valid = config_.validate(); !valid)
+    return valid.error();
+  auto result = config_.correspondence_file.empty() ? calibrateFromMap(map_lines, world_frame)
+                                                    : calibrateFromFile(world_frame);
+  if (!result)
+    return result.error();
+  if (const Status ok = check(result->calibration, result->matched_image_lines.size()); !ok)
+    return ok.error();
+  result->summary = describeResult(result->calibration, result->matched_image_lines.size());
+  calibration_ = result->file;
+  last_result_ = *result;
+  return result;
+}
+
+FixedCameraStatus FixedCamera::status(const std::vector<Segment3d>& map_lines) const
+{
+  FixedCameraStatus s;
+  s.images = median_.size();
+  s.has_image = s.images > 0;
+  s.map_lines = map_lines.size();
+  s.calibrated = calibration_.has_value();
+  s.matched_lines = last_result_ ? last_result_->matched_image_lines.size() : 0;
+  if (last_result_)
+    s.coverage_percent = imageCoverage(last_result_->matched_image_lines, config_.image_width, config_.image_height);
+  if (const auto camera = currentCamera())
+    for (const auto& l : map_lines)
+      s.map_lines_visible += visibleInterval(*camera, l, config_.image_width, config_.image_height) ? 1 : 0;
+  if (s.has_image && config_.correspondence_file.empty())
+  {
+    const auto lines = extractImageLines(median_.median(),
+                                         calibration_ ? calibration_->camera.distortion()
+                                                      : DivisionModel{0.0, Eigen::Vector2d(0.5 * config_.image_width,
+                                                                                           0.5 * config_.image_height)},
+                                         options_.image_lines);
+    s.image_lines = lines ? lines->size() : 0;
+  }
+  if (!config_.correspondence_file.empty())
+  {
+    s.ready = true;
+    s.message = "calibrates from the correspondence file " + config_.correspondence_file;
+  }
+  else if (!s.has_image)
+    s.message = "no image from " + config_.image_topic + " yet";
+  else if (s.map_lines_visible < options_.min_matched_lines)
+    s.message = "the line map has " + std::to_string(s.map_lines_visible) + " lines in the camera's view (" +
+                std::to_string(options_.min_matched_lines) + " needed): survey its view";
+  else if (s.image_lines < options_.min_matched_lines)
+    s.message = "only " + std::to_string(s.image_lines) + " lines found in the camera's image";
+  else
+  {
+    s.ready = true;
+    s.message = "ready: " + std::to_string(s.map_lines_visible) + " map lines in view, " +
+                std::to_string(s.image_lines) + " image lines";
+  }
+  return s;
+}
+
+}  // namespace insitu_calibration

@@ -1,0 +1,613 @@
+#include "insitu_calibration/ros/calibration_server.h"
+
+#include <cstdlib>
+#include <filesystem>
+
+#include <cv_bridge/cv_bridge.h>
+#include <opencv2/imgcodecs.hpp>
+#include <tf2_eigen/tf2_eigen.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include "insitu_calibration/ros/conversions.h"
+#include "insitu_calibration/survey/overlay.h"
+
+namespace insitu_calibration
+{
+namespace
+{
+// XmlRpc numbers may be written as integers or doubles.
+bool toDouble(XmlRpc::XmlRpcValue& value, double* out)
+{
+  if (value.getType() == XmlRpc::XmlRpcValue::TypeDouble)
+    *out = static_cast<double>(value);
+  else if (value.getType() == XmlRpc::XmlRpcValue::TypeInt)
+    *out = static_cast<int>(value);
+  else
+    return false;
+  return true;
+}
+
+bool toVector3(XmlRpc::XmlRpcValue& value, Eigen::Vector3d* out)
+{
+  if (value.getType() != XmlRpc::XmlRpcValue::TypeArray || value.size() != 3)
+    return false;
+  for (int i = 0; i < 3; ++i)
+    if (!toDouble(value[i], &(*out)(i)))
+      return false;
+  return true;
+}
+
+std::string defaultOutputDirectory()
+{
+  if (const char* ros_home = std::getenv("ROS_HOME"))
+    return std::string(ros_home) + "/insitu_calibration";
+  const char* home = std::getenv("HOME");
+  return std::string(home ? home : ".") + "/.ros/insitu_calibration";
+}
+
+std::string expandHome(const std::string& path)
+{
+  if (!path.empty() && path[0] == '~')
+  {
+    const char* home = std::getenv("HOME");
+    return std::string(home ? home : "") + path.substr(1);
+  }
+  return path;
+}
+
+// The calibrated CameraInfo topic beside the image topic: /fixed/cam/image_raw -> /fixed/cam/camera_info_calibrated.
+std::string calibratedInfoTopic(const std::string& image_topic)
+{
+  const auto slash = image_topic.rfind('/');
+  return (slash == std::string::npos ? std::string() : image_topic.substr(0, slash)) + "/camera_info_calibrated";
+}
+
+geometry_msgs::Point toPoint(const Eigen::Vector3d& p)
+{
+  geometry_msgs::Point out;
+  out.x = p.x();
+  out.y = p.y();
+  out.z = p.z();
+  return out;
+}
+
+visualization_msgs::Marker lineList(const std::string& frame, const std::string& ns, int id,
+                                    const std::vector<Segment3d>& segments, float r, float g, float b, double width)
+{
+  visualization_msgs::Marker m;
+  m.header.frame_id = frame;
+  m.ns = ns;
+  m.id = id;
+  m.type = visualization_msgs::Marker::LINE_LIST;
+  m.action = segments.empty() ? visualization_msgs::Marker::DELETE : visualization_msgs::Marker::ADD;
+  m.pose.orientation.w = 1.0;
+  m.scale.x = width;
+  m.color.r = r;
+  m.color.g = g;
+  m.color.b = b;
+  m.color.a = 1.0;
+  for (const auto& s : segments)
+  {
+    m.points.push_back(toPoint(s.a));
+    m.points.push_back(toPoint(s.b));
+  }
+  return m;
+}
+}  // namespace
+
+CalibrationServer::CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private_nh)
+  : nh_(nh), private_nh_(private_nh), it_(nh), tf_listener_(tf_buffer_)
+{
+  if (!loadParameters())
+  {
+    ros::shutdown();
+    return;
+  }
+  extractor_ = std::make_unique<RgbdLineExtractor>(rgbd_options_);
+  line_map_ = LineMap(map_options_);
+  keyframes_ = KeyframeSelector(keyframe_options_);
+
+  // The Xtion, with openni2_launch's names (remap them to another camera).
+  rgb_subscriber_.subscribe(nh_, "camera/rgb/image_raw", 5);
+  depth_subscriber_.subscribe(nh_, "camera/depth_registered/image_raw", 5);
+  info_subscriber_.subscribe(nh_, "camera/rgb/camera_info", 5);
+  synchronizer_ = std::make_unique<message_filters::Synchronizer<SyncPolicy>>(SyncPolicy(10), rgb_subscriber_,
+                                                                              depth_subscriber_, info_subscriber_);
+  synchronizer_->registerCallback(boost::bind(&CalibrationServer::rgbdCallback, this, _1, _2, _3));
+
+  image_transport::ImageTransport private_it(private_nh_);
+  for (auto& [name, camera] : cameras_)
+  {
+    const std::string camera_name = name;
+    camera.subscriber = it_.subscribe(camera.core->config().image_topic, 2,
+                                      [this, camera_name](const sensor_msgs::ImageConstPtr& image) {
+                                        fixedImageCallback(camera_name, image);
+                                      });
+    camera.overlay_publisher = private_it.advertise(name + "/overlay", 1, true);
+  }
+  marker_publisher_ = private_nh_.advertise<visualization_msgs::MarkerArray>("markers", 1, true);
+  calibrate_server_ = private_nh_.advertiseService("calibrate", &CalibrationServer::calibrateService, this);
+  status_server_ = private_nh_.advertiseService("status", &CalibrationServer::statusService, this);
+  reset_server_ = private_nh_.advertiseService("reset", &CalibrationServer::resetService, this);
+  save_server_ = private_nh_.advertiseService("save", &CalibrationServer::saveService, this);
+  marker_timer_ = nh_.createWallTimer(ros::WallDuration(2.0), [this](const ros::WallTimerEvent&) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    publishMarkers();
+  });
+
+  loadSavedCalibrations();
+  ROS_INFO_STREAM("calibration_node: " << cameras_.size() << " fixed camera(s), world frame '" << world_frame_
+                                       << "', calibrations in " << output_directory_
+                                       << ". Call ~calibrate once the robot has surveyed the cameras' views.");
+}
+
+bool CalibrationServer::loadParameters()
+{
+  private_nh_.param<std::string>("world_frame", world_frame_, "map");
+  private_nh_.param<std::string>("output_directory", output_directory_, defaultOutputDirectory());
+  output_directory_ = expandHome(output_directory_);
+  private_nh_.param("tf_timeout", tf_timeout_s_, 0.2);
+  private_nh_.param("fixed_image_period", fixed_image_period_s_, 0.5);
+  private_nh_.param("min_map_support", min_map_support_, 2);
+  private_nh_.param("keyframe/min_translation", keyframe_options_.min_translation_m, 0.10);
+  private_nh_.param("keyframe/min_rotation_deg", keyframe_options_.min_rotation_deg, 5.0);
+  int median_images = 15;
+  private_nh_.param("median_images", median_images, 15);
+  camera_options_.median_images = static_cast<size_t>(std::max(1, median_images));
+  private_nh_.param("max_rms_px", camera_options_.max_rms_px, 1.5);
+  private_nh_.param("min_focal_ratio", camera_options_.min_focal_ratio, 0.2);
+  private_nh_.param("max_focal_ratio", camera_options_.max_focal_ratio, 10.0);
+  int min_matched = 8;
+  private_nh_.param("min_matched_lines", min_matched, 8);
+  camera_options_.min_matched_lines = static_cast<size_t>(std::max(6, min_matched));
+  private_nh_.param("ransac_threshold_px", camera_options_.matcher.calibration.ransac_options.inlier_threshold_px, 3.0);
+  bool refine = true;
+  private_nh_.param("refine", refine, true);
+  camera_options_.matcher.calibration.refine = refine;
+  bool ransac = true;
+  private_nh_.param("ransac", ransac, true);
+  camera_options_.matcher.calibration.ransac = ransac;
+
+  XmlRpc::XmlRpcValue cameras;
+  if (!private_nh_.getParam("cameras", cameras) || cameras.getType() != XmlRpc::XmlRpcValue::TypeArray ||
+      cameras.size() == 0)
+  {
+    ROS_FATAL("calibration_node: the private parameter ~cameras (a list of fixed cameras) is missing or empty; load "
+              "a configuration such as config/cameras.yaml (survey.launch's cameras argument)");
+    return false;
+  }
+  for (int i = 0; i < cameras.size(); ++i)
+  {
+    XmlRpc::XmlRpcValue& c = cameras[i];
+    const std::string where = "~cameras[" + std::to_string(i) + "]";
+    if (c.getType() != XmlRpc::XmlRpcValue::TypeStruct || !c.hasMember("name"))
+    {
+      ROS_FATAL_STREAM("calibration_node: " << where << " needs at least a name");
+      return false;
+    }
+    FixedCameraConfig config;
+    config.name = static_cast<std::string>(c["name"]);
+    config.image_topic = c.hasMember("image_topic") ? static_cast<std::string>(c["image_topic"])
+                                                    : "/fixed/" + config.name + "/image_raw";
+    if (c.hasMember("image_width"))
+      config.image_width = static_cast<int>(c["image_width"]);
+    if (c.hasMember("image_height"))
+      config.image_height = static_cast<int>(c["image_height"]);
+    if (c.hasMember("correspondence_file"))
+      config.correspondence_file = expandHome(static_cast<std::string>(c["correspondence_file"]));
+    if (c.hasMember("prior"))
+    {
+      XmlRpc::XmlRpcValue& p = c["prior"];
+      CameraPrior prior;
+      bool ok = p.getType() == XmlRpc::XmlRpcValue::TypeStruct && p.hasMember("position") &&
+                p.hasMember("direction") && p.hasMember("horizontal_fov_deg") &&
+                toVector3(p["position"], &prior.position) && toVector3(p["direction"], &prior.direction) &&
+                toDouble(p["horizontal_fov_deg"], &prior.horizontal_fov_deg);
+      if (ok && p.hasMember("position_sigma_m"))
+        ok = toDouble(p["position_sigma_m"], &prior.position_sigma_m);
+      if (ok && p.hasMember("direction_sigma_deg"))
+        ok = toDouble(p["direction_sigma_deg"], &prior.direction_sigma_deg);
+      if (ok && p.hasMember("fov_sigma_relative"))
+        ok = toDouble(p["fov_sigma_relative"], &prior.fov_sigma_relative);
+      if (ok && p.hasMember("roll_deg"))
+        ok = toDouble(p["roll_deg"], &prior.roll_deg);
+      if (!ok)
+      {
+        ROS_FATAL_STREAM("calibration_node: " << where << ".prior needs position [x, y, z], direction [x, y, z] and "
+                                              << "horizontal_fov_deg (optional: position_sigma_m, "
+                                              << "direction_sigma_deg, fov_sigma_relative, roll_deg), all numbers");
+        return false;
+      }
+      config.prior = prior;
+    }
+    if (const Status valid = config.validate(); !valid)
+    {
+      ROS_FATAL_STREAM("calibration_node: " << where << ": " << valid.error().message());
+      return false;
+    }
+    if (cameras_.count(config.name))
+    {
+      ROS_FATAL_STREAM("calibration_node: two cameras are named '" << config.name << "'");
+      return false;
+    }
+    Camera camera;
+    camera.link_frame = config.name + "_link";
+    camera.optical_frame = config.name + "_optical_frame";
+    const std::string info_topic = c.hasMember("calibrated_info_topic")
+                                       ? static_cast<std::string>(c["calibrated_info_topic"])
+                                       : calibratedInfoTopic(config.image_topic);
+    camera.info_publisher = nh_.advertise<sensor_msgs::CameraInfo>(info_topic, 1, true);
+    camera.core = std::make_unique<FixedCamera>(config, camera_options_);
+    cameras_.emplace(config.name, std::move(camera));
+  }
+  return true;
+}
+
+void CalibrationServer::rgbdCallback(const sensor_msgs::ImageConstPtr& rgb, const sensor_msgs::ImageConstPtr& depth,
+                                     const sensor_msgs::CameraInfoConstPtr& info)
+{
+  geometry_msgs::TransformStamped pose;
+  try
+  {
+    pose = tf_buffer_.lookupTransform(world_frame_, rgb->header.frame_id, rgb->header.stamp,
+                                      ros::Duration(tf_timeout_s_));
+  }
+  catch (const tf2::TransformException& e)
+  {
+    ROS_WARN_THROTTLE(5.0, "calibration_node: skipping RGB-D frames: no pose of '%s' in '%s' at their stamp (%s). "
+                           "Is the robot localised (map -> odom -> base_link) and the Xtion's tf published?",
+                      rgb->header.frame_id.c_str(), world_frame_.c_str(), e.what());
+    return;
+  }
+  RgbdFrame frame;
+  try
+  {
+    frame.rgb = cv_bridge::toCvShare(rgb, "bgr8")->image;
+    frame.depth = cv_bridge::toCvShare(depth)->image;
+  }
+  catch (const cv_bridge::Exception& e)
+  {
+    ROS_WARN_THROTTLE(5.0, "calibration_node: skipping RGB-D frames: cannot convert the images (%s)", e.what());
+    return;
+  }
+  frame.camera.width = static_cast<int>(info->width);
+  frame.camera.height = static_cast<int>(info->height);
+  frame.camera.intrinsics = Intrinsics::fromMatrix(Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(
+      info->K.data()));
+  if (info->distortion_model == "plumb_bob" && info->D.size() >= 5)
+    for (int i = 0; i < 5; ++i)
+      frame.camera.plumb_bob[i] = info->D[i];
+  frame.T_map_camera = tf2::transformToEigen(pose);
+  frame.stamp = rgb->header.stamp.toSec();
+
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++frames_;
+  if (const Status valid = validateFrame(frame); !valid)
+  {
+    ROS_WARN_THROTTLE(5.0, "calibration_node: skipping an RGB-D frame: %s", valid.error().message().c_str());
+    return;
+  }
+  if (!keyframes_.accept(frame.T_map_camera, frame.stamp))
+    return;
+  RgbdLineStats stats;
+  const auto lines = extractor_->extract(frame, &stats);
+  if (!lines)
+  {
+    ROS_WARN_THROTTLE(5.0, "calibration_node: skipping an RGB-D frame: %s", lines.error().message().c_str());
+    return;
+  }
+  line_map_.insert(*lines);
+  ++keyframes_used_;
+  ROS_DEBUG("calibration_node: keyframe %zu: %zu 3D lines, map %zu lines", keyframes_used_, lines->size(),
+            line_map_.size());
+}
+
+void CalibrationServer::fixedImageCallback(const std::string& name, const sensor_msgs::ImageConstPtr& image)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  Camera& camera = cameras_.at(name);
+  const ros::Time stamp = image->header.stamp;
+  // One image per period is enough for the median; a clock that went back (a bag restarted) starts over.
+  if (!camera.last_image.isZero() && stamp >= camera.last_image &&
+      (stamp - camera.last_image).toSec() < fixed_image_period_s_)
+    return;
+  camera.last_image = stamp;
+  cv::Mat grey;
+  try
+  {
+    grey = cv_bridge::toCvShare(image, "mono8")->image;
+  }
+  catch (const cv_bridge::Exception& e)
+  {
+    ROS_WARN_THROTTLE(5.0, "calibration_node: camera '%s': cannot convert its image (%s)", name.c_str(), e.what());
+    return;
+  }
+  if (const Status added = camera.core->addImage(grey); !added)
+    ROS_WARN_THROTTLE(5.0, "calibration_node: %s", added.error().message().c_str());
+}
+
+std::vector<Segment3d> CalibrationServer::mapSegments() const
+{
+  std::vector<Segment3d> out;
+  for (const auto& line : line_map_.lines(min_map_support_))
+    out.push_back({line.a(), line.b()});
+  return out;
+}
+
+std::vector<std::string> CalibrationServer::selectCameras(const std::string& name, std::string* error) const
+{
+  std::vector<std::string> names;
+  if (name.empty())
+  {
+    for (const auto& [n, camera] : cameras_)
+      names.push_back(n);
+    return names;
+  }
+  if (!cameras_.count(name))
+  {
+    std::string known;
+    for (const auto& [n, camera] : cameras_)
+      known += (known.empty() ? "" : ", ") + n;
+    *error = "unknown camera '" + name + "' (configured: " + known + ")";
+    return {};
+  }
+  return {name};
+}
+
+std::string CalibrationServer::calibrationPath(const std::string& name) const
+{
+  return output_directory_ + "/" + name + ".yaml";
+}
+
+Status CalibrationServer::saveCalibration(const std::string& name)
+{
+  Camera& camera = cameras_.at(name);
+  if (!camera.core->calibration())
+    return Error(ErrorCode::kNotEnoughData, "camera '" + name + "' is not calibrated");
+  if (const Status saved = saveCalibrationFile(calibrationPath(name), *camera.core->calibration()); !saved)
+    return saved;
+  // The overlay beside the YAML, for people.
+  const CalibrationFile& file = *camera.core->calibration();
+  const auto last = camera.core->lastResult();
+  const cv::Mat overlay =
+      drawOverlay(camera.core->medianImage(), file.image_width, file.image_height, file.camera, mapSegments(),
+                  last ? last->matched_image_lines : std::vector<std::vector<Eigen::Vector2d>>{});
+  const std::string png = output_directory_ + "/" + name + "_overlay.png";
+  const std::string temp = output_directory_ + "/." + name + "_overlay.tmp.png";
+  if (!cv::imwrite(temp, overlay) || std::rename(temp.c_str(), png.c_str()) != 0)
+    return Error(ErrorCode::kIoError, "cannot write " + png);
+  return Success{};
+}
+
+bool CalibrationServer::calibrateService(Calibrate::Request& request, Calibrate::Response& response)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::string error;
+  const std::vector<std::string> names = selectCameras(request.camera, &error);
+  if (names.empty())
+  {
+    response.success = false;
+    response.message = error;
+    return true;
+  }
+  const std::vector<Segment3d> map = mapSegments();
+  response.success = true;
+  for (const auto& name : names)
+  {
+    Camera& camera = cameras_.at(name);
+    const auto result = camera.core->calibrate(map, world_frame_);
+    if (!result)
+    {
+      insitu_calibration::CalibrationResult failed;
+      failed.camera_name = name;
+      failed.success = false;
+      failed.message = result.error().describe();
+      response.results.push_back(failed);
+      response.success = false;
+      response.message += name + ": FAILED: " + result.error().describe() + "\n";
+      ROS_WARN_STREAM("calibration_node: " << name << ": calibration failed: " << result.error().describe());
+      continue;
+    }
+    last_calibrations_[name] = result->calibration;
+    auto msg = toResultMsg(result->file, &result->calibration, world_frame_);
+    msg.message = result->summary;
+    response.results.push_back(msg);
+    std::string saved_note = "saved to " + calibrationPath(name);
+    if (const Status saved = saveCalibration(name); !saved)
+    {
+      saved_note = "NOT saved: " + saved.error().message();
+      ROS_ERROR_STREAM("calibration_node: " << name << ": " << saved.error().message());
+    }
+    response.message += name + ": " + result->summary + "; " + saved_note + "\n";
+    ROS_INFO_STREAM("calibration_node: " << name << ": " << result->summary);
+  }
+  if (!response.message.empty() && response.message.back() == '\n')
+    response.message.pop_back();
+  publishCalibrations();
+  return true;
+}
+
+bool CalibrationServer::statusService(Status::Request& request, Status::Response& response)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::string error;
+  const std::vector<std::string> names = selectCameras(request.camera, &error);
+  if (names.empty())
+  {
+    response.success = false;
+    response.message = error;
+    return true;
+  }
+  const std::vector<Segment3d> map = mapSegments();
+  response.success = true;
+  response.message = std::to_string(frames_) + " RGB-D frames received, " + std::to_string(keyframes_used_) +
+                     " keyframes used, " + std::to_string(line_map_.size()) + " map lines (" +
+                     std::to_string(map.size()) + " seen at least " + std::to_string(min_map_support_) + " times)";
+  for (const auto& name : names)
+  {
+    const FixedCameraStatus s = cameras_.at(name).core->status(map);
+    CameraStatus msg;
+    msg.camera_name = name;
+    msg.has_image = s.has_image;
+    msg.images = static_cast<uint32_t>(s.images);
+    msg.image_lines = static_cast<uint32_t>(s.image_lines);
+    msg.map_lines = static_cast<uint32_t>(s.map_lines);
+    msg.map_lines_visible = static_cast<uint32_t>(s.map_lines_visible);
+    msg.matched_lines = static_cast<uint32_t>(s.matched_lines);
+    msg.coverage_percent = s.coverage_percent;
+    msg.calibrated = s.calibrated;
+    msg.ready = s.ready;
+    msg.message = s.message;
+    response.cameras.push_back(msg);
+  }
+  return true;
+}
+
+bool CalibrationServer::resetService(Reset::Request& request, Reset::Response& response)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (request.camera.empty())
+  {
+    for (auto& [name, camera] : cameras_)
+      camera.core->reset();
+    last_calibrations_.clear();
+    line_map_.clear();
+    keyframes_.reset();
+    keyframes_used_ = 0;
+    response.success = true;
+    response.message = "reset every camera and the 3D line map (saved files are kept)";
+    return true;
+  }
+  std::string error;
+  if (selectCameras(request.camera, &error).empty())
+  {
+    response.success = false;
+    response.message = error;
+    return true;
+  }
+  cameras_.at(request.camera).core->reset();
+  last_calibrations_.erase(request.camera);
+  response.success = true;
+  response.message = "reset camera '" + request.camera + "' (its saved file is kept)";
+  return true;
+}
+
+bool CalibrationServer::saveService(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  response.success = true;
+  size_t saved = 0;
+  for (const auto& [name, camera] : cameras_)
+  {
+    if (!camera.core->calibration())
+      continue;
+    if (const Status s = saveCalibration(name); !s)
+    {
+      response.success = false;
+      response.message += name + ": " + s.error().message() + "; ";
+      continue;
+    }
+    ++saved;
+  }
+  response.message += std::to_string(saved) + " calibration(s) saved in " + output_directory_;
+  return true;
+}
+
+void CalibrationServer::publishCalibrations()
+{
+  std::vector<geometry_msgs::TransformStamped> transforms;
+  const ros::Time now = ros::Time::now();
+  for (auto& [name, camera] : cameras_)
+  {
+    const auto& calibration = camera.core->calibration();
+    if (!calibration)
+      continue;
+    const auto t = cameraTransforms(*calibration, world_frame_, camera.link_frame, camera.optical_frame, now);
+    transforms.insert(transforms.end(), t.begin(), t.end());
+    sensor_msgs::CameraInfo info = toCameraInfo(*calibration, camera.optical_frame);
+    info.header.stamp = now;
+    camera.info_publisher.publish(info);
+    const auto last = camera.core->lastResult();
+    const cv::Mat overlay = drawOverlay(camera.core->medianImage(), calibration->image_width,
+                                        calibration->image_height, calibration->camera, mapSegments(),
+                                        last ? last->matched_image_lines : std::vector<std::vector<Eigen::Vector2d>>{});
+    std_msgs::Header header;
+    header.stamp = now;
+    header.frame_id = camera.optical_frame;
+    camera.overlay_publisher.publish(cv_bridge::CvImage(header, "bgr8", overlay).toImageMsg());
+  }
+  // One broadcaster for every camera: it republishes all its transforms together on the latched /tf_static.
+  if (!transforms.empty())
+    static_broadcaster_.sendTransform(transforms);
+  publishMarkers();
+}
+
+void CalibrationServer::publishMarkers()
+{
+  visualization_msgs::MarkerArray markers;
+  markers.markers.push_back(lineList(world_frame_, "line_map", 0, mapSegments(), 0.75f, 0.75f, 0.75f, 0.01));
+  int id = 0;
+  for (const auto& [name, camera] : cameras_)
+  {
+    ++id;
+    const auto& calibration = camera.core->calibration();
+    const auto last = camera.core->lastResult();
+    markers.markers.push_back(lineList(world_frame_, "matched", id,
+                                       last ? last->matched_map_lines : std::vector<Segment3d>{}, 0.2f, 0.9f, 0.2f,
+                                       0.02));
+    markers.markers.push_back(lineList(
+        world_frame_, "frustum", id,
+        calibration ? frustumSegments(calibration->camera, calibration->image_width, calibration->image_height, 1.0)
+                    : std::vector<Segment3d>{},
+        0.2f, 0.5f, 1.0f, 0.015));
+    visualization_msgs::Marker label;
+    label.header.frame_id = world_frame_;
+    label.ns = "camera_name";
+    label.id = id;
+    label.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
+    label.action = calibration ? visualization_msgs::Marker::ADD : visualization_msgs::Marker::DELETE;
+    label.pose.orientation.w = 1.0;
+    if (calibration)
+      label.pose.position = toPoint(calibration->camera.pose().center() + Eigen::Vector3d(0, 0, 0.15));
+    label.scale.z = 0.15;
+    label.color.r = label.color.g = label.color.b = label.color.a = 1.0;
+    label.text = name;
+    markers.markers.push_back(label);
+  }
+  marker_publisher_.publish(markers);
+}
+
+void CalibrationServer::loadSavedCalibrations()
+{
+  size_t loaded = 0;
+  for (auto& [name, camera] : cameras_)
+  {
+    const std::string path = calibrationPath(name);
+    std::error_code ec;
+    if (!std::filesystem::exists(path, ec))
+      continue;
+    const auto file = loadCalibrationFile(path);
+    if (!file)
+    {
+      ROS_WARN_STREAM("calibration_node: ignoring the saved calibration of '" << name << "': "
+                                                                              << file.error().describe());
+      continue;
+    }
+    if (file->image_width != camera.core->config().image_width ||
+        file->image_height != camera.core->config().image_height)
+    {
+      ROS_WARN_STREAM("calibration_node: ignoring " << path << ": it is for a " << file->image_width << "x"
+                                                    << file->image_height << " image, the camera is configured "
+                                                    << camera.core->config().image_width << "x"
+                                                    << camera.core->config().image_height);
+      continue;
+    }
+    camera.core->setCalibration(*file);
+    ++loaded;
+    ROS_INFO_STREAM("calibration_node: loaded the calibration of '" << name << "' from " << path);
+  }
+  if (loaded > 0)
+    publishCalibrations();
+}
+
+}  // namespace insitu_calibration
