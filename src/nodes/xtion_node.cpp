@@ -1,6 +1,7 @@
 // xtion_node: an Asus Xtion (or an .oni recording, or OpenNI2's DummyDevice) through OpenNI2, published like
 // openni2_launch. Parameters, topics and faults: docs/xtion.md.
 #include <csignal>
+#include <cstdio>
 
 #include <ros/ros.h>
 
@@ -19,6 +20,7 @@ int main(int argc, char** argv)
 {
   // Our own SIGINT/SIGTERM handling: stop the streams and close the device before ROS shuts down.
   ros::init(argc, argv, "xtion_node", ros::init_options::NoSigintHandler);
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);  // INFO lines reach a log file as they happen
   std::signal(SIGINT, onSignal);
   std::signal(SIGTERM, onSignal);
   ros::NodeHandle nh;

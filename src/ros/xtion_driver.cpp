@@ -252,20 +252,30 @@ void XtionDriver::onOpened()
   stamper_ = drivers::FrameStamper(s.sync_on, std::max(s.color_mode.fps, s.depth_mode.fps));
   last_color_.reset();
   last_frame_time_ = Clock::now();
-  if (params_.device.registration && !s.registration_on)
+  // Facts about the device: said once, not at every reconnection.
+  if (params_.device.registration && !s.registration_on && !warned_registration_)
+  {
+    warned_registration_ = true;
     ROS_WARN_STREAM("xtion_node: " << (s.is_file ? "the recording" : "the device")
                                    << " has no hardware depth-to-colour registration: depth_registered/image_raw is "
                                       "the raw depth image, in frame "
                                    << params_.depth_frame_id << ", not aligned with the colour image.");
-  if (params_.device.sync && !s.sync_on)
+  }
+  if (params_.device.sync && !s.sync_on && !warned_sync_)
+  {
+    warned_sync_ = true;
     ROS_WARN(
         "xtion_node: the device refused colour/depth frame synchronisation: colour and depth get their own "
         "stamps.");
-  if (s.is_file && (s.color_mode != params_.device.color_mode || s.depth_mode != params_.device.depth_mode))
-    ROS_INFO_STREAM("xtion_node: playing the recording's modes (colour " << s.color_mode.toString() << ", depth "
-                                                                         << s.depth_mode.toString()
-                                                                         << "); color_mode and depth_mode apply to "
-                                                                            "devices only.");
+  }
+  if (s.is_file && !warned_modes_ &&
+      (s.color_mode != params_.device.color_mode || s.depth_mode != params_.device.depth_mode))
+  {
+    warned_modes_ = true;
+    ROS_INFO_STREAM("xtion_node: playing the recording's modes (colour "
+                    << s.color_mode.toString() << ", depth " << s.depth_mode.toString()
+                    << "); color_mode and depth_mode apply to devices only.");
+  }
   if (!warned_fov_ && (s.color_hfov <= 0.0 || s.depth_hfov <= 0.0))
   {
     warned_fov_ = true;

@@ -14,7 +14,8 @@ namespace drivers
 class FrameStamper
 {
 public:
-  // paired: give colour/depth frames whose device times differ by at most half a frame period (at `fps`) one stamp.
+  // paired: give colour/depth frames whose device times differ by at most half a frame period (at `fps`) one stamp:
+  // the later frame of a pair takes the stamp of the earlier one (which may be a few frames back).
   // max_drift: how fast (s/s) the estimated offset may grow between two clocks that drift apart.
   // jump_s: a device clock that jumps by more than this (a recording looping, a device coming back) starts afresh.
   explicit FrameStamper(bool paired = true, int fps = 30, double max_drift = 1e-4, double jump_s = 1.0);
@@ -40,7 +41,9 @@ private:
     uint64_t device_us = 0;
     double stamp_s = 0.0;
   };
-  Last last_[2];
+  static constexpr int kHistory = 4;
+  Last history_[2][kHistory];  // the last frames of each stream, newest at next_[s] - 1
+  int next_[2] = {0, 0};
 };
 
 }  // namespace drivers

@@ -101,6 +101,9 @@ private:
   bool in_fault_ = false;
   std::chrono::steady_clock::time_point last_frame_time_;
   bool warned_fov_ = false;
+  bool warned_registration_ = false;
+  bool warned_sync_ = false;
+  bool warned_modes_ = false;
   bool warned_info_size_[2] = {false, false};
 };
 

@@ -17,8 +17,9 @@ FrameStamper::FrameStamper(bool paired, int fps, double max_drift, double jump_s
 void FrameStamper::reset()
 {
   has_offset_ = false;
-  last_[0] = Last();
-  last_[1] = Last();
+  for (auto& stream : history_)
+    for (Last& last : stream)
+      last = Last();
 }
 
 double FrameStamper::stamp(StreamKind kind, uint64_t device_us, double host_now_s)
@@ -28,10 +29,9 @@ double FrameStamper::stamp(StreamKind kind, uint64_t device_us, double host_now_
   if (!has_offset_ || std::abs(sample - offset_s_) > jump_s_)
   {
     // First frame, or the device clock jumped (recording looped, device reset): start afresh.
+    reset();
     has_offset_ = true;
     offset_s_ = sample;
-    last_[0] = Last();
-    last_[1] = Last();
   }
   else
   {
@@ -43,14 +43,20 @@ double FrameStamper::stamp(StreamKind kind, uint64_t device_us, double host_now_
 
   double result = device_s + offset_s_;
   const int self = kind == StreamKind::kColor ? 0 : 1;
-  const Last& other = last_[1 - self];
-  if (paired_ && other.valid)
+  if (paired_)
   {
-    const uint64_t diff = device_us > other.device_us ? device_us - other.device_us : other.device_us - device_us;
-    if (diff <= pair_tolerance_us_)
-      result = other.stamp_s;
+    for (const Last& other : history_[1 - self])
+    {
+      const uint64_t diff = device_us > other.device_us ? device_us - other.device_us : other.device_us - device_us;
+      if (other.valid && diff <= pair_tolerance_us_)
+      {
+        result = other.stamp_s;
+        break;
+      }
+    }
   }
-  last_[self] = Last{true, device_us, result};
+  history_[self][next_[self]] = Last{true, device_us, result};
+  next_[self] = (next_[self] + 1) % kHistory;
   return result;
 }
 
