@@ -427,42 +427,50 @@ void XtionDriver::publishPoints(const sensor_msgs::ImageConstPtr& depth, const s
   cloud->width = depth->width;
   cloud->row_step = cloud->point_step * cloud->width;
 
-  const double fx = info.K[0], fy = info.K[4], cx = info.K[2], cy = info.K[5];
   // Colours only where depth is registered to the colour image (else the pixels do not correspond).
   const sensor_msgs::Image* color = (device_.summary().registration_on && last_color_) ? last_color_.get() : nullptr;
   const float bad = std::numeric_limits<float>::quiet_NaN();
-  sensor_msgs::PointCloud2Iterator<float> x(*cloud, "x"), y(*cloud, "y"), z(*cloud, "z");
-  sensor_msgs::PointCloud2Iterator<uint8_t> rgb(*cloud, "rgb");  // bytes b, g, r
+  // Per-column and per-row factors: x = (u - cx) / fx * z, y = (v - cy) / fy * z.
+  std::vector<float> column_factor(depth->width);
+  std::vector<uint32_t> color_column(depth->width, 0);
+  for (uint32_t u = 0; u < depth->width; ++u)
+  {
+    column_factor[u] = static_cast<float>((u - info.K[2]) / info.K[0]);
+    if (color != nullptr)
+      color_column[u] = 3 * (u * color->width / depth->width);
+  }
+  const size_t x_offset = cloud->fields[0].offset;
+  const size_t y_offset = cloud->fields[1].offset;
+  const size_t z_offset = cloud->fields[2].offset;
+  const size_t rgb_offset = cloud->fields[3].offset;
+  uint8_t* point = cloud->data.data();
   for (uint32_t v = 0; v < depth->height; ++v)
   {
+    const float row_factor = static_cast<float>((v - info.K[5]) / info.K[4]);
     const auto* row = reinterpret_cast<const uint16_t*>(&depth->data[static_cast<size_t>(v) * depth->step]);
-    for (uint32_t u = 0; u < depth->width; ++u, ++x, ++y, ++z, ++rgb)
+    const uint8_t* color_row =
+        color != nullptr ? &color->data[static_cast<size_t>(v * color->height / depth->height) * color->step] : nullptr;
+    for (uint32_t u = 0; u < depth->width; ++u, point += cloud->point_step)
     {
-      const uint16_t mm = row[u];
-      if (mm == 0)
+      float xyz[3] = {bad, bad, bad};
+      if (row[u] != 0)
       {
-        *x = *y = *z = bad;
+        xyz[2] = row[u] * 0.001f;
+        xyz[0] = column_factor[u] * xyz[2];
+        xyz[1] = row_factor * xyz[2];
       }
-      else
+      std::memcpy(point + x_offset, &xyz[0], sizeof(float));
+      std::memcpy(point + y_offset, &xyz[1], sizeof(float));
+      std::memcpy(point + z_offset, &xyz[2], sizeof(float));
+      uint8_t bgr[4] = {0, 0, 0, 0};  // packed as pcl's rgb float: b, g, r, a
+      if (color_row != nullptr)
       {
-        const double depth_m = mm * 0.001;
-        *x = static_cast<float>((u - cx) * depth_m / fx);
-        *y = static_cast<float>((v - cy) * depth_m / fy);
-        *z = static_cast<float>(depth_m);
+        const uint8_t* pixel = color_row + color_column[u];
+        bgr[0] = pixel[2];
+        bgr[1] = pixel[1];
+        bgr[2] = pixel[0];
       }
-      if (color != nullptr)
-      {
-        const uint32_t cu = u * color->width / depth->width;
-        const uint32_t cv = v * color->height / depth->height;
-        const uint8_t* pixel = &color->data[static_cast<size_t>(cv) * color->step + 3 * cu];
-        rgb[0] = pixel[2];
-        rgb[1] = pixel[1];
-        rgb[2] = pixel[0];
-      }
-      else
-      {
-        rgb[0] = rgb[1] = rgb[2] = 0;
-      }
+      std::memcpy(point + rgb_offset, bgr, sizeof(bgr));
     }
   }
   points_pub_.publish(cloud);
