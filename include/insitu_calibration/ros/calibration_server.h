@@ -88,6 +88,7 @@ private:
   ros::ServiceServer reset_server_;
   ros::ServiceServer save_server_;
   ros::Publisher marker_publisher_;
+  ros::WallTimer marker_timer_;
 
   // Parameters
   std::string world_frame_;
