@@ -3,6 +3,7 @@
 #include <cstdlib>
 #include <filesystem>
 
+#include <boost/bind/bind.hpp>
 #include <cv_bridge/cv_bridge.h>
 #include <opencv2/imgcodecs.hpp>
 #include <tf2_eigen/tf2_eigen.h>
@@ -113,7 +114,9 @@ CalibrationServer::CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private
   info_subscriber_.subscribe(nh_, "camera/rgb/camera_info", 5);
   synchronizer_ = std::make_unique<message_filters::Synchronizer<SyncPolicy>>(SyncPolicy(10), rgb_subscriber_,
                                                                               depth_subscriber_, info_subscriber_);
-  synchronizer_->registerCallback(boost::bind(&CalibrationServer::rgbdCallback, this, _1, _2, _3));
+  synchronizer_->registerCallback(
+      boost::bind(&CalibrationServer::rgbdCallback, this, boost::placeholders::_1, boost::placeholders::_2,
+                  boost::placeholders::_3));
 
   image_transport::ImageTransport private_it(private_nh_);
   for (auto& [name, camera] : cameras_)
@@ -427,7 +430,7 @@ bool CalibrationServer::calibrateService(Calibrate::Request& request, Calibrate:
   return true;
 }
 
-bool CalibrationServer::statusService(Status::Request& request, Status::Response& response)
+bool CalibrationServer::statusService(CalibrationStatus::Request& request, CalibrationStatus::Response& response)
 {
   std::lock_guard<std::mutex> lock(mutex_);
   std::string error;

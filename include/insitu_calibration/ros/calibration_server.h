@@ -25,7 +25,7 @@
 
 #include "insitu_calibration/Calibrate.h"
 #include "insitu_calibration/Reset.h"
-#include "insitu_calibration/Status.h"
+#include "insitu_calibration/CalibrationStatus.h"
 #include "insitu_calibration/lines/line_map.h"
 #include "insitu_calibration/lines/rgbd_lines.h"
 #include "insitu_calibration/survey/fixed_camera.h"
@@ -56,7 +56,7 @@ private:
   void fixedImageCallback(const std::string& name, const sensor_msgs::ImageConstPtr& image);
 
   bool calibrateService(Calibrate::Request& request, Calibrate::Response& response);
-  bool statusService(Status::Request& request, Status::Response& response);
+  bool statusService(CalibrationStatus::Request& request, CalibrationStatus::Response& response);
   bool resetService(Reset::Request& request, Reset::Response& response);
   bool saveService(std_srvs::Trigger::Request& request, std_srvs::Trigger::Response& response);
 
