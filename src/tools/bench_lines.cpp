@@ -29,7 +29,7 @@ namespace
 {
 const char* kUsage = R"(Usage: bench_lines [--frames N] [--fixed N] [--detector fld|lsd|both] [--seed S] [--repeat R]
 
-Renders a room (synthetic/line_scene.h: doors, posters, boxes) and times, on one core (cv::setNumThreads(0)):
+Renders a room (synthetic/line_scene.h: doors, posters, boxes) and times, on one core (cv::setNumThreads(1)):
   - per 640x480 RGB-D frame of a robot survey (Xtion: f = 570 px, depth 16UC1 mm with sigma = 1.425e-3 z^2):
     detection, 2D fine-tuning, depth sampling, RANSAC + refinement, line-map merge; goal < 15 ms per frame;
   - per 1920x1080 fixed-camera image (f = 1100 px, barrel distortion moving the corner 20 px inwards): detection,

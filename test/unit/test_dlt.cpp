@@ -23,8 +23,7 @@ struct Scene
   std::vector<ic::Segment3d> segments;
 };
 
-Scene makeScene(unsigned seed, double corner_px, int lines, double noise_px, int image_points = 5,
-                int world_points = 3)
+Scene makeScene(unsigned seed, double corner_px, int lines, double noise_px, int image_points = 5, int world_points = 3)
 {
   std::mt19937 rng(seed);
   ic::SyntheticCameraOptions camera_options;
@@ -70,12 +69,12 @@ std::string name(const Variant& v)
 TEST(Dlt, NoiseFreeRecoversTheCameraExactly)
 {
   const std::vector<Variant> variants = {
-      {ic::DltMethod::kLines, false, true, true},     {ic::DltMethod::kPoints, false, true, true},
-      {ic::DltMethod::kCombined, false, true, true},  {ic::DltMethod::kLines, false, false, true},
-      {ic::DltMethod::kPoints, false, false, true},   {ic::DltMethod::kLines, true, true, true},
-      {ic::DltMethod::kPoints, true, true, true},     {ic::DltMethod::kCombined, true, true, true},
-      {ic::DltMethod::kLines, true, false, true},     {ic::DltMethod::kPoints, true, false, true},
-      {ic::DltMethod::kLines, true, true, false},     {ic::DltMethod::kCombined, true, true, false},
+      {ic::DltMethod::kLines, false, true, true},    {ic::DltMethod::kPoints, false, true, true},
+      {ic::DltMethod::kCombined, false, true, true}, {ic::DltMethod::kLines, false, false, true},
+      {ic::DltMethod::kPoints, false, false, true},  {ic::DltMethod::kLines, true, true, true},
+      {ic::DltMethod::kPoints, true, true, true},    {ic::DltMethod::kCombined, true, true, true},
+      {ic::DltMethod::kLines, true, false, true},    {ic::DltMethod::kPoints, true, false, true},
+      {ic::DltMethod::kLines, true, true, false},    {ic::DltMethod::kCombined, true, true, false},
   };
   for (const Variant& v : variants)
   {

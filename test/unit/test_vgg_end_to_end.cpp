@@ -76,13 +76,19 @@ void checkScene(const std::string& scene, int width, int height)
   EXPECT_LT(median(rotation_deg), 0.5) << scene;
   EXPECT_LT(median(center_fraction), 0.01) << scene;
   EXPECT_LT(median(median_px), 0.5) << scene;
-  std::printf("%s medians: focal %.3f %%, rotation %.3f deg, centre %.3f %% of the viewing distance, "
-              "point-to-line %.3f px\n",
-              scene.c_str(), 100 * median(focal), median(rotation_deg), 100 * median(center_fraction),
-              median(median_px));
+  std::printf(
+      "%s medians: focal %.3f %%, rotation %.3f deg, centre %.3f %% of the viewing distance, "
+      "point-to-line %.3f px\n",
+      scene.c_str(), 100 * median(focal), median(rotation_deg), 100 * median(center_fraction), median(median_px));
 }
 }  // namespace
 
-TEST(VggEndToEnd, ModelHouse) { checkScene("Model-House", 768, 576); }
+TEST(VggEndToEnd, ModelHouse)
+{
+  checkScene("Model-House", 768, 576);
+}
 
-TEST(VggEndToEnd, MertonCollege) { checkScene("Merton-College-I", 1024, 768); }
+TEST(VggEndToEnd, MertonCollege)
+{
+  checkScene("Merton-College-I", 1024, 768);
+}
