@@ -187,6 +187,44 @@ TEST(DepthSampler, TakesTheNearSideOfADiscontinuityAndTheEdgeDepthOnASlantedSurf
   }
 }
 
+TEST(DepthSampler, FindsASmallStepOverTheWholeSegment)
+{
+  // A door frame 1 cm proud of its wall at 2 m (left of x = 100.5: 2.00 m, right: 2.01 m), below the per-sample
+  // jump (3 cm), with the Xtion's noise (5.7 mm at 2 m) and without.
+  std::mt19937 rng(kSeed);
+  for (const double sigma_per_m : {0.0, kXtionNoisePerM})
+  {
+    cv::Mat truth(240, 200, CV_32FC1);
+    for (int y = 0; y < 240; ++y)
+      for (int x = 0; x < 200; ++x)
+        truth.at<float>(y, x) = x <= 100 ? 2.0f : 2.01f;
+    const cv::Mat depth = ic::makeSensorDepth(truth, sigma_per_m, false, rng);
+    const auto samples = ic::sampleDepthAlongSegment(depth, ic::Segment2d{{100.5, 10.0}, {100.5, 230.0}});
+    ASSERT_GT(samples.size(), 100u);
+    double mean = 0.0;
+    for (const auto& sample : samples)
+      mean += sample.depth_m / samples.size();
+    std::cout << "noise " << sigma_per_m << " /m: mean edge depth " << mean << " m" << std::endl;
+    // The frame's depth: within the standard error of the mean of ~100 extrapolated samples.
+    EXPECT_NEAR(mean, 2.0, sigma_per_m > 0.0 ? 0.0015 : 1e-6);
+    if (sigma_per_m == 0.0)
+    {
+      for (const auto& sample : samples)
+        EXPECT_NEAR(sample.depth_m, 2.0, 1e-6);
+    }
+  }
+  // Without the step test the edge depth is halfway.
+  ic::DepthSamplerOptions off;
+  off.small_step_sigmas = 0.0;
+  cv::Mat truth(240, 200, CV_32FC1);
+  for (int y = 0; y < 240; ++y)
+    for (int x = 0; x < 200; ++x)
+      truth.at<float>(y, x) = x <= 100 ? 2.0f : 2.01f;
+  const auto halfway = ic::sampleDepthAlongSegment(truth, ic::Segment2d{{100.5, 10.0}, {100.5, 230.0}}, off);
+  ASSERT_FALSE(halfway.empty());
+  EXPECT_GT(halfway.front().depth_m, 2.002);
+}
+
 TEST(DepthSampler, MillimetresAndMetresAgree)
 {
   std::mt19937 rng(kSeed);
@@ -347,4 +385,28 @@ TEST(RgbdLines, BadInputGivesTypedErrors)
   EXPECT_TRUE(none->empty());
   std::cout << "no depth near the lines -> " << stats.note << std::endl;
   EXPECT_FALSE(stats.note.empty());
+}
+
+TEST(RgbdCamera, NormalizeInvertsPlumbBob)
+{
+  ic::RgbdCamera c = xtionCamera();
+  c.plumb_bob = {0.05, -0.12, 0.001, -0.0005, 0.02};  // an uncalibrated Xtion's order of magnitude
+  ASSERT_TRUE(c.validate().ok());
+  for (double x = -0.5; x <= 0.5; x += 0.1)
+    for (double y = -0.4; y <= 0.4; y += 0.1)
+    {
+      // OpenCV's plumb_bob, tangential terms included.
+      const double k1 = c.plumb_bob[0], k2 = c.plumb_bob[1], p1 = c.plumb_bob[2], p2 = c.plumb_bob[3],
+                   k3 = c.plumb_bob[4];
+      const double r2 = x * x + y * y;
+      const double radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+      const double xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x);
+      const double yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y;
+      const Eigen::Vector2d pixel(c.intrinsics.fx * xd + c.intrinsics.cx, c.intrinsics.fy * yd + c.intrinsics.cy);
+      const Eigen::Vector2d back = c.normalize(pixel);
+      EXPECT_NEAR(back.x(), x, 1e-6);
+      EXPECT_NEAR(back.y(), y, 1e-6);
+    }
+  c.plumb_bob[0] = std::nan("");
+  EXPECT_FALSE(c.validate().ok());
 }

@@ -5,7 +5,9 @@
 // cluster is the set of readings within a jump of the nearest one (max(jump_min_m, jump_ratio z)). Inverse depth,
 // affine in the image on a plane, is fitted to the near cluster against the pixels' signed offsets from the edge and
 // evaluated on the edge itself: the depth of the front surface at the edge, without the bias of a reading one or two
-// pixels away on a slanted surface and without mixing in the background.
+// pixels away on a slanted surface and without mixing in the background. A step smaller than the jump (a door frame
+// 1-2 cm proud of its wall, hidden in the noise of one sample) is found over the whole segment: the two sides'
+// depths extrapolated to the edge differ consistently, and the nearer side is taken.
 #ifndef INSITU_CALIBRATION_LINES_DEPTH_SAMPLER_H
 #define INSITU_CALIBRATION_LINES_DEPTH_SAMPLER_H
 
@@ -28,6 +30,11 @@ struct DepthSamplerOptions
   double jump_ratio = 0.03;           // a depth discontinuity: readings farther than max(jump_min_m, jump_ratio z)
   double jump_min_m = 0.03;           //   behind the nearest reading
   double max_extrapolation_px = 2.5;  // the near cluster must come this close to the edge
+  // Small steps (below the jump): when the two sides' depths extrapolated to the edge differ consistently along the
+  // segment (by more than small_step_sigmas standard errors, and by at least small_step_min_m), the edge takes the
+  // nearer side's depth. 0 sigmas: off.
+  double small_step_sigmas = 5.0;
+  double small_step_min_m = 0.004;
 };
 
 struct DepthSample

@@ -17,8 +17,9 @@
 //    pixel grid (peak locking, ~0.05 px on axis-aligned edges). dI/dn is the derivative of the bilinearly
 //    interpolated image along the line's normal, signed by the edge's polarity (so noise averages out instead of
 //    accumulating in |.|); on the edge it equals |grad I|.
-//    Samples whose centroid is more than 3 robust sigmas (at least outlier_px) from the fitted line are dropped in
-//    each iteration (corners, crossing edges).
+//    Samples whose window holds another edge (near a corner, a close parallel edge) are left out of the fit: their
+//    grey-level step across the window differs from the median step by more than contrast_tolerance; and so are
+//    samples whose centroid is more than 3 robust sigmas (at least outlier_px) from the fitted line.
 #ifndef INSITU_CALIBRATION_LINES_GRADIENT_REFINER_H
 #define INSITU_CALIBRATION_LINES_GRADIENT_REFINER_H
 
@@ -43,6 +44,8 @@ struct RefinerOptions
   double min_contrast = 8.0;        // grey levels across the window: weaker samples do not see the edge
   double min_support = 0.5;         // fraction of the samples between the end points that must see the edge
   double outlier_px = 0.5;          // floor of the outlier threshold on per-sample centroids
+  double contrast_tolerance = 0.4;  // samples whose step differs from the median step by more (relative) are not
+                                    // fitted: their window holds another edge (0: keep all)
   double smoothing_sigma_px = 0.0;  // optional Gaussian smoothing of the image (0: none; noise averages along)
 };
 

@@ -255,6 +255,9 @@ Expected<RefinedSegment> LineRefiner::refineSegment(const Eigen::Vector2d& a, co
   std::vector<double> intensity(profile_count);
   std::vector<double> raw_weight(s.size()), centroid(s.size()), weight(s.size());
   std::vector<char> valid(s.size()), use(s.size());
+  std::vector<double> robust_weight(s.size(), 0.0);
+  double typical_contrast = 0.0;
+  bool converged = false;
   double polarity = 0.0;
   RefinedSegment result;
   double support = 0.0;
@@ -299,30 +302,66 @@ Expected<RefinedSegment> LineRefiner::refineSegment(const Eigen::Vector2d& a, co
       if (valid[i] && inside[i])
         ++supported;
     }
+    // Samples whose window also holds another edge (near corners, parallel neighbours) see a different step:
+    // they see the edge (support) but are left out of the fit. The typical step is fixed at the first iteration.
+    if (o.contrast_tolerance > 0.0)
+    {
+      if (iteration == 1)
+      {
+        std::vector<double> contrasts;
+        for (size_t i = 0; i < s.size(); ++i)
+          if (valid[i] && inside[i])
+            contrasts.push_back(weight[i]);
+        typical_contrast = medianOf(contrasts);
+      }
+      for (size_t i = 0; i < s.size(); ++i)
+        if (use[i] && std::abs(weight[i] - typical_contrast) > o.contrast_tolerance * typical_contrast)
+          use[i] = 0;
+    }
     support = static_cast<double>(supported) / static_cast<double>(n_inside);
     if (support < o.min_support || supported < 3)
       return Error(ErrorCode::kNotEnoughData, "no edge under the segment: " + std::to_string(supported) + " of " +
                                                   std::to_string(n_inside) + " samples see a contrast of at least " +
                                                   std::to_string(o.min_contrast) + " grey levels");
-    WeightedLineFit fit = fitOffsetSlope(s, centroid, weight, use);
-    if (!fit.ok)
-      return Error(ErrorCode::kDegenerate, "the edge samples do not determine a line");
-    // Robust step: drop centroids far from the fitted line (corners, crossing edges), then refit.
+    // Robust weights (Tukey's biweight, scale from the MAD) on the residuals about the current line (after the
+    // first iteration: the previous fit) or, in the first iteration, about a plain weighted fit: iteratively
+    // reweighted least squares of the same objective, so the iteration converges instead of switching between
+    // subsets of samples.
+    std::vector<double> residual(s.size(), 0.0);
+    if (iteration == 1)
+    {
+      const WeightedLineFit first = fitOffsetSlope(s, centroid, weight, use);
+      if (!first.ok)
+        return Error(ErrorCode::kDegenerate, "the edge samples do not determine a line");
+      for (size_t i = 0; i < s.size(); ++i)
+        residual[i] = centroid[i] - first.offset - first.slope * s[i];
+    }
+    else
+    {
+      residual = centroid;
+    }
     std::vector<double> abs_residuals;
     for (size_t i = 0; i < s.size(); ++i)
       if (use[i])
-        abs_residuals.push_back(std::abs(centroid[i] - fit.offset - fit.slope * s[i]));
-    const double threshold = std::max(o.outlier_px, 3.0 * 1.4826 * medianOf(abs_residuals));
+        abs_residuals.push_back(std::abs(residual[i]));
+    const double scale = std::max(o.outlier_px / 3.0, 1.4826 * medianOf(abs_residuals));
+    const double cutoff = 4.685 * scale;
     used = 0;
     for (size_t i = 0; i < s.size(); ++i)
     {
-      if (use[i] && std::abs(centroid[i] - fit.offset - fit.slope * s[i]) > threshold)
+      robust_weight[i] = 0.0;
+      if (!use[i] || std::abs(residual[i]) >= cutoff)
+      {
         use[i] = 0;
-      used += use[i];
+        continue;
+      }
+      const double u = residual[i] / cutoff;
+      robust_weight[i] = weight[i] * (1.0 - u * u) * (1.0 - u * u);
+      ++used;
     }
     if (used < 3)
       return Error(ErrorCode::kNotEnoughData, "too few edge samples after outlier rejection");
-    fit = fitOffsetSlope(s, centroid, weight, use);
+    const WeightedLineFit fit = fitOffsetSlope(s, centroid, robust_weight, use);
     if (!fit.ok)
       return Error(ErrorCode::kDegenerate, "the edge samples do not determine a line");
     double r2 = 0.0, wsum = 0.0;
@@ -343,8 +382,14 @@ Expected<RefinedSegment> LineRefiner::refineSegment(const Eigen::Vector2d& a, co
     n = perpendicular(d);
     const double move = std::abs(fit.offset) + std::abs(fit.slope) * s_abs_max;
     if (move < o.convergence_px)
+    {
+      converged = true;
       break;
+    }
   }
+  if (!converged)
+    return Error(ErrorCode::kNoSolution, "fine-tuning did not converge in " + std::to_string(o.max_iterations) +
+                                             " iterations (the segment may span a corner or two edges)");
 
   result.line = Eigen::Vector3d(n.x(), n.y(), -n.dot(p0));
   result.a = p0 + (a - p0).dot(d) * d;
