@@ -356,3 +356,39 @@ TEST(CorridorWorld, LoadsAndIsLarger)
   const auto edges = sim::computeTrueEdges(*world);
   EXPECT_GT(edges.size(), 500u);
 }
+
+// The robot (a 0.3 m radius, 1.3 m tall cylinder) never drives through anything in the shipped worlds.
+TEST(ShippedWorlds, RouteKeepsClearOfObstacles)
+{
+  for (const std::string name : {"waiting_room.yaml", "corridor.yaml"})
+  {
+    const auto world = sim::loadWorldFile(kWorldDir + name);
+    ASSERT_TRUE(world) << world.error().describe();
+    const sim::RouteTrajectory route(world->route);
+    double closest = 1e9;
+    std::string closest_surface;
+    for (const auto& p : route.pathPoints(0.05))
+      for (const auto& s : world->surfaces)
+      {
+        double lo = 1e9, hi = -1e9;
+        for (const auto& v : s.rings[0])
+        {
+          lo = std::min(lo, v.z());
+          hi = std::max(hi, v.z());
+        }
+        if (hi < 0.05 || lo > 1.3)
+          continue;  // the floor, rugs, the ceiling and what hangs from it
+        for (const double z : {0.05, 0.4, 0.8, 1.2})
+        {
+          const double d = s.distance(Eigen::Vector3d(p.x(), p.y(), z));
+          if (d < closest)
+          {
+            closest = d;
+            closest_surface = s.name;
+          }
+        }
+      }
+    std::printf("%s: the route passes %.2f m from %s at the closest\n", name.c_str(), closest, closest_surface.c_str());
+    EXPECT_GE(closest, 0.3) << name << ": " << closest_surface;
+  }
+}
