@@ -710,11 +710,12 @@ double Surface::distance(const Eigen::Vector3d& world) const
 Status finalizeSurface(Surface& s, bool set_frame)
 {
   if (s.rings.empty())
-    return invalid("polygon", "has no vertices");
+    return Error(ErrorCode::kInvalidInput, "polygon has no vertices");
   for (size_t r = 0; r < s.rings.size(); ++r)
     if (s.rings[r].size() < 3)
-      return invalid(r == 0 ? "polygon" : "hole " + std::to_string(r - 1),
-                     "has " + std::to_string(s.rings[r].size()) + " vertices, at least 3 are needed");
+      return Error(ErrorCode::kInvalidInput, (r == 0 ? std::string("polygon") : "hole " + std::to_string(r - 1)) +
+                                                 " has " + std::to_string(s.rings[r].size()) +
+                                                 " vertices, at least 3 are needed");
   // Newell's normal of the outline.
   const auto& outline = s.rings[0];
   Eigen::Vector3d newell = Eigen::Vector3d::Zero();
@@ -726,13 +727,13 @@ Status finalizeSurface(Surface& s, bool set_frame)
   }
   centroid /= static_cast<double>(outline.size());
   if (!(0.5 * newell.norm() > 1e-8))
-    return invalid("polygon", "has zero area (its vertices are collinear or repeated)");
+    return Error(ErrorCode::kInvalidInput, "polygon has zero area (its vertices are collinear or repeated)");
   Eigen::Vector3d normal = newell.normalized();
   if (set_frame)
   {
     const Eigen::Vector3d n = s.axis_u.cross(s.axis_v);
     if (!(n.norm() > 0.999 && n.norm() < 1.001 && std::abs(n.dot(normal)) > 0.999))
-      return invalid("polygon", "internal error: its texture frame is not in its plane");
+      return Error(ErrorCode::kInvalidInput, "internal error: the texture frame is not in the polygon's plane");
     normal = n.normalized();
   }
   else
@@ -751,9 +752,9 @@ Status finalizeSurface(Surface& s, bool set_frame)
     {
       const double off = std::abs(normal.dot(s.rings[r][i]) - s.offset);
       if (off > kPlanarityToleranceM)
-        return invalid("polygon", "is not planar: vertex " + std::to_string(i) +
-                                      (r ? " of hole " + std::to_string(r - 1) : std::string()) + " is " +
-                                      fmt(1000.0 * off) + " mm off the plane of the outline");
+        return Error(ErrorCode::kInvalidInput, "polygon is not planar: vertex " + std::to_string(i) +
+                                                   (r ? " of hole " + std::to_string(r - 1) : std::string()) + " is " +
+                                                   fmt(1000.0 * off) + " mm off the plane of the outline");
     }
   s.rings_uv.clear();
   for (const auto& ring : s.rings)
