@@ -34,6 +34,10 @@ struct CalibrationOptions
   // Both off reproduce the paper's plain DLT.
   bool ransac = true;
   RansacOptions ransac_options;
+  // After refinement the inliers are judged again with min(RANSAC's threshold, max(min_inlier_threshold_px,
+  // inlier_sigmas x the noise level the residuals show)).
+  double inlier_sigmas = 4.0;
+  double min_inlier_threshold_px = 0.75;
   bool refine = true;
   RefinementOptions refinement;  // estimate_distortion is set from the distortion decision
 };

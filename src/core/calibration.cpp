@@ -100,7 +100,7 @@ Expected<CameraCalibration> calibrateCamera(const CorrespondenceSet& data, const
   // The RANSAC hypotheses are linear and centred on the image centre; the final camera judges the lines better, so
   // the inlier set is re-evaluated with it and the solve repeated once when it changes.
   CorrespondenceSet inliers;
-  for (int pass = 0; pass < 2; ++pass)
+  for (int pass = 0; pass < 4; ++pass)
   {
     inliers = selected;
     inliers.lines.clear();
@@ -110,11 +110,17 @@ Expected<CameraCalibration> calibrateCamera(const CorrespondenceSet& data, const
     result.inlier_count = inliers.lines.size();
     if (const Status s = solveAndRefine(inliers, dlt, options, &result); !s)
       return s.error();
-    if (!options.ransac || result.inlier_count == selected.lines.size())
+    if (!options.ransac)
       break;
+    // Once refined, the residuals tell the noise level: lines beyond inlier_sigmas of it are outliers too, which a
+    // loose RANSAC threshold let through and which would bias a weakly constrained camera.
+    double threshold = options.ransac_options.inlier_threshold_px;
+    if (result.uncertainty.available && result.uncertainty.residual_sigma_px > 0.0)
+      threshold = std::min(threshold, std::max(options.min_inlier_threshold_px,
+                                               options.inlier_sigmas * result.uncertainty.residual_sigma_px));
     std::vector<bool> judged(selected.lines.size());
     for (size_t i = 0; i < selected.lines.size(); ++i)
-      judged[i] = lineError(result.camera, selected.lines[i]) < options.ransac_options.inlier_threshold_px;
+      judged[i] = lineError(result.camera, selected.lines[i]) < threshold;
     if (judged == result.inlier_lines || std::count(judged.begin(), judged.end(), true) < static_cast<long>(minimal))
       break;
     result.inlier_lines = judged;

@@ -8,34 +8,51 @@
 #include <opencv2/imgcodecs.hpp>
 #include <tf2_eigen/tf2_eigen.h>
 #include <visualization_msgs/MarkerArray.h>
+#include <yaml-cpp/yaml.h>
 
 #include "insitu_calibration/ros/conversions.h"
+#include "insitu_calibration/survey/camera_config.h"
 #include "insitu_calibration/survey/overlay.h"
 
 namespace insitu_calibration
 {
 namespace
 {
-// XmlRpc numbers may be written as integers or doubles.
-bool toDouble(XmlRpc::XmlRpcValue& value, double* out)
+// The parameter server's XmlRpc value as YAML text, for the core's configuration parser.
+void emitYaml(XmlRpc::XmlRpcValue& value, YAML::Emitter* out)
 {
-  if (value.getType() == XmlRpc::XmlRpcValue::TypeDouble)
-    *out = static_cast<double>(value);
-  else if (value.getType() == XmlRpc::XmlRpcValue::TypeInt)
-    *out = static_cast<int>(value);
-  else
-    return false;
-  return true;
-}
-
-bool toVector3(XmlRpc::XmlRpcValue& value, Eigen::Vector3d* out)
-{
-  if (value.getType() != XmlRpc::XmlRpcValue::TypeArray || value.size() != 3)
-    return false;
-  for (int i = 0; i < 3; ++i)
-    if (!toDouble(value[i], &(*out)(i)))
-      return false;
-  return true;
+  switch (value.getType())
+  {
+    case XmlRpc::XmlRpcValue::TypeArray:
+      *out << YAML::BeginSeq;
+      for (int i = 0; i < value.size(); ++i)
+        emitYaml(value[i], out);
+      *out << YAML::EndSeq;
+      break;
+    case XmlRpc::XmlRpcValue::TypeStruct:
+      *out << YAML::BeginMap;
+      for (auto& member : value)
+      {
+        *out << YAML::Key << member.first << YAML::Value;
+        emitYaml(member.second, out);
+      }
+      *out << YAML::EndMap;
+      break;
+    case XmlRpc::XmlRpcValue::TypeInt:
+      *out << static_cast<int>(value);
+      break;
+    case XmlRpc::XmlRpcValue::TypeDouble:
+      *out << static_cast<double>(value);
+      break;
+    case XmlRpc::XmlRpcValue::TypeBoolean:
+      *out << static_cast<bool>(value);
+      break;
+    case XmlRpc::XmlRpcValue::TypeString:
+      *out << YAML::DoubleQuoted << static_cast<std::string>(value);
+      break;
+    default:
+      *out << YAML::Null;
+  }
 }
 
 std::string defaultOutputDirectory()
@@ -54,13 +71,6 @@ std::string expandHome(const std::string& path)
     return std::string(home ? home : "") + path.substr(1);
   }
   return path;
-}
-
-// The calibrated CameraInfo topic beside the image topic: /fixed/cam/image_raw -> /fixed/cam/camera_info_calibrated.
-std::string calibratedInfoTopic(const std::string& image_topic)
-{
-  const auto slash = image_topic.rfind('/');
-  return (slash == std::string::npos ? std::string() : image_topic.substr(0, slash)) + "/camera_info_calibrated";
 }
 
 geometry_msgs::Point toPoint(const Eigen::Vector3d& p)
@@ -97,16 +107,13 @@ visualization_msgs::Marker lineList(const std::string& frame, const std::string&
 }  // namespace
 
 CalibrationServer::CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private_nh)
-  : nh_(nh), private_nh_(private_nh), it_(nh), tf_listener_(tf_buffer_)
+    : nh_(nh), private_nh_(private_nh), it_(nh), tf_listener_(tf_buffer_)
 {
   if (!loadParameters())
   {
     ros::shutdown();
     return;
   }
-  extractor_ = std::make_unique<RgbdLineExtractor>(rgbd_options_);
-  line_map_ = LineMap(map_options_);
-  keyframes_ = KeyframeSelector(keyframe_options_);
 
   // The Xtion, with openni2_launch's names (remap them to another camera).
   rgb_subscriber_.subscribe(nh_, "camera/rgb/image_raw", 5);
@@ -114,18 +121,16 @@ CalibrationServer::CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private
   info_subscriber_.subscribe(nh_, "camera/rgb/camera_info", 5);
   synchronizer_ = std::make_unique<message_filters::Synchronizer<SyncPolicy>>(SyncPolicy(10), rgb_subscriber_,
                                                                               depth_subscriber_, info_subscriber_);
-  synchronizer_->registerCallback(
-      boost::bind(&CalibrationServer::rgbdCallback, this, boost::placeholders::_1, boost::placeholders::_2,
-                  boost::placeholders::_3));
+  synchronizer_->registerCallback(boost::bind(&CalibrationServer::rgbdCallback, this, boost::placeholders::_1,
+                                              boost::placeholders::_2, boost::placeholders::_3));
 
   image_transport::ImageTransport private_it(private_nh_);
   for (auto& [name, camera] : cameras_)
   {
     const std::string camera_name = name;
-    camera.subscriber = it_.subscribe(camera.core->config().image_topic, 2,
-                                      [this, camera_name](const sensor_msgs::ImageConstPtr& image) {
-                                        fixedImageCallback(camera_name, image);
-                                      });
+    camera.subscriber = it_.subscribe(
+        survey_->camera(name).config().image_topic, 2,
+        [this, camera_name](const sensor_msgs::ImageConstPtr& image) { fixedImageCallback(camera_name, image); });
     camera.overlay_publisher = private_it.advertise(name + "/overlay", 1, true);
   }
   marker_publisher_ = private_nh_.advertise<visualization_msgs::MarkerArray>("markers", 1, true);
@@ -150,99 +155,54 @@ bool CalibrationServer::loadParameters()
   private_nh_.param<std::string>("output_directory", output_directory_, defaultOutputDirectory());
   output_directory_ = expandHome(output_directory_);
   private_nh_.param("tf_timeout", tf_timeout_s_, 0.2);
-  private_nh_.param("fixed_image_period", fixed_image_period_s_, 0.5);
-  private_nh_.param("min_map_support", min_map_support_, 2);
-  private_nh_.param("keyframe/min_translation", keyframe_options_.min_translation_m, 0.10);
-  private_nh_.param("keyframe/min_rotation_deg", keyframe_options_.min_rotation_deg, 5.0);
+  SurveyOptions options;
+  private_nh_.param("fixed_image_period", options.fixed_image_period_s, 0.5);
+  private_nh_.param("min_map_support", options.min_map_support, 2);
+  private_nh_.param("keyframe/min_translation", options.keyframes.min_translation_m, 0.10);
+  private_nh_.param("keyframe/min_rotation_deg", options.keyframes.min_rotation_deg, 5.0);
+  FixedCameraOptions& camera_options = options.cameras;
   int median_images = 15;
   private_nh_.param("median_images", median_images, 15);
-  camera_options_.median_images = static_cast<size_t>(std::max(1, median_images));
-  private_nh_.param("max_rms_px", camera_options_.max_rms_px, 1.5);
-  private_nh_.param("min_focal_ratio", camera_options_.min_focal_ratio, 0.2);
-  private_nh_.param("max_focal_ratio", camera_options_.max_focal_ratio, 10.0);
+  camera_options.median_images = static_cast<size_t>(std::max(1, median_images));
+  private_nh_.param("max_rms_px", camera_options.max_rms_px, 1.5);
+  private_nh_.param("min_focal_ratio", camera_options.min_focal_ratio, 0.2);
+  private_nh_.param("max_focal_ratio", camera_options.max_focal_ratio, 10.0);
   int min_matched = 8;
   private_nh_.param("min_matched_lines", min_matched, 8);
-  camera_options_.min_matched_lines = static_cast<size_t>(std::max(6, min_matched));
-  private_nh_.param("ransac_threshold_px", camera_options_.matcher.calibration.ransac_options.inlier_threshold_px, 3.0);
-  bool refine = true;
-  private_nh_.param("refine", refine, true);
-  camera_options_.matcher.calibration.refine = refine;
-  bool ransac = true;
-  private_nh_.param("ransac", ransac, true);
-  camera_options_.matcher.calibration.ransac = ransac;
+  camera_options.min_matched_lines = static_cast<size_t>(std::max(6, min_matched));
+  CalibrationOptions& calibration = camera_options.matcher.calibration;
+  private_nh_.param("ransac_threshold_px", calibration.ransac_options.inlier_threshold_px, 3.0);
+  private_nh_.param("refine", calibration.refine, true);
+  private_nh_.param("ransac", calibration.ransac, true);
 
   XmlRpc::XmlRpcValue cameras;
-  if (!private_nh_.getParam("cameras", cameras) || cameras.getType() != XmlRpc::XmlRpcValue::TypeArray ||
-      cameras.size() == 0)
+  if (!private_nh_.getParam("cameras", cameras))
   {
-    ROS_FATAL("calibration_node: the private parameter ~cameras (a list of fixed cameras) is missing or empty; load "
-              "a configuration such as config/cameras.yaml (survey.launch's cameras argument)");
+    ROS_FATAL(
+        "calibration_node: the private parameter ~cameras (a list of fixed cameras) is missing; load a "
+        "configuration such as config/cameras.yaml (survey.launch's cameras argument)");
     return false;
   }
-  for (int i = 0; i < cameras.size(); ++i)
+  YAML::Emitter yaml;
+  yaml.SetDoublePrecision(15);
+  emitYaml(cameras, &yaml);
+  const auto configs = parseCameraConfig(yaml.c_str());
+  if (!configs)
   {
-    XmlRpc::XmlRpcValue& c = cameras[i];
-    const std::string where = "~cameras[" + std::to_string(i) + "]";
-    if (c.getType() != XmlRpc::XmlRpcValue::TypeStruct || !c.hasMember("name"))
-    {
-      ROS_FATAL_STREAM("calibration_node: " << where << " needs at least a name");
-      return false;
-    }
-    FixedCameraConfig config;
-    config.name = static_cast<std::string>(c["name"]);
-    config.image_topic = c.hasMember("image_topic") ? static_cast<std::string>(c["image_topic"])
-                                                    : "/fixed/" + config.name + "/image_raw";
-    if (c.hasMember("image_width"))
-      config.image_width = static_cast<int>(c["image_width"]);
-    if (c.hasMember("image_height"))
-      config.image_height = static_cast<int>(c["image_height"]);
-    if (c.hasMember("correspondence_file"))
-      config.correspondence_file = expandHome(static_cast<std::string>(c["correspondence_file"]));
-    if (c.hasMember("prior"))
-    {
-      XmlRpc::XmlRpcValue& p = c["prior"];
-      CameraPrior prior;
-      bool ok = p.getType() == XmlRpc::XmlRpcValue::TypeStruct && p.hasMember("position") &&
-                p.hasMember("direction") && p.hasMember("horizontal_fov_deg") &&
-                toVector3(p["position"], &prior.position) && toVector3(p["direction"], &prior.direction) &&
-                toDouble(p["horizontal_fov_deg"], &prior.horizontal_fov_deg);
-      if (ok && p.hasMember("position_sigma_m"))
-        ok = toDouble(p["position_sigma_m"], &prior.position_sigma_m);
-      if (ok && p.hasMember("direction_sigma_deg"))
-        ok = toDouble(p["direction_sigma_deg"], &prior.direction_sigma_deg);
-      if (ok && p.hasMember("fov_sigma_relative"))
-        ok = toDouble(p["fov_sigma_relative"], &prior.fov_sigma_relative);
-      if (ok && p.hasMember("roll_deg"))
-        ok = toDouble(p["roll_deg"], &prior.roll_deg);
-      if (!ok)
-      {
-        ROS_FATAL_STREAM("calibration_node: " << where << ".prior needs position [x, y, z], direction [x, y, z] and "
-                                              << "horizontal_fov_deg (optional: position_sigma_m, "
-                                              << "direction_sigma_deg, fov_sigma_relative, roll_deg), all numbers");
-        return false;
-      }
-      config.prior = prior;
-    }
-    if (const Status valid = config.validate(); !valid)
-    {
-      ROS_FATAL_STREAM("calibration_node: " << where << ": " << valid.error().message());
-      return false;
-    }
-    if (cameras_.count(config.name))
-    {
-      ROS_FATAL_STREAM("calibration_node: two cameras are named '" << config.name << "'");
-      return false;
-    }
-    Camera camera;
-    camera.link_frame = config.name + "_link";
-    camera.optical_frame = config.name + "_optical_frame";
-    const std::string info_topic = c.hasMember("calibrated_info_topic")
-                                       ? static_cast<std::string>(c["calibrated_info_topic"])
-                                       : calibratedInfoTopic(config.image_topic);
-    camera.info_publisher = nh_.advertise<sensor_msgs::CameraInfo>(info_topic, 1, true);
-    camera.core = std::make_unique<FixedCamera>(config, camera_options_);
-    cameras_.emplace(config.name, std::move(camera));
+    ROS_FATAL_STREAM("calibration_node: ~" << configs.error().message());
+    return false;
   }
+  std::vector<FixedCameraConfig> fixed;
+  for (const CameraConfigEntry& entry : *configs)
+  {
+    Camera camera;
+    camera.link_frame = entry.camera.name + "_link";
+    camera.optical_frame = entry.camera.name + "_optical_frame";
+    camera.info_publisher = nh_.advertise<sensor_msgs::CameraInfo>(entry.calibrated_info_topic, 1, true);
+    cameras_.emplace(entry.camera.name, std::move(camera));
+    fixed.push_back(entry.camera);
+  }
+  survey_ = std::make_unique<Survey>(fixed, options);
   return true;
 }
 
@@ -252,89 +212,43 @@ void CalibrationServer::rgbdCallback(const sensor_msgs::ImageConstPtr& rgb, cons
   geometry_msgs::TransformStamped pose;
   try
   {
-    pose = tf_buffer_.lookupTransform(world_frame_, rgb->header.frame_id, rgb->header.stamp,
-                                      ros::Duration(tf_timeout_s_));
+    pose =
+        tf_buffer_.lookupTransform(world_frame_, rgb->header.frame_id, rgb->header.stamp, ros::Duration(tf_timeout_s_));
   }
   catch (const tf2::TransformException& e)
   {
-    ROS_WARN_THROTTLE(5.0, "calibration_node: skipping RGB-D frames: no pose of '%s' in '%s' at their stamp (%s). "
-                           "Is the robot localised (map -> odom -> base_link) and the Xtion's tf published?",
+    ROS_WARN_THROTTLE(5.0,
+                      "calibration_node: skipping RGB-D frames: no pose of '%s' in '%s' at their stamp (%s). "
+                      "Is the robot localised (map -> odom -> base_link) and the Xtion's tf published?",
                       rgb->header.frame_id.c_str(), world_frame_.c_str(), e.what());
     return;
   }
-  RgbdFrame frame;
-  try
+  auto converted = toRgbdFrame(*rgb, *depth, *info, tf2::transformToEigen(pose));
+  if (!converted)
   {
-    frame.rgb = cv_bridge::toCvShare(rgb, "bgr8")->image;
-    frame.depth = cv_bridge::toCvShare(depth)->image;
-  }
-  catch (const cv_bridge::Exception& e)
-  {
-    ROS_WARN_THROTTLE(5.0, "calibration_node: skipping RGB-D frames: cannot convert the images (%s)", e.what());
+    ROS_WARN_THROTTLE(5.0, "calibration_node: skipping RGB-D frames: %s", converted.error().message().c_str());
     return;
   }
-  frame.camera.width = static_cast<int>(info->width);
-  frame.camera.height = static_cast<int>(info->height);
-  frame.camera.intrinsics = Intrinsics::fromMatrix(Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(
-      info->K.data()));
-  if (info->distortion_model == "plumb_bob" && info->D.size() >= 5)
-    for (int i = 0; i < 5; ++i)
-      frame.camera.plumb_bob[i] = info->D[i];
-  frame.T_map_camera = tf2::transformToEigen(pose);
-  frame.stamp = rgb->header.stamp.toSec();
+  const RgbdFrame& frame = *converted;
 
   std::lock_guard<std::mutex> lock(mutex_);
-  ++frames_;
-  if (const Status valid = validateFrame(frame); !valid)
-  {
-    ROS_WARN_THROTTLE(5.0, "calibration_node: skipping an RGB-D frame: %s", valid.error().message().c_str());
-    return;
-  }
-  if (!keyframes_.accept(frame.T_map_camera, frame.stamp))
-    return;
-  RgbdLineStats stats;
-  const auto lines = extractor_->extract(frame, &stats);
-  if (!lines)
-  {
-    ROS_WARN_THROTTLE(5.0, "calibration_node: skipping an RGB-D frame: %s", lines.error().message().c_str());
-    return;
-  }
-  line_map_.insert(*lines);
-  ++keyframes_used_;
-  ROS_DEBUG("calibration_node: keyframe %zu: %zu 3D lines, map %zu lines", keyframes_used_, lines->size(),
-            line_map_.size());
+  const auto used = survey_->addRgbdFrame(frame);
+  if (!used)
+    ROS_WARN_THROTTLE(5.0, "calibration_node: skipping an RGB-D frame: %s", used.error().message().c_str());
 }
 
 void CalibrationServer::fixedImageCallback(const std::string& name, const sensor_msgs::ImageConstPtr& image)
 {
+  const auto grey = toGrey(*image);
+  if (!grey)
+  {
+    ROS_WARN_THROTTLE(5.0, "calibration_node: camera '%s': %s", name.c_str(), grey.error().message().c_str());
+    return;
+  }
   std::lock_guard<std::mutex> lock(mutex_);
-  Camera& camera = cameras_.at(name);
-  const ros::Time stamp = image->header.stamp;
-  // One image per period is enough for the median; a clock that went back (a bag restarted) starts over.
-  if (!camera.last_image.isZero() && stamp >= camera.last_image &&
-      (stamp - camera.last_image).toSec() < fixed_image_period_s_)
-    return;
-  camera.last_image = stamp;
-  cv::Mat grey;
-  try
-  {
-    grey = cv_bridge::toCvShare(image, "mono8")->image;
-  }
-  catch (const cv_bridge::Exception& e)
-  {
-    ROS_WARN_THROTTLE(5.0, "calibration_node: camera '%s': cannot convert its image (%s)", name.c_str(), e.what());
-    return;
-  }
-  if (const Status added = camera.core->addImage(grey); !added)
-    ROS_WARN_THROTTLE(5.0, "calibration_node: %s", added.error().message().c_str());
-}
-
-std::vector<Segment3d> CalibrationServer::mapSegments() const
-{
-  std::vector<Segment3d> out;
-  for (const auto& line : line_map_.lines(min_map_support_))
-    out.push_back({line.a(), line.b()});
-  return out;
+  const auto added = survey_->addFixedImage(name, *grey, image->header.stamp.toSec());
+  if (!added)
+    ROS_WARN_THROTTLE(5.0, "calibration_node: camera '%s': %s", name.c_str(), added.error().message().c_str());
 }
 
 std::vector<std::string> CalibrationServer::selectCameras(const std::string& name, std::string* error) const
@@ -365,16 +279,16 @@ std::string CalibrationServer::calibrationPath(const std::string& name) const
 Status CalibrationServer::saveCalibration(const std::string& name)
 {
   Camera& camera = cameras_.at(name);
-  if (!camera.core->calibration())
+  if (!survey_->camera(name).calibration())
     return Error(ErrorCode::kNotEnoughData, "camera '" + name + "' is not calibrated");
-  if (const Status saved = saveCalibrationFile(calibrationPath(name), *camera.core->calibration()); !saved)
+  if (const Status saved = saveCalibrationFile(calibrationPath(name), *survey_->camera(name).calibration()); !saved)
     return saved;
   // The overlay beside the YAML, for people.
-  const CalibrationFile& file = *camera.core->calibration();
-  const auto last = camera.core->lastResult();
-  const cv::Mat overlay =
-      drawOverlay(camera.core->medianImage(), file.image_width, file.image_height, file.camera, mapSegments(),
-                  last ? last->matched_image_lines : std::vector<std::vector<Eigen::Vector2d>>{});
+  const CalibrationFile& file = *survey_->camera(name).calibration();
+  const auto last = survey_->camera(name).lastResult();
+  const cv::Mat overlay = drawOverlay(survey_->camera(name).medianImage(), file.image_width, file.image_height,
+                                      file.camera, survey_->mapSegments(),
+                                      last ? last->matched_image_lines : std::vector<std::vector<Eigen::Vector2d>>{});
   const std::string png = output_directory_ + "/" + name + "_overlay.png";
   const std::string temp = output_directory_ + "/." + name + "_overlay.tmp.png";
   if (!cv::imwrite(temp, overlay) || std::rename(temp.c_str(), png.c_str()) != 0)
@@ -393,12 +307,12 @@ bool CalibrationServer::calibrateService(Calibrate::Request& request, Calibrate:
     response.message = error;
     return true;
   }
-  const std::vector<Segment3d> map = mapSegments();
+  const std::vector<Segment3d> map = survey_->mapSegments();
   response.success = true;
   for (const auto& name : names)
   {
     Camera& camera = cameras_.at(name);
-    const auto result = camera.core->calibrate(map, world_frame_);
+    const auto result = survey_->camera(name).calibrate(map, world_frame_);
     if (!result)
     {
       insitu_calibration::CalibrationResult failed;
@@ -411,7 +325,6 @@ bool CalibrationServer::calibrateService(Calibrate::Request& request, Calibrate:
       ROS_WARN_STREAM("calibration_node: " << name << ": calibration failed: " << result.error().describe());
       continue;
     }
-    last_calibrations_[name] = result->calibration;
     auto msg = toResultMsg(result->file, &result->calibration, world_frame_);
     msg.message = result->summary;
     response.results.push_back(msg);
@@ -441,14 +354,16 @@ bool CalibrationServer::statusService(CalibrationStatus::Request& request, Calib
     response.message = error;
     return true;
   }
-  const std::vector<Segment3d> map = mapSegments();
+  const std::vector<Segment3d> map = survey_->mapSegments();
   response.success = true;
-  response.message = std::to_string(frames_) + " RGB-D frames received, " + std::to_string(keyframes_used_) +
-                     " keyframes used, " + std::to_string(line_map_.size()) + " map lines (" +
-                     std::to_string(map.size()) + " seen at least " + std::to_string(min_map_support_) + " times)";
+  const SurveyStats& stats = survey_->stats();
+  response.message = std::to_string(stats.frames) + " RGB-D frames received, " + std::to_string(stats.keyframes) +
+                     " keyframes used, " + std::to_string(survey_->lineMap().size()) + " map lines (" +
+                     std::to_string(map.size()) + " seen at least " +
+                     std::to_string(survey_->options().min_map_support) + " times)";
   for (const auto& name : names)
   {
-    const FixedCameraStatus s = cameras_.at(name).core->status(map);
+    const FixedCameraStatus s = survey_->camera(name).status(map);
     CameraStatus msg;
     msg.camera_name = name;
     msg.has_image = s.has_image;
@@ -471,12 +386,7 @@ bool CalibrationServer::resetService(Reset::Request& request, Reset::Response& r
   std::lock_guard<std::mutex> lock(mutex_);
   if (request.camera.empty())
   {
-    for (auto& [name, camera] : cameras_)
-      camera.core->reset();
-    last_calibrations_.clear();
-    line_map_.clear();
-    keyframes_.reset();
-    keyframes_used_ = 0;
+    survey_->reset();
     response.success = true;
     response.message = "reset every camera and the 3D line map (saved files are kept)";
     return true;
@@ -488,8 +398,7 @@ bool CalibrationServer::resetService(Reset::Request& request, Reset::Response& r
     response.message = error;
     return true;
   }
-  cameras_.at(request.camera).core->reset();
-  last_calibrations_.erase(request.camera);
+  survey_->resetCamera(request.camera);
   response.success = true;
   response.message = "reset camera '" + request.camera + "' (its saved file is kept)";
   return true;
@@ -502,7 +411,7 @@ bool CalibrationServer::saveService(std_srvs::Trigger::Request&, std_srvs::Trigg
   size_t saved = 0;
   for (const auto& [name, camera] : cameras_)
   {
-    if (!camera.core->calibration())
+    if (!survey_->camera(name).calibration())
       continue;
     if (const Status s = saveCalibration(name); !s)
     {
@@ -522,7 +431,7 @@ void CalibrationServer::publishCalibrations()
   const ros::Time now = ros::Time::now();
   for (auto& [name, camera] : cameras_)
   {
-    const auto& calibration = camera.core->calibration();
+    const auto& calibration = survey_->camera(name).calibration();
     if (!calibration)
       continue;
     const auto t = cameraTransforms(*calibration, world_frame_, camera.link_frame, camera.optical_frame, now);
@@ -530,9 +439,9 @@ void CalibrationServer::publishCalibrations()
     sensor_msgs::CameraInfo info = toCameraInfo(*calibration, camera.optical_frame);
     info.header.stamp = now;
     camera.info_publisher.publish(info);
-    const auto last = camera.core->lastResult();
-    const cv::Mat overlay = drawOverlay(camera.core->medianImage(), calibration->image_width,
-                                        calibration->image_height, calibration->camera, mapSegments(),
+    const auto last = survey_->camera(name).lastResult();
+    const cv::Mat overlay = drawOverlay(survey_->camera(name).medianImage(), calibration->image_width,
+                                        calibration->image_height, calibration->camera, survey_->mapSegments(),
                                         last ? last->matched_image_lines : std::vector<std::vector<Eigen::Vector2d>>{});
     std_msgs::Header header;
     header.stamp = now;
@@ -548,13 +457,13 @@ void CalibrationServer::publishCalibrations()
 void CalibrationServer::publishMarkers()
 {
   visualization_msgs::MarkerArray markers;
-  markers.markers.push_back(lineList(world_frame_, "line_map", 0, mapSegments(), 0.75f, 0.75f, 0.75f, 0.01));
+  markers.markers.push_back(lineList(world_frame_, "line_map", 0, survey_->mapSegments(), 0.75f, 0.75f, 0.75f, 0.01));
   int id = 0;
   for (const auto& [name, camera] : cameras_)
   {
     ++id;
-    const auto& calibration = camera.core->calibration();
-    const auto last = camera.core->lastResult();
+    const auto& calibration = survey_->camera(name).calibration();
+    const auto last = survey_->camera(name).lastResult();
     markers.markers.push_back(lineList(world_frame_, "matched", id,
                                        last ? last->matched_map_lines : std::vector<Segment3d>{}, 0.2f, 0.9f, 0.2f,
                                        0.02));
@@ -592,20 +501,20 @@ void CalibrationServer::loadSavedCalibrations()
     const auto file = loadCalibrationFile(path);
     if (!file)
     {
-      ROS_WARN_STREAM("calibration_node: ignoring the saved calibration of '" << name << "': "
-                                                                              << file.error().describe());
+      ROS_WARN_STREAM("calibration_node: ignoring the saved calibration of '" << name
+                                                                              << "': " << file.error().describe());
       continue;
     }
-    if (file->image_width != camera.core->config().image_width ||
-        file->image_height != camera.core->config().image_height)
+    if (file->image_width != survey_->camera(name).config().image_width ||
+        file->image_height != survey_->camera(name).config().image_height)
     {
       ROS_WARN_STREAM("calibration_node: ignoring " << path << ": it is for a " << file->image_width << "x"
                                                     << file->image_height << " image, the camera is configured "
-                                                    << camera.core->config().image_width << "x"
-                                                    << camera.core->config().image_height);
+                                                    << survey_->camera(name).config().image_width << "x"
+                                                    << survey_->camera(name).config().image_height);
       continue;
     }
-    camera.core->setCalibration(*file);
+    survey_->camera(name).setCalibration(*file);
     ++loaded;
     ROS_INFO_STREAM("calibration_node: loaded the calibration of '" << name << "' from " << path);
   }

@@ -1,5 +1,6 @@
 #include "insitu_calibration/ros/conversions.h"
 
+#include <cv_bridge/cv_bridge.h>
 #include <tf2_eigen/tf2_eigen.h>
 
 namespace insitu_calibration
@@ -121,6 +122,44 @@ insitu_calibration::CalibrationResult toResultMsg(const CalibrationFile& file, c
 Eigen::Isometry3d toEigen(const geometry_msgs::Transform& transform)
 {
   return tf2::transformToEigen(transform);
+}
+
+Expected<RgbdFrame> toRgbdFrame(const sensor_msgs::Image& rgb, const sensor_msgs::Image& depth,
+                                const sensor_msgs::CameraInfo& info, const Eigen::Isometry3d& T_map_camera)
+{
+  RgbdFrame frame;
+  try
+  {
+    // Copies: the frame outlives the messages in offline use.
+    frame.rgb = cv_bridge::toCvCopy(rgb, "bgr8")->image;
+    frame.depth = cv_bridge::toCvCopy(depth)->image;
+  }
+  catch (const cv_bridge::Exception& e)
+  {
+    return Error(ErrorCode::kInvalidInput, std::string("cannot convert the RGB-D images: ") + e.what());
+  }
+  frame.camera.width = static_cast<int>(info.width);
+  frame.camera.height = static_cast<int>(info.height);
+  frame.camera.intrinsics =
+      Intrinsics::fromMatrix(Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(info.K.data()));
+  if (info.distortion_model == "plumb_bob" && info.D.size() >= 5)
+    for (int i = 0; i < 5; ++i)
+      frame.camera.plumb_bob[i] = info.D[i];
+  frame.T_map_camera = T_map_camera;
+  frame.stamp = rgb.header.stamp.toSec();
+  return frame;
+}
+
+Expected<cv::Mat> toGrey(const sensor_msgs::Image& image)
+{
+  try
+  {
+    return cv_bridge::toCvCopy(image, "mono8")->image;
+  }
+  catch (const cv_bridge::Exception& e)
+  {
+    return Error(ErrorCode::kInvalidInput, std::string("cannot convert the image to grey: ") + e.what());
+  }
 }
 
 }  // namespace insitu_calibration

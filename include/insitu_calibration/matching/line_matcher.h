@@ -44,8 +44,13 @@ struct LineMatcherOptions
   double min_overlap = 0.3;           // fraction of the image line's length the projected 3D line must cover
   double min_image_length_px = 30.0;  // shorter image lines are not matched
   int world_points_per_line = 6;      // samples along the visible part of a matched 3D line
+  // Ambiguity: an image line whose second-best 3D line is not worse by max(50 %, min_separation_px) is not matched,
+  // unless both are within near_duplicate_px (the map holding one edge twice).
+  double min_separation_px = 1.0;
+  double near_duplicate_px = 1.5;
   int max_iterations = 10;
-  int search_steps = 9;  // per dimension of the prior search (odd: includes the prior itself)
+  int search_steps = 9;   // per dimension of the prior search (odd: includes the prior itself)
+  int search_starts = 4;  // distinct search results each refined; the one explaining most image lines wins
   CalibrationOptions calibration;
 };
 

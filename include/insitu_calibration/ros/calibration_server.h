@@ -26,10 +26,7 @@
 #include "insitu_calibration/Calibrate.h"
 #include "insitu_calibration/Reset.h"
 #include "insitu_calibration/CalibrationStatus.h"
-#include "insitu_calibration/lines/line_map.h"
-#include "insitu_calibration/lines/rgbd_lines.h"
-#include "insitu_calibration/survey/fixed_camera.h"
-#include "insitu_calibration/survey/keyframe_selector.h"
+#include "insitu_calibration/survey/survey.h"
 
 namespace insitu_calibration
 {
@@ -39,13 +36,12 @@ public:
   CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private_nh);
 
 private:
+  // The ROS side of a fixed camera; its core is survey_->camera(name).
   struct Camera
   {
-    std::unique_ptr<FixedCamera> core;
     image_transport::Subscriber subscriber;
     ros::Publisher info_publisher;
     image_transport::Publisher overlay_publisher;
-    ros::Time last_image;
     std::string link_frame;
     std::string optical_frame;
   };
@@ -65,7 +61,6 @@ private:
   void publishMarkers();
   void loadSavedCalibrations();
   Status saveCalibration(const std::string& name);
-  std::vector<Segment3d> mapSegments() const;
   std::string calibrationPath(const std::string& name) const;
   std::vector<std::string> selectCameras(const std::string& name, std::string* error) const;
 
@@ -94,22 +89,11 @@ private:
   std::string world_frame_;
   std::string output_directory_;
   double tf_timeout_s_ = 0.2;
-  double fixed_image_period_s_ = 0.5;
-  int min_map_support_ = 2;
-  KeyframeOptions keyframe_options_;
-  FixedCameraOptions camera_options_;
-  RgbdLineOptions rgbd_options_;
-  LineMapOptions map_options_;
 
   // State, guarded by mutex_ (callbacks run on an AsyncSpinner's threads).
   mutable std::mutex mutex_;
-  std::unique_ptr<RgbdLineExtractor> extractor_;
-  LineMap line_map_;
-  KeyframeSelector keyframes_;
+  std::unique_ptr<Survey> survey_;
   std::map<std::string, Camera> cameras_;
-  std::map<std::string, CameraCalibration> last_calibrations_;
-  size_t frames_ = 0;
-  size_t keyframes_used_ = 0;
 };
 
 }  // namespace insitu_calibration

@@ -7,10 +7,12 @@
 
 #include <geometry_msgs/TransformStamped.h>
 #include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
 
 #include "insitu_calibration/CalibrationResult.h"
 #include "insitu_calibration/calibration.h"
 #include "insitu_calibration/io/calibration_file.h"
+#include "insitu_calibration/lines/rgbd_frame.h"
 
 namespace insitu_calibration
 {
@@ -31,6 +33,14 @@ insitu_calibration::CalibrationResult toResultMsg(const CalibrationFile& file, c
                                                   const std::string& world_frame);
 
 Eigen::Isometry3d toEigen(const geometry_msgs::Transform& transform);
+
+// An RGB-D frame of the core from the Xtion's messages and the optical frame's pose in the map. Errors: images that
+// cv_bridge cannot convert (kInvalidInput); the frame's content is checked by the core (validateFrame).
+Expected<RgbdFrame> toRgbdFrame(const sensor_msgs::Image& rgb, const sensor_msgs::Image& depth,
+                                const sensor_msgs::CameraInfo& info, const Eigen::Isometry3d& T_map_camera);
+
+// An 8-bit grey image of a fixed camera's message. Errors: an encoding cv_bridge cannot convert.
+Expected<cv::Mat> toGrey(const sensor_msgs::Image& image);
 
 }  // namespace insitu_calibration
 

@@ -167,9 +167,11 @@ CameraModel cameraOf(const CameraPrior& prior, int width, int height, const Sear
   return cameraFromPrior(p, width, height, s.yaw, s.pitch, s.fov_scale);
 }
 
-// A grid over yaw, pitch and field of view within 1.5 sigma, then a pattern search over all seven values.
-CameraModel searchPrior(const std::vector<Segment3d>& map_lines, const std::vector<ImageChord>& image,
-                        const CameraPrior& prior, int width, int height, int steps)
+// A grid over yaw, pitch and field of view within 1.5 sigma; the `starts` best distinct cells are then each refined
+// by a pattern search over all seven values (repetitive structure such as a row of windows gives several local
+// optima, and the best grid cell is not always the right one).
+std::vector<CameraModel> searchPrior(const std::vector<Segment3d>& map_lines, const std::vector<ImageChord>& image,
+                                     const CameraPrior& prior, int width, int height, int steps, int starts)
 {
   const double angle_range = 1.5 * prior.direction_sigma_deg;
   const double fov_range = 1.5 * prior.fov_sigma_relative;
@@ -179,8 +181,7 @@ CameraModel searchPrior(const std::vector<Segment3d>& map_lines, const std::vect
   // Coarse: the angle tolerance covers what the grid spacing leaves.
   const double coarse_angle = std::max(5.0, 1.5 * angle_step);
   const double cap = 0.08 * std::hypot(width, height);
-  SearchState best;
-  double best_score = std::numeric_limits<double>::infinity();
+  std::vector<std::pair<double, SearchState>> grid;
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < n; ++j)
       for (int k = 0; k < n; ++k)
@@ -191,65 +192,109 @@ CameraModel searchPrior(const std::vector<Segment3d>& map_lines, const std::vect
         s.fov_scale = 1.0 - fov_range + k * fov_step;
         const double score =
             searchScore(cameraOf(prior, width, height, s), map_lines, image, width, height, coarse_angle, cap);
-        if (score < best_score)
-        {
-          best_score = score;
-          best = s;
-        }
+        grid.emplace_back(score, s);
       }
-  // Pattern search: try +-step on each value, keep improvements, halve the steps when none helps.
-  double steps_now[7] = {angle_step / 2,
-                         angle_step / 2,
-                         angle_step / 2,
-                         fov_step / 2,
-                         prior.position_sigma_m / 2,
-                         prior.position_sigma_m / 2,
-                         prior.position_sigma_m / 2};
-  double tolerance = coarse_angle;
-  for (int round = 0; round < 6; ++round)
+  std::sort(grid.begin(), grid.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<SearchState> seeds;
+  for (const auto& [score, s] : grid)
   {
-    tolerance = std::max(3.0, tolerance * 0.75);
-    best_score = searchScore(cameraOf(prior, width, height, best), map_lines, image, width, height, tolerance, cap);
-    bool improved = true;
-    for (int sweep = 0; sweep < 8 && improved; ++sweep)
-    {
-      improved = false;
-      for (int v = 0; v < 7; ++v)
-        for (double sign : {-1.0, 1.0})
-        {
-          SearchState s = best;
-          const double d = sign * steps_now[v];
-          switch (v)
-          {
-            case 0:
-              s.yaw += d;
-              break;
-            case 1:
-              s.pitch += d;
-              break;
-            case 2:
-              s.roll += d;
-              break;
-            case 3:
-              s.fov_scale += d;
-              break;
-            default:
-              s.offset(v - 4) += d;
-          }
-          const double score =
-              searchScore(cameraOf(prior, width, height, s), map_lines, image, width, height, tolerance, cap);
-          if (score < best_score - 1e-9)
-          {
-            best_score = score;
-            best = s;
-            improved = true;
-          }
-        }
-    }
-    for (double& step : steps_now)
-      step *= 0.5;
+    const bool distinct = std::all_of(seeds.begin(), seeds.end(), [&](const SearchState& t) {
+      return std::abs(s.yaw - t.yaw) > 1.5 * angle_step || std::abs(s.pitch - t.pitch) > 1.5 * angle_step ||
+             std::abs(s.fov_scale - t.fov_scale) > 1.5 * fov_step;
+    });
+    if (distinct)
+      seeds.push_back(s);
+    if (static_cast<int>(seeds.size()) >= std::max(1, starts))
+      break;
   }
-  return cameraOf(prior, width, height, best);
+  std::vector<CameraModel> cameras;
+  for (SearchState best : seeds)
+  {
+    double best_score = std::numeric_limits<double>::infinity();
+    // Pattern search: try +-step on each value, keep improvements, halve the steps when none helps.
+    double steps_now[7] = {angle_step / 2,
+                           angle_step / 2,
+                           angle_step / 2,
+                           fov_step / 2,
+                           prior.position_sigma_m / 2,
+                           prior.position_sigma_m / 2,
+                           prior.position_sigma_m / 2};
+    double tolerance = coarse_angle;
+    for (int round = 0; round < 6; ++round)
+    {
+      tolerance = std::max(3.0, tolerance * 0.75);
+      best_score = searchScore(cameraOf(prior, width, height, best), map_lines, image, width, height, tolerance, cap);
+      bool improved = true;
+      for (int sweep = 0; sweep < 8 && improved; ++sweep)
+      {
+        improved = false;
+        for (int v = 0; v < 7; ++v)
+          for (double sign : {-1.0, 1.0})
+          {
+            SearchState s = best;
+            const double d = sign * steps_now[v];
+            switch (v)
+            {
+              case 0:
+                s.yaw += d;
+                break;
+              case 1:
+                s.pitch += d;
+                break;
+              case 2:
+                s.roll += d;
+                break;
+              case 3:
+                s.fov_scale += d;
+                break;
+              default:
+                s.offset(v - 4) += d;
+            }
+            const double score =
+                searchScore(cameraOf(prior, width, height, s), map_lines, image, width, height, tolerance, cap);
+            if (score < best_score - 1e-9)
+            {
+              best_score = score;
+              best = s;
+              improved = true;
+            }
+          }
+      }
+      for (double& step : steps_now)
+        step *= 0.5;
+    }
+    cameras.push_back(cameraOf(prior, width, height, best));
+  }
+  return cameras;
+}
+
+// How well a camera explains the image lines: the sum over image lines of the mean distance to the nearest
+// compatible projected 3D line (through the division model), capped. Lower is better; the set of image lines is
+// the same for every candidate camera, so the sums compare.
+double explanationScore(const CameraModel& camera, const std::vector<Segment3d>& map_lines,
+                        const std::vector<ImageChord>& image, int width, int height, double min_length_px)
+{
+  constexpr double kCap = 10.0;
+  constexpr double kAngle = 3.0;
+  std::vector<ProjectedLine> projected;
+  for (const auto& s : map_lines)
+  {
+    ProjectedLine p = project(camera, s, width, height, 16);
+    if (p.visible)
+      projected.push_back(std::move(p));
+  }
+  double score = 0.0;
+  for (const auto& l : image)
+  {
+    if (l.points->size() < 2 || l.length < min_length_px)
+      continue;
+    double best = kCap;
+    for (const auto& p : projected)
+      if (angleBetween(l.direction, p.direction) <= kAngle && overlap(l, p) >= 0.3 && chordDistance(l, p) < 2.0 * kCap)
+        best = std::min(best, meanDistance(l, p));
+    score += best;
+  }
+  return score;
 }
 
 CorrespondenceSet correspondencesOf(const std::vector<LineMatch>& matches, const std::vector<Segment3d>& map_lines,
@@ -335,12 +380,15 @@ std::vector<LineMatch> matchLines(const std::vector<Segment3d>& map_lines,
   for (const auto& s : map_lines)
     projected.push_back(project(camera, s, image_width, image_height, 16));
 
-  // All compatible pairs, then greedy by distance so that each image line and each 3D line is used once.
+  // All compatible pairs, then greedy by distance so that each image line and each 3D line is used once. An image
+  // line with two candidates that fit about as well is ambiguous (repetitive texture: ceiling tiles, shelves) and
+  // left out, unless the second is within near_duplicate_px too (the same edge twice in the map).
   std::vector<LineMatch> candidates;
   for (size_t i = 0; i < image.size(); ++i)
   {
     if (image[i].points->size() < 2 || image[i].length < options.min_image_length_px)
       continue;
+    std::vector<LineMatch> own;
     for (size_t j = 0; j < projected.size(); ++j)
     {
       const ProjectedLine& p = projected[j];
@@ -351,8 +399,18 @@ std::vector<LineMatch> matchLines(const std::vector<Segment3d>& map_lines,
         continue;
       const double d = meanDistance(image[i], p);
       if (d <= max_distance_px)
-        candidates.push_back({i, j, d});
+        own.push_back({i, j, d});
     }
+    std::sort(own.begin(), own.end(),
+              [](const LineMatch& a, const LineMatch& b) { return a.distance_px < b.distance_px; });
+    if (own.size() >= 2)
+    {
+      const double best = own[0].distance_px;
+      const double second = own[1].distance_px;
+      if (second > options.near_duplicate_px && second - best < std::max(0.5 * best, options.min_separation_px))
+        continue;
+    }
+    candidates.insert(candidates.end(), own.begin(), own.end());
   }
   std::sort(candidates.begin(), candidates.end(),
             [](const LineMatch& a, const LineMatch& b) { return a.distance_px < b.distance_px; });
@@ -372,27 +430,17 @@ std::vector<LineMatch> matchLines(const std::vector<Segment3d>& map_lines,
   return matches;
 }
 
-Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_lines,
-                                            const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
-                                            const CameraPrior& prior, int image_width, int image_height,
-                                            const LineMatcherOptions& options)
+namespace
 {
-  if (map_lines.empty())
-    return Error(ErrorCode::kNotEnoughData, "the line map is empty: survey the area the camera sees first");
-  if (image_lines.empty())
-    return Error(ErrorCode::kNotEnoughData, "no lines were found in the camera's image");
-  if (image_width <= 0 || image_height <= 0)
-    return Error(ErrorCode::kInvalidInput, "the image size is not positive");
-  if (!prior.position.allFinite() || !prior.direction.allFinite() || !(prior.direction.norm() > 0.0) ||
-      !(prior.horizontal_fov_deg > 0.0 && prior.horizontal_fov_deg < 180.0))
-    return Error(ErrorCode::kInvalidInput,
-                 "the camera prior needs a finite position, a non-zero direction and a "
-                 "horizontal field of view between 0 and 180 degrees");
-
+// From one start camera: match, calibrate, re-match with tightened thresholds until the matches settle.
+Expected<LineMatchResult> refineMatches(const std::vector<Segment3d>& map_lines,
+                                        const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                                        const CameraModel& start, int image_width, int image_height,
+                                        const LineMatcherOptions& options)
+{
   LineMatchResult result;
-  const std::vector<ImageChord> image = summarize(image_lines);
-  result.search_camera = searchPrior(map_lines, image, prior, image_width, image_height, options.search_steps);
-  CameraModel camera = result.search_camera;
+  result.search_camera = start;
+  CameraModel camera = start;
   double max_distance = options.initial_max_distance_px;
   double max_angle = options.max_angle_deg;
   std::vector<LineMatch> previous;
@@ -434,13 +482,57 @@ Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_li
   }
   if (!calibrated)
     return Error(ErrorCode::kNoSolution, "no calibration could be made from the matches");
-
   result.calibration = *calibrated;
   for (size_t k = 0; k < used.size(); ++k)
     if (k < calibrated->inlier_lines.size() && calibrated->inlier_lines[k])
       result.matches.push_back(used[k]);
   result.correspondences = used_set;
   return result;
+}
+}  // namespace
+
+Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_lines,
+                                            const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                                            const CameraPrior& prior, int image_width, int image_height,
+                                            const LineMatcherOptions& options)
+{
+  if (map_lines.empty())
+    return Error(ErrorCode::kNotEnoughData, "the line map is empty: survey the area the camera sees first");
+  if (image_lines.empty())
+    return Error(ErrorCode::kNotEnoughData, "no lines were found in the camera's image");
+  if (image_width <= 0 || image_height <= 0)
+    return Error(ErrorCode::kInvalidInput, "the image size is not positive");
+  if (!prior.position.allFinite() || !prior.direction.allFinite() || !(prior.direction.norm() > 0.0) ||
+      !(prior.horizontal_fov_deg > 0.0 && prior.horizontal_fov_deg < 180.0))
+    return Error(ErrorCode::kInvalidInput,
+                 "the camera prior needs a finite position, a non-zero direction and a "
+                 "horizontal field of view between 0 and 180 degrees");
+
+  const std::vector<ImageChord> image = summarize(image_lines);
+  const std::vector<CameraModel> starts =
+      searchPrior(map_lines, image, prior, image_width, image_height, options.search_steps, options.search_starts);
+  std::optional<LineMatchResult> best;
+  double best_score = std::numeric_limits<double>::infinity();
+  std::string last_error = "no start camera";
+  for (const CameraModel& start : starts)
+  {
+    auto candidate = refineMatches(map_lines, image_lines, start, image_width, image_height, options);
+    if (!candidate)
+    {
+      last_error = candidate.error().message();
+      continue;
+    }
+    const double score = explanationScore(candidate->calibration.camera, map_lines, image, image_width, image_height,
+                                          options.min_image_length_px);
+    if (score < best_score)
+    {
+      best_score = score;
+      best = std::move(*candidate);
+    }
+  }
+  if (!best)
+    return Error(ErrorCode::kNoSolution, "no start of the prior search led to a calibration: " + last_error);
+  return *best;
 }
 
 }  // namespace insitu_calibration

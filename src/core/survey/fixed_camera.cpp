@@ -43,9 +43,9 @@ Status FixedCameraConfig::validate() const
   if (image_width <= 0 || image_height <= 0)
     return Error(ErrorCode::kInvalidInput, "camera '" + name + "': image_width and image_height must be positive");
   if (!prior && correspondence_file.empty())
-    return Error(ErrorCode::kInvalidInput,
-                 "camera '" + name + "': give either a prior (position, direction, field of view) or a "
-                                     "correspondence_file");
+    return Error(ErrorCode::kInvalidInput, "camera '" + name +
+                                               "': give either a prior (position, direction, field of view) or a "
+                                               "correspondence_file");
   return Success{};
 }
 
@@ -72,9 +72,8 @@ double imageCoverage(const std::vector<std::vector<Eigen::Vector2d>>& lines, int
 }
 
 FixedCamera::FixedCamera(const FixedCameraConfig& config, const FixedCameraOptions& options)
-  : config_(config), options_(options), median_(options.median_images)
-{
-}
+    : config_(config), options_(options), median_(options.median_images)
+{}
 
 Status FixedCamera::addImage(const cv::Mat& image)
 {
@@ -109,8 +108,8 @@ Status FixedCamera::check(const CameraCalibration& c, size_t matched_lines) cons
 {
   const Intrinsics& k = c.camera.intrinsics();
   const double w = config_.image_width;
-  if (k.fx < options_.min_focal_ratio * w || k.fx > options_.max_focal_ratio * w || k.fy < options_.min_focal_ratio * w ||
-      k.fy > options_.max_focal_ratio * w)
+  if (k.fx < options_.min_focal_ratio * w || k.fx > options_.max_focal_ratio * w ||
+      k.fy < options_.min_focal_ratio * w || k.fy > options_.max_focal_ratio * w)
     return Error(ErrorCode::kNoSolution,
                  "the focal length (" + std::to_string(k.fx) + " px) is outside the plausible range " +
                      std::to_string(options_.min_focal_ratio * w) + " .. " +
@@ -144,11 +143,10 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromFile(const std::string& wo
     return data.error();
   data->camera_name = config_.name;
   if (data->image_width != config_.image_width || data->image_height != config_.image_height)
-    return Error(ErrorCode::kInvalidInput, config_.correspondence_file + " is for a " +
-                                               std::to_string(data->image_width) + "x" +
-                                               std::to_string(data->image_height) + " image, the camera is " +
-                                               std::to_string(config_.image_width) + "x" +
-                                               std::to_string(config_.image_height));
+    return Error(ErrorCode::kInvalidInput,
+                 config_.correspondence_file + " is for a " + std::to_string(data->image_width) + "x" +
+                     std::to_string(data->image_height) + " image, the camera is " +
+                     std::to_string(config_.image_width) + "x" + std::to_string(config_.image_height));
   auto calibration = calibrateCamera(*data, options_.matcher.calibration);
   if (!calibration)
     return calibration.error();
@@ -187,8 +185,8 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
     std::vector<std::vector<Eigen::Vector2d>> polylines;
     for (const auto& l : *lines)
       polylines.push_back(l.points);
-    auto matched = matchAndCalibrate(map_lines, polylines, *config_.prior, config_.image_width,
-                                     config_.image_height, options_.matcher);
+    auto matched = matchAndCalibrate(map_lines, polylines, *config_.prior, config_.image_width, config_.image_height,
+                                     options_.matcher);
     if (!matched)
     {
       if (best)
@@ -208,9 +206,8 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
     named.camera_name = config_.name;
     result.file = toCalibrationFile(named, matched->calibration, world_frame);
     const DivisionModel next = matched->calibration.camera.distortion();
-    const double moved =
-        std::max((next.center - distortion.center).norm(),
-                 std::abs(cornerDisplacement(next) - cornerDisplacement(distortion)));
+    const double moved = std::max((next.center - distortion.center).norm(),
+                                  std::abs(cornerDisplacement(next) - cornerDisplacement(distortion)));
     best = std::move(result);
     distortion = next;
     if (moved < options_.loop_tolerance_px)
@@ -224,8 +221,8 @@ Expected<FixedCameraResult> FixedCamera::calibrate(const std::vector<Segment3d>&
 {
   if (const Status valid = config_.validate(); !valid)
     return valid.error();
-  auto result = config_.correspondence_file.empty() ? calibrateFromMap(map_lines, world_frame)
-                                                    : calibrateFromFile(world_frame);
+  auto result =
+      config_.correspondence_file.empty() ? calibrateFromMap(map_lines, world_frame) : calibrateFromFile(world_frame);
   if (!result)
     return result.error();
   if (const Status ok = check(result->calibration, result->matched_image_lines.size()); !ok)
@@ -251,11 +248,11 @@ FixedCameraStatus FixedCamera::status(const std::vector<Segment3d>& map_lines) c
       s.map_lines_visible += visibleInterval(*camera, l, config_.image_width, config_.image_height) ? 1 : 0;
   if (s.has_image && config_.correspondence_file.empty())
   {
-    const auto lines = extractImageLines(median_.median(),
-                                         calibration_ ? calibration_->camera.distortion()
-                                                      : DivisionModel{0.0, Eigen::Vector2d(0.5 * config_.image_width,
-                                                                                           0.5 * config_.image_height)},
-                                         options_.image_lines);
+    const auto lines = extractImageLines(
+        median_.median(),
+        calibration_ ? calibration_->camera.distortion()
+                     : DivisionModel{0.0, Eigen::Vector2d(0.5 * config_.image_width, 0.5 * config_.image_height)},
+        options_.image_lines);
     s.image_lines = lines ? lines->size() : 0;
   }
   if (!config_.correspondence_file.empty())

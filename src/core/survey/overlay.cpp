@@ -8,10 +8,12 @@ namespace insitu_calibration
 {
 namespace
 {
-cv::Point toPoint(const Eigen::Vector2d& m) { return cv::Point(cvRound(m.x() * 16.0), cvRound(m.y() * 16.0)); }
+cv::Point toPoint(const Eigen::Vector2d& m)
+{
+  return cv::Point(cvRound(m.x() * 16.0), cvRound(m.y() * 16.0));
+}
 
-void drawPolyline(cv::Mat* canvas, const std::vector<Eigen::Vector2d>& points, const cv::Scalar& colour,
-                  int thickness)
+void drawPolyline(cv::Mat* canvas, const std::vector<Eigen::Vector2d>& points, const cv::Scalar& colour, int thickness)
 {
   for (size_t j = 1; j < points.size(); ++j)
     cv::line(*canvas, toPoint(points[j - 1]), toPoint(points[j]), colour, thickness, cv::LINE_AA, 4);

@@ -1,0 +1,78 @@
+// A survey in progress, without ROS: RGB-D keyframes become 3D lines in the line map, fixed-camera images feed
+// each camera's temporal median, and each camera calibrates against the map on request. The calibration node and
+// the offline tool calibrate_survey both drive one.
+#ifndef INSITU_CALIBRATION_SURVEY_SURVEY_H
+#define INSITU_CALIBRATION_SURVEY_SURVEY_H
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "insitu_calibration/lines/line_map.h"
+#include "insitu_calibration/lines/rgbd_lines.h"
+#include "insitu_calibration/survey/fixed_camera.h"
+#include "insitu_calibration/survey/keyframe_selector.h"
+
+namespace insitu_calibration
+{
+struct SurveyOptions
+{
+  KeyframeOptions keyframes;
+  RgbdLineOptions rgbd;
+  LineMapOptions map;
+  FixedCameraOptions cameras;
+  int min_map_support = 2;            // map lines seen fewer times are not used for calibration
+  double fixed_image_period_s = 0.5;  // one image per period per camera goes into its median
+};
+
+struct SurveyStats
+{
+  size_t frames = 0;     // RGB-D frames offered
+  size_t keyframes = 0;  // used
+  size_t skipped = 0;    // refused (invalid frame or extraction error)
+  size_t lines = 0;      // 3D lines extracted in keyframes
+};
+
+class Survey
+{
+public:
+  Survey(const std::vector<FixedCameraConfig>& cameras, const SurveyOptions& options = {});
+
+  // A frame of the robot's RGB-D camera with its pose. Returns whether it was used as a keyframe; errors describe
+  // a frame that could not be used (invalid, or the extraction failed).
+  Expected<bool> addRgbdFrame(const RgbdFrame& frame);
+  // An image of a fixed camera (stamp in seconds). Returns whether it joined the median. Errors: unknown camera,
+  // empty image, wrong size.
+  Expected<bool> addFixedImage(const std::string& camera, const cv::Mat& image, double stamp);
+
+  // The map lines with enough support, as segments.
+  std::vector<Segment3d> mapSegments() const;
+  const LineMap& lineMap() const { return map_; }
+  const SurveyStats& stats() const { return stats_; }
+
+  bool hasCamera(const std::string& name) const { return cameras_.count(name) > 0; }
+  std::vector<std::string> cameraNames() const;
+  FixedCamera& camera(const std::string& name) { return *cameras_.at(name); }
+  const FixedCamera& camera(const std::string& name) const { return *cameras_.at(name); }
+
+  // Forgets one camera's images and calibration.
+  void resetCamera(const std::string& name) { cameras_.at(name)->reset(); }
+  // Forgets everything: the map, the keyframes and every camera.
+  void reset();
+
+  const SurveyOptions& options() const { return options_; }
+
+private:
+  SurveyOptions options_;
+  RgbdLineExtractor extractor_;
+  LineMap map_;
+  KeyframeSelector keyframes_;
+  std::map<std::string, std::unique_ptr<FixedCamera>> cameras_;
+  std::map<std::string, double> last_fixed_stamp_;
+  SurveyStats stats_;
+};
+
+}  // namespace insitu_calibration
+
+#endif  // INSITU_CALIBRATION_SURVEY_SURVEY_H

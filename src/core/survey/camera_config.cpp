@@ -1,0 +1,121 @@
+#include "insitu_calibration/survey/camera_config.h"
+
+#include <set>
+
+#include "../io/yaml_util.h"
+#include "insitu_calibration/io/atomic_file.h"
+
+namespace insitu_calibration
+{
+namespace
+{
+std::string expandHome(const std::string& path)
+{
+  if (!path.empty() && path[0] == '~')
+  {
+    const char* home = std::getenv("HOME");
+    return std::string(home ? home : "") + path.substr(1);
+  }
+  return path;
+}
+
+std::string calibratedInfoTopic(const std::string& image_topic)
+{
+  const auto slash = image_topic.rfind('/');
+  return (slash == std::string::npos ? std::string() : image_topic.substr(0, slash)) + "/camera_info_calibrated";
+}
+
+Status readOptional(const YAML::Node& map, const char* key, const std::string& where, double* out)
+{
+  if (!map[key])
+    return Success{};
+  const auto v = yaml_util::toDouble(map[key], where + "." + key);
+  if (!v)
+    return v.error();
+  *out = *v;
+  return Success{};
+}
+}  // namespace
+
+Expected<std::vector<CameraConfigEntry>> parseCameraConfig(const std::string& yaml_text)
+{
+  const auto root = yaml_util::parseYaml(yaml_text, "camera configuration");
+  if (!root)
+    return root.error();
+  const YAML::Node list = root->IsMap() ? (*root)["cameras"] : *root;
+  if (!list || !list.IsSequence() || list.size() == 0)
+    return Error(ErrorCode::kParseError, "camera configuration: expected a non-empty list `cameras:`");
+  std::vector<CameraConfigEntry> out;
+  std::set<std::string> names;
+  for (size_t i = 0; i < list.size(); ++i)
+  {
+    const YAML::Node c = list[i];
+    const std::string where = "cameras[" + std::to_string(i) + "]";
+    if (!c.IsMap() || !c["name"])
+      return Error(ErrorCode::kParseError, where + ": needs at least a name");
+    CameraConfigEntry entry;
+    FixedCameraConfig& config = entry.camera;
+    config.name = c["name"].as<std::string>("");
+    config.image_topic =
+        c["image_topic"] ? c["image_topic"].as<std::string>("") : "/fixed/" + config.name + "/image_raw";
+    for (const char* key : {"image_width", "image_height"})
+    {
+      const auto v = yaml_util::toInt(c[key], where + "." + key);
+      if (!v)
+        return v.error();
+      (std::string(key) == "image_width" ? config.image_width : config.image_height) = *v;
+    }
+    if (c["correspondence_file"])
+      config.correspondence_file = expandHome(c["correspondence_file"].as<std::string>(""));
+    if (const YAML::Node p = c["prior"])
+    {
+      const std::string pw = where + ".prior";
+      CameraPrior prior;
+      const auto position = yaml_util::toVector<3>(p["position"], pw + ".position");
+      if (!position)
+        return position.error();
+      const auto direction = yaml_util::toVector<3>(p["direction"], pw + ".direction");
+      if (!direction)
+        return direction.error();
+      const auto fov = yaml_util::toDouble(p["horizontal_fov_deg"], pw + ".horizontal_fov_deg");
+      if (!fov)
+        return fov.error();
+      prior.position = *position;
+      prior.direction = *direction;
+      prior.horizontal_fov_deg = *fov;
+      for (const auto& [key, target] :
+           std::initializer_list<std::pair<const char*, double*>>{{"position_sigma_m", &prior.position_sigma_m},
+                                                                  {"direction_sigma_deg", &prior.direction_sigma_deg},
+                                                                  {"fov_sigma_relative", &prior.fov_sigma_relative},
+                                                                  {"roll_deg", &prior.roll_deg}})
+        if (const Status s = readOptional(p, key, pw, target); !s)
+          return s.error();
+      if (!(prior.direction.norm() > 0.0) || !(prior.horizontal_fov_deg > 0.0 && prior.horizontal_fov_deg < 180.0) ||
+          !(prior.position_sigma_m > 0.0) || !(prior.direction_sigma_deg > 0.0) || !(prior.fov_sigma_relative > 0.0))
+        return Error(ErrorCode::kInvalidInput, pw + ": the direction must be non-zero, the field of view between 0 "
+                                                    "and 180 degrees and every sigma positive");
+      config.prior = prior;
+    }
+    if (const Status valid = config.validate(); !valid)
+      return Error(valid.error().code(), where + ": " + valid.error().message());
+    if (!names.insert(config.name).second)
+      return Error(ErrorCode::kInvalidInput, where + ": the name '" + config.name + "' is used twice");
+    entry.calibrated_info_topic = c["calibrated_info_topic"] ? c["calibrated_info_topic"].as<std::string>("")
+                                                             : calibratedInfoTopic(config.image_topic);
+    out.push_back(std::move(entry));
+  }
+  return out;
+}
+
+Expected<std::vector<CameraConfigEntry>> loadCameraConfig(const std::string& path)
+{
+  const auto text = readFile(path);
+  if (!text)
+    return text.error();
+  auto config = parseCameraConfig(*text);
+  if (!config)
+    return Error(config.error().code(), path + ": " + config.error().message());
+  return config;
+}
+
+}  // namespace insitu_calibration
