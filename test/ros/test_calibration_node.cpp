@@ -1,0 +1,259 @@
+// calibration_node on a simulated survey bag (calibration_node.test): error cases, calibration of every camera
+// against the simulator's truth, tf, latched CameraInfo, YAML files and their reload by a restarted node.
+#include <gtest/gtest.h>
+
+#include <csignal>
+#include <filesystem>
+#include <random>
+
+#include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <tf2_eigen/tf2_eigen.h>
+#include <tf2_ros/transform_listener.h>
+
+#include "insitu_calibration/Calibrate.h"
+#include "insitu_calibration/CalibrationStatus.h"
+#include "insitu_calibration/io/calibration_file.h"
+#include "insitu_calibration/io/correspondence_file.h"
+#include "insitu_calibration/matching/line_matcher.h"
+#include "insitu_calibration/metrics.h"
+#include "insitu_calibration/simulation/true_edges.h"
+#include "insitu_calibration/synthetic/synthetic_lines.h"
+
+namespace ic = insitu_calibration;
+namespace fs = std::filesystem;
+
+extern char** environ;
+
+namespace
+{
+std::string g_truth_dir;
+std::string g_work_dir;
+double g_bag_end = 0.0;
+
+ic::Calibrate::Response calibrate(const std::string& camera)
+{
+  ic::Calibrate srv;
+  srv.request.camera = camera;
+  EXPECT_TRUE(ros::service::call("/calibration_node/calibrate", srv)) << "the service call itself failed";
+  return srv.response;
+}
+
+ic::CalibrationFile truth(const std::string& camera)
+{
+  const auto t = ic::loadCalibrationFile(g_truth_dir + "/" + camera + ".yaml");
+  EXPECT_TRUE(t) << t.error().describe();
+  return t ? *t : ic::CalibrationFile();
+}
+
+// The test thresholds of issue 5 (the accuracy goals are checked by bench_accuracy).
+void expectClose(const ic::CameraModel& expected, const ic::CameraModel& actual, const std::string& what)
+{
+  const ic::CameraErrors e = ic::compareCameras(expected, actual);
+  EXPECT_LT(std::abs(e.focal_relative), 0.01) << what;
+  EXPECT_LT(e.rotation_rad * 180.0 / M_PI, 0.5) << what;
+  EXPECT_LT(e.center_m, 0.03) << what;
+  EXPECT_LT(e.lambda_relative, 0.10) << what;
+  std::printf("%s: focal %+.3f %%, rotation %.3f deg, position %.1f mm, lambda %.1f %%\n", what.c_str(),
+              100 * e.focal_relative, e.rotation_rad * 180 / M_PI, 1000 * e.center_m, 100 * e.lambda_relative);
+}
+
+// Hand-picked correspondences for a camera: true edges it sees, their images (6 points, 0.2 px noise) and two
+// points on each edge, as someone clicking lines on the image and a CAD model would produce.
+ic::CorrespondenceSet handPicked(const ic::CalibrationFile& camera, const std::vector<ic::Segment3d>& edges,
+                                 bool floor_only, unsigned seed)
+{
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, 0.2);
+  ic::CorrespondenceSet set;
+  set.camera_name = camera.camera_name;
+  set.image_width = camera.image_width;
+  set.image_height = camera.image_height;
+  for (const auto& edge : edges)
+  {
+    if (floor_only && (std::abs(edge.a.z()) > 1e-6 || std::abs(edge.b.z()) > 1e-6))
+      continue;
+    const auto interval = ic::visibleInterval(camera.camera, edge, camera.image_width, camera.image_height);
+    if (!interval || interval->second - interval->first < 0.2)
+      continue;
+    ic::LineCorrespondence line;
+    for (int k = 0; k < 6; ++k)
+    {
+      const double t = interval->first + (interval->second - interval->first) * k / 5.0;
+      line.image.push_back(*camera.camera.project(edge.pointAt(t)) + Eigen::Vector2d(noise(rng), noise(rng)));
+    }
+    if ((line.image.back() - line.image.front()).norm() < 80.0)
+      continue;
+    line.world = {edge.pointAt(interval->first), edge.pointAt(interval->second)};
+    set.lines.push_back(line);
+    if (set.lines.size() >= 40)
+      break;
+  }
+  return set;
+}
+}  // namespace
+
+// Runs first: the bag starts playing after a delay, so the node has no data yet.
+TEST(CalibrationNode, ErrorsBeforeTheData)
+{
+  ASSERT_TRUE(ros::service::waitForService("/calibration_node/calibrate", ros::Duration(60.0)));
+  const auto unknown = calibrate("no_such_camera");
+  EXPECT_FALSE(unknown.success);
+  EXPECT_NE(unknown.message.find("unknown camera"), std::string::npos) << unknown.message;
+  const auto early = calibrate("cam_east");
+  EXPECT_FALSE(early.success);
+  EXPECT_FALSE(early.message.empty());
+  std::printf("before the data: %s\n", early.message.c_str());
+}
+
+TEST(CalibrationNode, CalibratesEveryCameraFromTheSurvey)
+{
+  // Wait for the whole survey (simulated time from the bag's /clock).
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(400.0);
+  while (ros::ok() && ros::Time::now().toSec() < g_bag_end - 0.5 && ros::WallTime::now() < deadline)
+    ros::WallDuration(0.5).sleep();
+  ASSERT_GE(ros::Time::now().toSec(), g_bag_end - 0.5) << "the bag did not finish playing";
+  ros::WallDuration(2.0).sleep();
+
+  ic::CalibrationStatus status;
+  ASSERT_TRUE(ros::service::call("/calibration_node/status", status));
+  ASSERT_TRUE(status.response.success) << status.response.message;
+  std::printf("status: %s\n", status.response.message.c_str());
+  for (const auto& c : status.response.cameras)
+    if (c.camera_name == "cam_east" || c.camera_name == "cam_wide")
+      EXPECT_TRUE(c.ready) << c.camera_name << ": " << c.message;
+
+  tf2_ros::Buffer tf;
+  tf2_ros::TransformListener listener(tf);
+  for (const std::string camera : {"cam_east", "cam_wide", "cam_desk"})
+  {
+    const auto response = calibrate(camera);
+    ASSERT_TRUE(response.success) << camera << ": " << response.message;
+    ASSERT_EQ(response.results.size(), 1u);
+    const auto& r = response.results[0];
+    EXPECT_TRUE(r.success);
+    EXPECT_GT(r.lines, 8u);
+    EXPECT_GT(r.rms_px, 0.0);
+    std::printf("%s: %s\n", camera.c_str(), r.message.c_str());
+    // The YAML the node wrote holds the calibration.
+    const std::string path = g_work_dir + "/calibrations/" + camera + ".yaml";
+    const auto file = ic::loadCalibrationFile(path);
+    ASSERT_TRUE(file) << file.error().describe();
+    const ic::CalibrationFile t = truth(camera);
+    expectClose(t.camera, file->camera, camera);
+    EXPECT_TRUE(fs::exists(g_work_dir + "/calibrations/" + camera + "_overlay.png"));
+
+    // tf: map -> <camera>_link -> <camera>_optical_frame is the calibrated pose.
+    geometry_msgs::TransformStamped pose;
+    ASSERT_NO_THROW(pose = tf.lookupTransform("map", camera + "_optical_frame", ros::Time(0), ros::Duration(10.0)))
+        << camera;
+    const Eigen::Isometry3d world_from_optical = tf2::transformToEigen(pose);
+    EXPECT_LT((world_from_optical.translation() - t.camera.pose().center()).norm(), 0.03) << camera;
+    EXPECT_LT(ic::rotationDistance(world_from_optical.linear().transpose(), t.camera.pose().rotation) * 180 / M_PI,
+              0.5)
+        << camera;
+
+    // The latched CameraInfo.
+    const auto info = ros::topic::waitForMessage<sensor_msgs::CameraInfo>(
+        "/fixed/" + camera + "/camera_info_calibrated", ros::Duration(10.0));
+    ASSERT_TRUE(info) << camera;
+    EXPECT_EQ(info->header.frame_id, camera + "_optical_frame");
+    EXPECT_EQ(info->width, static_cast<uint32_t>(t.image_width));
+    EXPECT_NEAR(info->K[0], file->camera.intrinsics().fx, 1e-6);
+    EXPECT_EQ(info->distortion_model, "plumb_bob");
+  }
+}
+
+TEST(CalibrationNode, ErrorCasesKeepTheNodeRunning)
+{
+  const auto edges = ic::simulation::loadTrueEdges(g_truth_dir + "/edges.yaml");
+  ASSERT_TRUE(edges) << edges.error().describe();
+  std::vector<ic::Segment3d> segments;
+  for (const auto& e : *edges)
+    segments.push_back({e.start, e.end});
+  const ic::CalibrationFile east = truth("cam_east");
+
+  // Every line on the floor: one plane leaves the camera undetermined.
+  ASSERT_TRUE(ic::saveCorrespondenceFile(g_work_dir + "/cam_degenerate.yaml", handPicked(east, segments, true, 2)));
+  const auto degenerate = calibrate("cam_degenerate");
+  EXPECT_FALSE(degenerate.success);
+  EXPECT_NE(degenerate.message.find("degenerate"), std::string::npos) << degenerate.message;
+
+  // A consistent camera whose focal length (15 image widths) is beyond the plausible range (10).
+  std::mt19937 rng(5);
+  ic::SyntheticCameraOptions zoom;
+  zoom.focal_min_px = zoom.focal_max_px = 15.0 * 1280;
+  zoom.corner_displacement_px = 0.0;
+  const ic::CameraModel zoom_camera = ic::randomCamera(zoom, rng);
+  ic::SyntheticLineOptions lines;
+  lines.depth_min_m = 20.0;
+  lines.depth_max_m = 40.0;
+  lines.image_points_per_line = 3;
+  lines.image_noise_px = 0.2;
+  ic::SyntheticLines zoom_lines = ic::makeSyntheticLines(zoom_camera, 1280, 960, lines, rng);
+  ASSERT_TRUE(ic::saveCorrespondenceFile(g_work_dir + "/cam_zoom.yaml", zoom_lines.data));
+  const auto zoomed = calibrate("cam_zoom");
+  EXPECT_FALSE(zoomed.success);
+  EXPECT_NE(zoomed.message.find("focal length"), std::string::npos) << zoomed.message;
+
+  // A correspondence file that is missing.
+  fs::remove(g_work_dir + "/cam_east_manual.yaml");
+  const auto missing = calibrate("cam_east_manual");
+  EXPECT_FALSE(missing.success);
+  EXPECT_NE(missing.message.find("cam_east_manual.yaml"), std::string::npos) << missing.message;
+
+  // The node is still there and still calibrates: the manual workflow gives cam_east within the test thresholds of
+  // the automatic result.
+  ASSERT_TRUE(ic::saveCorrespondenceFile(g_work_dir + "/cam_east_manual.yaml", handPicked(east, segments, false, 3)));
+  const auto manual = calibrate("cam_east_manual");
+  ASSERT_TRUE(manual.success) << manual.message;
+  const auto manual_file = ic::loadCalibrationFile(g_work_dir + "/calibrations/cam_east_manual.yaml");
+  const auto automatic_file = ic::loadCalibrationFile(g_work_dir + "/calibrations/cam_east.yaml");
+  ASSERT_TRUE(manual_file && automatic_file);
+  expectClose(automatic_file->camera, manual_file->camera, "cam_east manual vs automatic");
+  expectClose(east.camera, manual_file->camera, "cam_east manual vs truth");
+}
+
+TEST(CalibrationNode, ARestartedNodeReloadsItsCalibrations)
+{
+  // A second node with the same configuration and output directory, under another name.
+  XmlRpc::XmlRpcValue cameras;
+  ASSERT_TRUE(ros::param::get("/calibration_node/cameras", cameras));
+  ros::param::set("/calibration_node_restarted/cameras", cameras);
+  ros::param::set("/calibration_node_restarted/output_directory", g_work_dir + "/calibrations");
+  const std::string executable = std::string(INSITU_NODE_DIR) + "/calibration_node";
+  std::vector<std::string> args = {executable, "__name:=calibration_node_restarted"};
+  std::vector<char*> argv;
+  for (auto& a : args)
+    argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  ASSERT_EQ(posix_spawn(&pid, executable.c_str(), nullptr, nullptr, argv.data(), environ), 0);
+  const bool up = ros::service::waitForService("/calibration_node_restarted/status", ros::Duration(30.0));
+  ic::CalibrationStatus status;
+  status.request.camera = "cam_east";
+  const bool called = up && ros::service::call("/calibration_node_restarted/status", status);
+  kill(pid, SIGINT);
+  int exit_status = 0;
+  waitpid(pid, &exit_status, 0);
+  ASSERT_TRUE(called);
+  ASSERT_EQ(status.response.cameras.size(), 1u);
+  EXPECT_TRUE(status.response.cameras[0].calibrated) << status.response.cameras[0].message;
+  EXPECT_TRUE(WIFEXITED(exit_status) && WEXITSTATUS(exit_status) == 0) << "the restarted node did not exit cleanly";
+}
+
+int main(int argc, char** argv)
+{
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_calibration_node");
+  ros::NodeHandle private_nh("~");
+  private_nh.getParam("truth_dir", g_truth_dir);
+  private_nh.getParam("work_dir", g_work_dir);
+  private_nh.getParam("bag_end", g_bag_end);
+  fs::create_directories(g_work_dir + "/calibrations");
+  ros::AsyncSpinner spinner(2);
+  spinner.start();
+  return RUN_ALL_TESTS();
+}
