@@ -15,6 +15,7 @@ LABELS = {
     "dlt_points": "DLT-Points, normalised",
     "dlt_lines": "DLT-Lines (paper, linear)",
     "dlt_lines_finetuned": "DLT-Lines, fine-tuned lines",
+    "dlt_lines_finetuned_refined": "DLT-Lines, fine-tuned lines, RANSAC + refinement",
     "dlt_lines_refined": "DLT-Lines + RANSAC + refinement",
     "combined_refined": "lines + end points, RANSAC + refinement",
     "opencv_calibrate_camera": "OpenCV calibrateCamera (end points)",
@@ -57,9 +58,10 @@ def main():
         plt.close(fig)
 
     plot("fig2", "image noise sigma (px)", "fig2.png")
+    plot("fig2_rendered", "initial line error sigma (px), fine-tuned on rendered images", "fig2_rendered.png")
     plot("outliers", "fraction of wrong line correspondences", "outliers.png")
     plot("lines", "number of lines", "lines.png", logx=True)
-    print("wrote %s/fig2.png, outliers.png, lines.png" % out)
+    print("wrote %s/fig2.png, fig2_rendered.png, outliers.png, lines.png" % out)
 
 
 if __name__ == "__main__":
