@@ -54,21 +54,13 @@ struct Projector
   bool operator()(const T* focal, const T* principal, const T* skew, const T* distortion, const T* delta,
                   const T* center, const Eigen::Vector3d& world, T* pixel) const
   {
-    T d[3] = {T(world.x()) - center[0], T(world.y()) - center[1], T(world.z()) - center[2]};
-    T rotated[3];
-    for (int i = 0; i < 3; ++i)
-      rotated[i] = T(r0(i, 0)) * d[0] + T(r0(i, 1)) * d[1] + T(r0(i, 2)) * d[2];
-    T xc[3];
-    ceres::AngleAxisRotatePoint(delta, rotated, xc);
-    if (!(xc[2] > T(1e-9)))
+    T u[3];
+    undistortedHomogeneous(focal, skew, delta, center, world, u);
+    if (!(u[2] > T(1e-9)))
       return false;
-    const T fx = focal[0];
-    const T fy = single_focal ? focal[0] : focal[1];
-    const T x = xc[0] / xc[2];
-    const T y = xc[1] / xc[2];
     // Undistorted pixel relative to the distortion centre (the principal point).
-    const T ux = fx * x + skew[0] * y;
-    const T uy = fy * y;
+    const T ux = u[0] / u[2];
+    const T uy = u[1] / u[2];
     const T lambda = distortion[0] / T(r_ref2);
     const T disc = T(1.0) - T(4.0) * lambda * (ux * ux + uy * uy);
     if (!(disc > T(0.0)))
