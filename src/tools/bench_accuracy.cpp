@@ -16,6 +16,7 @@
 #include <opencv2/core/eigen.hpp>
 
 #include "command_line.h"
+#include "insitu_calibration/refine/refinement.h"
 #include "insitu_calibration/calibration.h"
 #include "insitu_calibration/lines/gradient_refiner.h"
 #include "insitu_calibration/matching/line_matcher.h"
@@ -289,6 +290,7 @@ struct Writer
 
 int main(int argc, char** argv)
 {
+  ic::quietSolverLogging();
   ic::CommandLine cli(argc, argv, {"trials", "out-dir", "seed"}, {"no-plot"});
   if (cli.help())
   {

@@ -2,6 +2,7 @@
 #include <iostream>
 
 #include "command_line.h"
+#include "insitu_calibration/refine/refinement.h"
 #include "insitu_calibration/calibration.h"
 #include "insitu_calibration/io/calibration_file.h"
 #include "insitu_calibration/io/correspondence_file.h"
@@ -57,6 +58,7 @@ void printComparison(const ic::CameraModel& truth, const ic::CameraModel& estima
 
 int main(int argc, char** argv)
 {
+  ic::quietSolverLogging();
   ic::CommandLine cli(argc, argv,
                       {"output", "distortion", "method", "world-frame", "truth", "inlier-threshold", "seed", "loss",
                        "loss-scale", "line-residual"},

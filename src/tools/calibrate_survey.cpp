@@ -15,6 +15,7 @@
 #include <tf2_msgs/TFMessage.h>
 
 #include "command_line.h"
+#include "insitu_calibration/refine/refinement.h"
 #include "insitu_calibration/lines/line_evaluation.h"
 #include "insitu_calibration/metrics.h"
 #include "insitu_calibration/ros/conversions.h"
@@ -106,6 +107,7 @@ double seconds(std::chrono::steady_clock::time_point start)
 
 int main(int argc, char** argv)
 {
+  ic::quietSolverLogging();
   ic::CommandLine cli(argc, argv,
                       {"cameras", "out-dir", "world-frame", "min-support", "camera", "search-starts", "truth-dir"},
                       {"no-refine", "no-ransac", "quiet"});

@@ -84,6 +84,10 @@ struct RefinementResult
   CameraUncertainty uncertainty;
 };
 
+// Silences Ceres' own log lines (glog on stderr: failed trust-region steps, a rank-deficient covariance), whose
+// outcome the results report themselves. Executables call it once at start.
+void quietSolverLogging();
+
 // Refines `initial` on the data. `use_line[i]` selects lines (all when empty); points are always used.
 Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const CameraModel& initial,
                                         const RefinementOptions& options = {}, const std::vector<bool>& use_line = {});

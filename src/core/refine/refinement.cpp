@@ -6,6 +6,7 @@
 
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
+#include <glog/logging.h>
 #include <Eigen/Geometry>
 
 #include "insitu_calibration/metrics.h"
@@ -236,6 +237,12 @@ const char* toString(RobustLoss loss)
       return "cauchy";
   }
   return "?";
+}
+
+void quietSolverLogging()
+{
+  FLAGS_minloglevel = google::GLOG_FATAL;
+  FLAGS_logtostderr = true;
 }
 
 Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const CameraModel& initial,
