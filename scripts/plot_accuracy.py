@@ -19,6 +19,7 @@ LABELS = {
     "dlt_lines_refined": "DLT-Lines + RANSAC + refinement",
     "combined_refined": "lines + end points, RANSAC + refinement",
     "opencv_calibrate_camera": "OpenCV calibrateCamera (end points)",
+    "oracle_inliers_refined": "oracle: only the good lines, refined",
 }
 
 
@@ -60,8 +61,9 @@ def main():
     plot("fig2", "image noise sigma (px)", "fig2.png")
     plot("fig2_rendered", "initial line error sigma (px), fine-tuned on rendered images", "fig2_rendered.png")
     plot("outliers", "fraction of wrong line correspondences", "outliers.png")
+    plot("outliers_added", "fraction of wrong line correspondences (added to 30 good ones)", "outliers_added.png")
     plot("lines", "number of lines", "lines.png", logx=True)
-    print("wrote %s/fig2.png, fig2_rendered.png, outliers.png, lines.png" % out)
+    print("wrote %s/fig2.png, fig2_rendered.png, outliers.png, outliers_added.png, lines.png" % out)
 
 
 if __name__ == "__main__":

@@ -28,7 +28,7 @@ namespace ic = insitu_calibration;
 
 namespace
 {
-const char* kUsage = R"(Usage: bench_accuracy [--trials N] [--out-dir DIR] [--seed S] [--no-plot]
+const char* kUsage = R"(Usage: bench_accuracy [--trials N] [--out-dir DIR] [--seed S] [--experiments LIST] [--no-plot]
 
 Runs, with N trials per setting (default 100), on synthetic surveillance-like cameras (1280x960, barrel distortion
 displacing the corner by 15 px) looking at 30 random 3D segments in a room (5 image points per line, 2 world points):
@@ -36,9 +36,11 @@ displacing the corner by 15 px) looking at 30 random 3D segments in a room (5 im
             points), DLT-Lines (the paper's linear method), DLT-Lines refined (RANSAC + Ceres, the default path),
             lines and end points combined and refined, and OpenCV's calibrateCamera on the end points (intrinsic
             guess from DLT-Points)
-  outliers  0..50 % wrong line correspondences at 1 px: plain DLT-Lines against the robust default path
+  outliers  0..50 % wrong line correspondences at 1 px: plain DLT-Lines against the robust default path (and an
+            oracle that keeps exactly the good lines); outliers_added: wrong lines added to the 30 good ones
   lines     6..200 lines at 1 px: plain DLT-Lines against the default path
-and reports the coverage of the refined result's standard deviations (how often the true error is within 2 sigma).
+(--experiments picks some of fig2,fig2_rendered,outliers,outliers_added,lines; all by default) and reports the coverage of the
+refined result's standard deviations (how often the true error is within 2 sigma).
 Writes DIR/accuracy.csv, DIR/accuracy.md and PNG plots (DIR defaults to ./accuracy). Errors are against the truth:
 relative focal error |fx - fx_true| / fx_true, reprojection error = RMS distance between the estimated and the true
 projection of the segments' end points (px).
@@ -210,8 +212,9 @@ ic::CorrespondenceSet pointsOf(const Trial& t)
   return d;
 }
 
-// Swaps the world side of a fraction of the lines with other lines' (wrong correspondences).
-ic::CorrespondenceSet withOutliers(const Trial& t, double fraction, std::mt19937& rng)
+// Swaps the world side of a fraction of the lines with other lines' (wrong correspondences); `clean` receives the
+// lines left untouched (what an oracle would keep).
+ic::CorrespondenceSet withOutliers(const Trial& t, double fraction, std::mt19937& rng, ic::CorrespondenceSet* clean)
 {
   ic::CorrespondenceSet d = t.lines.data;
   const size_t n = d.lines.size();
@@ -226,6 +229,10 @@ ic::CorrespondenceSet withOutliers(const Trial& t, double fraction, std::mt19937
     const size_t j = wrong > 1 ? order[(k + 1) % wrong] : order[(k + 1) % n];
     d.lines[i].world = t.lines.data.lines[j].world;
   }
+  *clean = t.lines.data;
+  clean->lines.clear();
+  for (size_t k = wrong; k < n; ++k)
+    clean->lines.push_back(t.lines.data.lines[order[k]]);
   return d;
 }
 
@@ -291,7 +298,7 @@ struct Writer
 int main(int argc, char** argv)
 {
   ic::quietSolverLogging();
-  ic::CommandLine cli(argc, argv, {"trials", "out-dir", "seed"}, {"no-plot"});
+  ic::CommandLine cli(argc, argv, {"trials", "out-dir", "seed", "experiments"}, {"no-plot"});
   if (cli.help())
   {
     std::cout << kUsage;
@@ -320,7 +327,12 @@ int main(int argc, char** argv)
 
   const int width = 1280;
   const int height = 960;
-  for (int step = 0; step <= 8; ++step)
+  const std::string experiments =
+      "," + cli.value("experiments", "fig2,fig2_rendered,outliers,outliers_added,lines") + ",";
+  const auto runs = [&](const char* name) {
+    return experiments.find("," + std::string(name) + ",") != std::string::npos;
+  };
+  for (int step = 0; step <= 8 && runs("fig2"); ++step)
   {
     const double noise = 0.5 * step;
     const double threshold = std::max(3.0, 4.0 * noise);
@@ -344,6 +356,7 @@ int main(int argc, char** argv)
     std::cout << "fig2: sigma " << noise << " px done" << std::endl;
   }
   // The rendered Fig. 2: fine-tuned lines. One image per trial, every noise level on it.
+  if (runs("fig2_rendered"))
   {
     std::vector<RenderedTrial> rendered;
     for (int k = 0; k < trials; ++k)
@@ -393,22 +406,54 @@ int main(int argc, char** argv)
       std::cout << "fig2_rendered: sigma " << noise << " px done" << std::endl;
     }
   }
-  for (int step = 0; step <= 5; ++step)
+  for (int step = 0; step <= 5 && runs("outliers"); ++step)
   {
     const double fraction = 0.1 * step;
     std::mt19937 rng(seed + 77 * step);
     for (int k = 0; k < trials; ++k)
     {
       const Trial t = makeTrial(seed + 50000 + 1000 * step + k, 1.0, 30);
-      const ic::CorrespondenceSet data = withOutliers(t, fraction, rng);
+      ic::CorrespondenceSet clean;
+      const ic::CorrespondenceSet data = withOutliers(t, fraction, rng, &clean);
+      w.add("outliers", fraction, "oracle_inliers_refined", k,
+            runCalibration(t, clean, ic::DltMethod::kLines, true, true, 3.0));
       w.add("outliers", fraction, "dlt_lines", k, runCalibration(t, data, ic::DltMethod::kLines, true, false, 3.0));
       w.add("outliers", fraction, "dlt_lines_refined", k,
             runCalibration(t, data, ic::DltMethod::kLines, true, true, 3.0));
     }
     std::cout << "outliers: " << 100 * fraction << " % done" << std::endl;
   }
+  // The same with the wrong correspondences added to the 30 good lines (a fraction of the total), so that the data
+  // an oracle would keep do not shrink: the robust path's own cost.
+  for (int step = 0; step <= 5 && runs("outliers_added"); ++step)
+  {
+    const double fraction = 0.1 * step;
+    std::mt19937 rng(seed + 177 * step);
+    for (int k = 0; k < trials; ++k)
+    {
+      const Trial t = makeTrial(seed + 70000 + 1000 * step + k, 1.0, 30);
+      const Trial extra = makeTrial(seed + 80000 + 1000 * step + k, 1.0, 30);
+      ic::CorrespondenceSet data = t.lines.data;
+      const size_t good = data.lines.size();
+      const size_t wrong = static_cast<size_t>(std::round(fraction * good / (1.0 - fraction)));
+      // Another scene's image lines paired with this scene's world lines: wrong, but plausible lines.
+      for (size_t i = 0; i < wrong && i < extra.lines.data.lines.size(); ++i)
+      {
+        ic::LineCorrespondence line = extra.lines.data.lines[i];
+        line.world = t.lines.data.lines[std::uniform_int_distribution<size_t>(0, good - 1)(rng)].world;
+        data.lines.push_back(line);
+      }
+      w.add("outliers_added", fraction, "dlt_lines", k,
+            runCalibration(t, data, ic::DltMethod::kLines, true, false, 3.0));
+      w.add("outliers_added", fraction, "dlt_lines_refined", k,
+            runCalibration(t, data, ic::DltMethod::kLines, true, true, 3.0));
+    }
+    std::cout << "outliers_added: " << 100 * fraction << " % done" << std::endl;
+  }
   for (int lines : {7, 8, 10, 15, 20, 30, 50, 100, 200})
   {
+    if (!runs("lines"))
+      break;
     for (int k = 0; k < trials; ++k)
     {
       const Trial t = makeTrial(seed + 90000 + 1000 * lines + k, 1.0, lines);
