@@ -35,12 +35,13 @@ def main():
             means[(row["experiment"], row["method"])][float(row["x"])].append(
                 (100.0 * float(row["focal_rel"]), float(row["reprojection_px"])))
 
-    def plot(experiment, xlabel, filename, logx=False):
+    def plot(experiment, xlabel, filename, logx=False, skip_zero=False):
         fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
         for (exp, method), by_x in sorted(means.items()):
             if exp != experiment:
                 continue
-            xs = sorted(by_x)
+            # Noise-free errors (1e-10) would flatten the log scale; the table has them.
+            xs = sorted(x for x in by_x if not (skip_zero and x == 0.0))
             focal = [sum(v[0] for v in by_x[x]) / len(by_x[x]) for x in xs]
             reprojection = [sum(v[1] for v in by_x[x]) / len(by_x[x]) for x in xs]
             axes[0].plot(xs, reprojection, marker="o", label=LABELS.get(method, method))
@@ -58,8 +59,9 @@ def main():
         fig.savefig(out + "/" + filename, dpi=110)
         plt.close(fig)
 
-    plot("fig2", "image noise sigma (px)", "fig2.png")
-    plot("fig2_rendered", "initial line error sigma (px), fine-tuned on rendered images", "fig2_rendered.png")
+    plot("fig2", "image noise sigma (px)", "fig2.png", skip_zero=True)
+    plot("fig2_rendered", "initial line error sigma (px), fine-tuned on rendered images", "fig2_rendered.png",
+         skip_zero=True)
     plot("outliers", "fraction of wrong line correspondences", "outliers.png")
     plot("outliers_added", "fraction of wrong line correspondences (added to 30 good ones)", "outliers_added.png")
     plot("lines", "number of lines", "lines.png", logx=True)
