@@ -90,6 +90,7 @@ Expected<std::vector<Line3d>> RgbdLineExtractor::extract(const RgbdFrame& frame,
     }
     line->a = frame.T_map_camera * line->a;
     line->b = frame.T_map_camera * line->b;
+    line->sensor = frame.T_map_camera.translation();
     line->stamp = frame.stamp;
     lines.push_back(*line);
   }
