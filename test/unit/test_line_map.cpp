@@ -75,7 +75,10 @@ TEST(LineMap, SameEdgeFromDifferentPosesMergesIntoOneLine)
   const Eigen::Vector3d t_a(1.0, 0.01, 2.05), t_b(1.9, 0.01, 2.05);
   const Eigen::Vector3d p_a(1.08, 0.01, 0.0), p_b(1.08, 0.01, 2.05);
   const Eigen::Vector3d c_a(2.4, 0.01, 2.05), c_b(3.3, 0.01, 2.05);
-  ic::LineMap map;
+  ic::LineMapOptions options;  // every observation, the far ones too (UncertainObservationsAreIgnored tests those)
+  options.max_sigma_m = 0.0;
+  options.max_sigma_angle_deg = 0.0;
+  ic::LineMap map(options);
   double lo = 1.0, hi = 0.0;
   const int poses = 40;
   for (int i = 0; i < poses; ++i)
@@ -121,8 +124,9 @@ TEST(LineMap, MemoryGrowsWithEdgesNotFrames)
   std::mt19937 rng(kSeed);
   const std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> edges = {
       {{0, 0, 0}, {6, 0, 0}}, {{0, 0, 2.7}, {6, 0, 2.7}}, {{6, 0, 0}, {6, 0, 2.7}}, {{2, 5, 1}, {3.2, 5, 1}}};
-  ic::LineMapOptions options;
-  options.max_sigma_m = 0.0;  // every observation, the far ones too
+  ic::LineMapOptions options;  // every observation, the far ones too
+  options.max_sigma_m = 0.0;
+  options.max_sigma_angle_deg = 0.0;
   ic::LineMap map(options);
   for (int frame = 0; frame < 5000; ++frame)
   {
@@ -176,7 +180,10 @@ TEST(LineMap, CloseParallelEdgesStayApart)
   // TV: vertical edges x = 3.51 and 3.55 on the wall y = 0, seen from 0.25-0.6 m off the wall, 0.6-1.6 m along it.
   const std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> tv = {{{3.51, 0.0, 1.6}, {3.51, 0.0, 2.2}},
                                                                        {{3.55, 0.0, 1.6}, {3.55, 0.0, 2.2}}};
-  ic::LineMap map;
+  ic::LineMapOptions options;  // the far, noisy observations too: the gates along and across the line of sight alone
+  options.max_sigma_m = 0.0;
+  options.max_sigma_angle_deg = 0.0;
+  ic::LineMap map(options);
   for (int i = 0; i < 60; ++i)
   {
     const Eigen::Vector3d room(x(rng), y(rng), z(rng));
@@ -231,8 +238,13 @@ TEST(LineMap, UncertainObservationsAreIgnored)
   EXPECT_EQ(map.size(), 0u);
   o.sigma_m = 0.5 * map.options().max_sigma_m;
   EXPECT_EQ(map.insert(o), 0);
+  // A short line: its direction is uncertain (sqrt(2) sigma / length above max_sigma_angle_deg).
+  o.b = o.a + Eigen::Vector3d(0.1, 0, 0);
+  o.sigma_m = 0.9 * map.options().max_sigma_m;
+  EXPECT_EQ(map.insert(o), -1);
   ic::LineMapOptions no_limit;
   no_limit.max_sigma_m = 0.0;
+  no_limit.max_sigma_angle_deg = 0.0;
   ic::LineMap all(no_limit);
   o.sigma_m = 1.0;
   EXPECT_EQ(all.insert(o), 0);

@@ -68,34 +68,66 @@ Expected<std::vector<ImageLine>> extractImageLines(const cv::Mat& image, const D
         ++st.rejected;
         continue;
       }
-      ImageLine line;
-      line.detected = polyline.points;
-      line.points = refined->points;
-      line.parts = refined->parts;
-      line.fragments = polyline.fragments;
-      line.length_px = polyline.length_px;
-      const int parts = static_cast<int>(line.parts.size());
+      const int parts = static_cast<int>(refined->parts.size());
       if (parts - refined->failed_parts < options.min_part_support * parts)
       {
         ++st.rejected;
         continue;
       }
-      trimFailedEnds(line);
-      if (line.points.size() < 2)
+      // Pieces between the vertices where two fine-tuned parts disagree.
+      std::vector<size_t> cuts = {0};
+      for (size_t k = 1; k < refined->parts.size(); ++k)
       {
-        ++st.rejected;
-        continue;
+        const RefinedSegment& before = refined->parts[k - 1];
+        const RefinedSegment& after = refined->parts[k];
+        if (options.split_gap_px > 0.0 && before.samples > 0 && after.samples > 0 &&
+            (before.b - after.a).norm() > options.split_gap_px)
+          cuts.push_back(k);
       }
-      double contrast = 0.0;
-      int ok_parts = 0;
-      for (const auto& p : line.parts)
-        if (p.samples > 0)
+      cuts.push_back(refined->parts.size());
+      st.splits += cuts.size() > 2;
+      for (size_t c = 0; c + 1 < cuts.size(); ++c)
+      {
+        const size_t first = cuts[c], last = cuts[c + 1];  // parts [first, last), vertices [first, last]
+        ImageLine line;
+        line.detected.assign(polyline.points.begin() + first, polyline.points.begin() + last + 1);
+        line.points.assign(refined->points.begin() + first, refined->points.begin() + last + 1);
+        line.parts.assign(refined->parts.begin() + first, refined->parts.begin() + last);
+        line.fragments = polyline.fragments;
+        // A cut vertex belongs to the part on its side only.
+        if (c > 0)
+          line.points.front() = line.parts.front().a;
+        if (c + 2 < cuts.size())
+          line.points.back() = line.parts.back().b;
+        trimFailedEnds(line);
+        if (line.points.size() < 2)
         {
-          contrast += p.contrast;
-          ++ok_parts;
+          ++st.rejected;
+          continue;
         }
-      line.contrast = ok_parts ? contrast / ok_parts : 0.0;
-      lines.push_back(std::move(line));
+        line.length_px = polyline.length_px;
+        if (cuts.size() > 2)
+        {
+          line.length_px = 0.0;
+          for (size_t k = 0; k + 1 < line.points.size(); ++k)
+            line.length_px += (line.points[k + 1] - line.points[k]).norm();
+        }
+        if (cuts.size() > 2 && line.length_px < options.merge.min_length_px)
+        {
+          ++st.rejected;
+          continue;
+        }
+        double contrast = 0.0;
+        int ok_parts = 0;
+        for (const auto& p : line.parts)
+          if (p.samples > 0)
+          {
+            contrast += p.contrast;
+            ++ok_parts;
+          }
+        line.contrast = ok_parts ? contrast / ok_parts : 0.0;
+        lines.push_back(std::move(line));
+      }
     }
   }
   st.refine_ms = msSince(t);

@@ -107,6 +107,9 @@ int LineMap::insert(const Line3d& o)
     return -1;
   if (options_.max_sigma_m > 0.0 && o.sigma_m > options_.max_sigma_m)
     return -1;
+  if (options_.max_sigma_angle_deg > 0.0 &&
+      std::atan(std::sqrt(2.0) * o.sigma_m / (o.b - o.a).norm()) * 180.0 / M_PI > options_.max_sigma_angle_deg)
+    return -1;
   const double range = std::max(0.0, o.range_m);
   const double limit = options_.max_distance_m + options_.max_distance_per_m * range;
   // The normal of the interpretation plane (sensor, a, b), when the sensor is known and not on the line.
