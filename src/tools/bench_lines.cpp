@@ -2,7 +2,7 @@
 // (detection, 2D fine-tuning, depth sampling, RANSAC, line-map merge) and 1920x1080 fixed-camera images (detection,
 // merging, fine-tuning), for the FLD and LSD detectors. Single-threaded.
 #include <algorithm>
-#include <chrono>
+#include <ctime>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -28,7 +28,6 @@
 
 namespace ic = insitu_calibration;
 namespace sim = insitu_calibration::simulation;
-using Clock = std::chrono::steady_clock;
 
 namespace
 {
@@ -36,8 +35,9 @@ const char* kUsage = R"(Usage: bench_lines [--world FILE] [--duration S] [--rate
                    [--rgb-noise SIGMA] [--min-support N] [--detector fld|lsd|both] [--seed S] [--repeat R] [--verbose]
        bench_lines --room [--frames N] [--fixed N] [--detector fld|lsd|both] [--seed S] [--repeat R] [--save DIR]
 
-Times line extraction on one core (cv::setNumThreads(1)), best of R runs per frame (rendering is not timed), and
-measures its accuracy against the true 3D edges:
+Times line extraction on one core (cv::setNumThreads(1); CPU time of the thread, so other load on the machine
+inflates it little), best of R runs per frame (rendering is not timed), and measures its accuracy against the true
+3D edges:
   - per 640x480 RGB-D frame: detection, 2D fine-tuning, depth sampling, RANSAC + refinement, line-map merge
     (goal < 15 ms per frame); the 3D line error against the distance from the sensor; the line map's error;
   - per fixed-camera image (every camera of the world, 1920x1080 included): detection, merging of fragments,
@@ -61,9 +61,17 @@ images f = 1100 px with the corner moved 20 px; --frames default 30, --fixed def
 worse than 1 cm or 0.5 deg or on no true edge, and every map line more than 5 mm off its edge.
 )";
 
-double msSince(Clock::time_point t)
+// CPU time of this thread, ms (as the library's stage times): the cost on one core, robust to other load.
+double threadCpuMs()
 {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return 1e3 * static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_nsec);
+}
+
+double msSince(double t)
+{
+  return threadCpuMs() - t;
 }
 
 struct Series
@@ -180,7 +188,7 @@ int runRoom(ic::CommandLine& cl, const std::vector<ic::SegmentDetectorKind>& kin
       for (int r = 0; r < repeat; ++r)
       {
         ic::RgbdLineStats stats;
-        const auto t = Clock::now();
+        const double t = threadCpuMs();
         auto result = extractor.extract(f, &stats);
         const double ms = msSince(t);
         if (!result)
@@ -195,7 +203,7 @@ int runRoom(ic::CommandLine& cl, const std::vector<ic::SegmentDetectorKind>& kin
           lines = *result;
         }
       }
-      const auto t = Clock::now();
+      const double t = threadCpuMs();
       map.insert(lines);
       const double merge_ms = msSince(t);
       detect.add(best.detect_ms);
@@ -316,7 +324,7 @@ int runRoom(ic::CommandLine& cl, const std::vector<ic::SegmentDetectorKind>& kin
       for (int r = 0; r < repeat; ++r)
       {
         ic::ImageLineStats stats;
-        const auto t = Clock::now();
+        const double t = threadCpuMs();
         auto result = ic::extractImageLines(fi.image, first, options, &stats);
         const double ms = msSince(t);
         if (!result)
@@ -501,7 +509,7 @@ int runWorld(ic::CommandLine& cl, const std::vector<ic::SegmentDetectorKind>& ki
       for (int r = 0; r < repeat; ++r)
       {
         ic::RgbdLineStats stats;
-        const auto t = Clock::now();
+        const double t = threadCpuMs();
         auto result = run.extractor->extract(frame, &stats);
         const double ms = msSince(t);
         if (!result)
@@ -516,7 +524,7 @@ int runWorld(ic::CommandLine& cl, const std::vector<ic::SegmentDetectorKind>& ki
           lines = std::move(*result);
         }
       }
-      const auto t = Clock::now();
+      const double t = threadCpuMs();
       run.map.insert(lines);
       const double merge_ms = msSince(t);
       run.detect.add(best.detect_ms);
@@ -662,7 +670,7 @@ int runWorld(ic::CommandLine& cl, const std::vector<ic::SegmentDetectorKind>& ki
           for (int r = 0; r < repeat; ++r)
           {
             ic::ImageLineStats stats;
-            const auto t = Clock::now();
+            const double t = threadCpuMs();
             auto result = ic::extractImageLines(image, distortion, image_options, &stats);
             const double ms = msSince(t);
             if (!result)

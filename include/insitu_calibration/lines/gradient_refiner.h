@@ -34,11 +34,11 @@ namespace insitu_calibration
 {
 struct RefinerOptions
 {
-  double half_width_px = 3.0;     // region of interest across the line, each side (the sub-pixel window)
-  double extension_px = 10.0;     // region of interest beyond the end points of a segment / of a polyline
-  double search_px = 2.0;         // coarse search across the line, each side (0: skip the coarse stage)
-  double sample_step_px = 1.0;    // spacing of the samples m_k along the line
-  double profile_step_px = 0.25;  // spacing of the intensity samples across the line
+  double half_width_px = 3.0;    // region of interest across the line, each side (the sub-pixel window)
+  double extension_px = 10.0;    // region of interest beyond the end points of a segment / of a polyline
+  double search_px = 2.0;        // coarse search across the line, each side (0: skip the coarse stage)
+  double sample_step_px = 1.0;   // spacing of the samples m_k along the line
+  double profile_step_px = 0.5;  // spacing of the intensity samples across the line
   int max_iterations = 15;
   double convergence_px = 1e-3;     // stop when no point of the part moves more than this
   double min_contrast = 8.0;        // grey levels across the window: weaker samples do not see the edge

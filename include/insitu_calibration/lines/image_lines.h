@@ -47,7 +47,7 @@ struct ImageLineStats
   int lines = 0;                    // after fine-tuning
   int rejected = 0;                 // polylines whose fine-tuning found no edge
   int splits = 0;                   // polylines split where their fine-tuned parts disagree
-  double detect_ms = 0.0;
+  double detect_ms = 0.0;           // times: CPU time of the calling thread (the cost on one core)
   double merge_ms = 0.0;
   double refine_ms = 0.0;  // includes building the LineRefiner
   std::string note;        // why the result is empty, when it is

@@ -214,20 +214,34 @@ Expected<RefinedSegment> LineRefiner::refineSegment(const Eigen::Vector2d& a, co
     int best_k = half_steps;
     int best_q = 0;
     const int tilt_steps = 2 * half_steps;
+    // Cumulative sums of each offset's column along the line: a tilted line is a few runs of samples at one offset
+    // each, so its score is a sum over runs instead of over samples.
+    std::vector<double> cumulative((s.size() + 1) * table_size, 0.0);
+    for (size_t i = 0; i < s.size(); ++i)
+      for (int k = 0; k < table_size; ++k)
+        cumulative[(i + 1) * table_size + k] =
+            cumulative[i * table_size + k] + std::max(0.0, table[i * table_size + k]);
+    std::vector<std::pair<size_t, int>> runs;  // (first sample, shift), in order
     for (int q = -tilt_steps; q <= tilt_steps; ++q)
     {
       const double phi = q * 0.5 / std::max(1.0, s_abs_max);
+      runs.clear();
+      for (size_t i = 0; i < s.size(); ++i)
+      {
+        const int shift = static_cast<int>(std::lround(phi * s[i] / 0.5));
+        if (runs.empty() || runs.back().second != shift)
+          runs.emplace_back(i, shift);
+      }
       for (int k = 0; k < table_size; ++k)
       {
         double score = 0.0;
-        for (size_t i = 0; i < s.size(); ++i)
+        for (size_t r = 0; r < runs.size(); ++r)
         {
-          const int kk = k + static_cast<int>(std::lround(phi * s[i] / 0.5));
+          const int kk = k + runs[r].second;
           if (kk < 0 || kk >= table_size)
             continue;
-          const double v = table[i * table_size + kk];
-          if (v > 0.0)
-            score += v;
+          const size_t end = r + 1 < runs.size() ? runs[r + 1].first : s.size();
+          score += cumulative[end * table_size + kk] - cumulative[runs[r].first * table_size + kk];
         }
         // Prefer the input line on ties (flat regions).
         if (score > best_score + 1e-9 ||
@@ -267,7 +281,11 @@ Expected<RefinedSegment> LineRefiner::refineSegment(const Eigen::Vector2d& a, co
   for (size_t stage = 0; stage < windows.size(); ++stage)
   {
     const double w = windows[stage];
-    const int profile_count = std::max(3, static_cast<int>(std::floor(2.0 * w / o.profile_step_px + 1e-9)) + 1);
+    // A stage followed by another only has to bring the line close: coarser profiles, looser convergence.
+    const bool last_stage = stage + 1 == windows.size();
+    const double profile_step = last_stage ? o.profile_step_px : std::max(o.profile_step_px, 0.5);
+    const double convergence = last_stage ? o.convergence_px : std::max(o.convergence_px, 0.02);
+    const int profile_count = std::max(3, static_cast<int>(std::floor(2.0 * w / profile_step + 1e-9)) + 1);
     const double step = 2.0 * w / (profile_count - 1);
     const double t0 = -w;
     const double centroid_limit = w - std::min(0.5, 0.5 * w);
@@ -397,7 +415,7 @@ Expected<RefinedSegment> LineRefiner::refineSegment(const Eigen::Vector2d& a, co
       d = (d + fit.slope * n).normalized();
       n = perpendicular(d);
       const double move = std::abs(fit.offset) + std::abs(fit.slope) * s_abs_max;
-      if (move < o.convergence_px)
+      if (move < convergence)
       {
         converged = true;
         break;
