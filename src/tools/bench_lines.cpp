@@ -2,11 +2,12 @@
 // (detection, 2D fine-tuning, depth sampling, RANSAC, line-map merge) and 1920x1080 fixed-camera images (detection,
 // merging, fine-tuning), for the FLD and LSD detectors. Single-threaded.
 #include <algorithm>
-#include <chrono>
+#include <ctime>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -19,32 +20,58 @@
 #include "insitu_calibration/lines/line_evaluation.h"
 #include "insitu_calibration/lines/line_map.h"
 #include "insitu_calibration/lines/rgbd_lines.h"
+#include "insitu_calibration/simulation/line_frames.h"
+#include "insitu_calibration/simulation/survey.h"
+#include "insitu_calibration/simulation/true_edges.h"
 #include "insitu_calibration/synthetic/line_scene.h"
 #include "insitu_calibration/synthetic/synthetic_lines.h"
 
 namespace ic = insitu_calibration;
-using Clock = std::chrono::steady_clock;
+namespace sim = insitu_calibration::simulation;
 
 namespace
 {
-const char* kUsage = R"(Usage: bench_lines [--frames N] [--fixed N] [--detector fld|lsd|both] [--seed S] [--repeat R]
+const char* kUsage = R"(Usage: bench_lines [--world FILE] [--duration S] [--rate HZ] [--frames N] [--fixed-frames N]
+                   [--rgb-noise SIGMA] [--min-support N] [--detector fld|lsd|both] [--seed S] [--repeat R] [--verbose]
+       bench_lines --room [--frames N] [--fixed N] [--detector fld|lsd|both] [--seed S] [--repeat R] [--save DIR]
 
-Renders a room (synthetic/line_scene.h: doors, posters, boxes) and times, on one core (cv::setNumThreads(1)):
-  - per 640x480 RGB-D frame of a robot survey (Xtion: f = 570 px, depth 16UC1 mm with sigma = 1.425e-3 z^2):
-    detection, 2D fine-tuning, depth sampling, RANSAC + refinement, line-map merge; goal < 15 ms per frame;
-  - per 1920x1080 fixed-camera image (f = 1100 px, barrel distortion moving the corner 20 px inwards): detection,
-    merging of fragments, fine-tuning (Eq. 8); goal < 100 ms per image.
-It also prints the accuracy against the true edges: 3D line error against the distance from the sensor, the map's
-lines, and the RMS distance of 2D lines to the true curved edges before and after fine-tuning.
-Options: --frames N RGB-D frames (default 30), --fixed N fixed cameras (default 2), --detector (default both),
---seed S (default 1), --repeat R timing runs per frame, the fastest kept (default 3), --verbose: every 2D line
-worse than 0.1 px after fine-tuning and every 3D line worse than 1 cm or 0.5 deg, --save DIR: the rendered images
-as PNG (fixed_<i>.png, rgbd_<i>.png). Rendering is not timed.
+Times line extraction on one core (cv::setNumThreads(1); CPU time of the thread, so other load on the machine
+inflates it little), best of R runs per frame (rendering is not timed), and measures its accuracy against the true
+3D edges:
+  - per 640x480 RGB-D frame: detection, 2D fine-tuning, depth sampling, RANSAC + refinement, line-map merge
+    (goal < 15 ms per frame); the 3D line error against the distance from the sensor; the line map's error;
+  - per fixed-camera image (every camera of the world, 1920x1080 included): detection, merging of fragments,
+    fine-tuning (Eq. 8) (goal < 100 ms per 1920x1080 image); the RMS distance of the lines to the true curved edges
+    (true K, lambda and pose) before and after fine-tuning, with lambda = 0 (first pass) and the true lambda.
+
+Simulator frames (default): the survey simulator (docs/simulator.md) on a world file.
+  --world FILE        default config/worlds/waiting_room.yaml
+  --duration S        survey length, default 40 (the default survey: 200 RGB-D frames)
+  --rate HZ           RGB-D frames per second, default 5
+  --frames N          only the first N RGB-D frames
+  --fixed-frames N    noisy frames per fixed camera, default 2
+  --rgb-noise SIGMA   override the world's Xtion RGB noise (grey levels; the worlds have none)
+  --min-support N     map lines used for calibration (the survey's min_map_support), default 2
+  --detector          default fld
+  --seed S            simulator noise seed, default 1
+--room: the synthetic room of synthetic/line_scene.h (the benchmark before the simulator existed; 1920x1080 fixed
+images f = 1100 px with the corner moved 20 px; --frames default 30, --fixed default 2, --detector default both,
+--save DIR writes the rendered images).
+--verbose: every 2D line worse than 0.15 px (0.1 px with --room) after fine-tuning or on no true edge, every 3D line
+worse than 1 cm or 0.5 deg or on no true edge, and every map line more than 5 mm off its edge.
 )";
 
-double msSince(Clock::time_point t)
+// CPU time of this thread, ms (as the library's stage times): the cost on one core, robust to other load.
+double threadCpuMs()
 {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return 1e3 * static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_nsec);
+}
+
+double msSince(double t)
+{
+  return threadCpuMs() - t;
 }
 
 struct Series
@@ -96,36 +123,16 @@ void printRow(const char* name, const Series& s, const char* unit = "ms")
               s.quantile(0.9), s.max(), unit);
 }
 
-}  // namespace
-
-int main(int argc, char** argv)
+// The synthetic room (synthetic/line_scene.h), the benchmark before the survey simulator existed.
+int runRoom(ic::CommandLine& cl, const std::vector<ic::SegmentDetectorKind>& kinds)
 {
-  ic::CommandLine cl(argc, argv, {"frames", "fixed", "detector", "seed", "repeat", "save"}, {"verbose"});
   const bool verbose = cl.flag("verbose");
-  if (cl.help())
-  {
-    std::cout << kUsage;
-    return 0;
-  }
   const int frames = static_cast<int>(cl.number("frames", 30));
   const int fixed = static_cast<int>(cl.number("fixed", 2));
   const unsigned seed = static_cast<unsigned>(cl.number("seed", 1));
   const int repeat = std::max(1, static_cast<int>(cl.number("repeat", 3)));
-  const std::string detector_name = cl.value("detector", "both");
-  if (!cl.error().empty() || !cl.positional().empty() ||
-      (detector_name != "both" && !ic::parseSegmentDetectorKind(detector_name)))
-  {
-    std::cerr << "bench_lines: " << (cl.error().empty() ? "bad arguments" : cl.error()) << "\n" << kUsage;
-    return 2;
-  }
-  std::vector<ic::SegmentDetectorKind> kinds;
-  if (detector_name == "both")
-    kinds = {ic::SegmentDetectorKind::kFastLineDetector, ic::SegmentDetectorKind::kLsd};
-  else
-    kinds = {*ic::parseSegmentDetectorKind(detector_name)};
-  cv::setNumThreads(1);
-  std::printf("bench_lines: seed %u, %d RGB-D frames, %d fixed images, best of %d runs, OpenCV threads %d\n", seed,
-              frames, fixed, repeat, cv::getNumThreads());
+  std::printf("bench_lines --room: seed %u, %d RGB-D frames, %d fixed images, best of %d runs, OpenCV threads %d\n",
+              seed, frames, fixed, repeat, cv::getNumThreads());
 
   std::mt19937 rng(seed);
   const ic::LineScene scene = ic::makeRoomScene(rng);
@@ -181,7 +188,7 @@ int main(int argc, char** argv)
       for (int r = 0; r < repeat; ++r)
       {
         ic::RgbdLineStats stats;
-        const auto t = Clock::now();
+        const double t = threadCpuMs();
         auto result = extractor.extract(f, &stats);
         const double ms = msSince(t);
         if (!result)
@@ -196,7 +203,7 @@ int main(int argc, char** argv)
           lines = *result;
         }
       }
-      const auto t = Clock::now();
+      const double t = threadCpuMs();
       map.insert(lines);
       const double merge_ms = msSince(t);
       detect.add(best.detect_ms);
@@ -317,7 +324,7 @@ int main(int argc, char** argv)
       for (int r = 0; r < repeat; ++r)
       {
         ic::ImageLineStats stats;
-        const auto t = Clock::now();
+        const double t = threadCpuMs();
         auto result = ic::extractImageLines(fi.image, first, options, &stats);
         const double ms = msSince(t);
         if (!result)
@@ -376,4 +383,353 @@ int main(int argc, char** argv)
         after.quantile(0.9));
   }
   return 0;
+}
+
+// Per-line accuracy and timing of the RGB-D half on the simulator's frames, for one detector.
+struct RgbdRun
+{
+  ic::SegmentDetectorKind kind;
+  std::unique_ptr<ic::RgbdLineExtractor> extractor;
+  ic::LineMap map;
+  Series detect, refine, depth, fit, merge, total, lines_per_frame;
+  std::map<int, Series> bucket_distance, bucket_angle;  // matched lines, by range bucket
+  std::map<int, int> bucket_total, bucket_good;         // all lines; within 1 cm and 0.5 deg
+  std::vector<double> near_distance, near_angle;        // within 3 m, unmatched lines as infinity
+};
+
+struct FixedRun
+{
+  Series detect, merge, refine, total, lines;
+  double before2 = 0.0, after2 = 0.0;  // pooled squared distances of the matched lines
+  int samples = 0, matched = 0, extracted = 0;
+  Series after_line;  // per-line RMS after fine-tuning
+};
+
+void addImageLines(const std::vector<ic::ImageLine>& lines, const ic::CameraModel& truth_camera,
+                   const std::vector<ic::TrueEdgeImage>& edges, bool verbose, const std::string& label, FixedRun* run)
+{
+  for (const auto& line : lines)
+  {
+    ++run->extracted;
+    const auto after = ic::measureImageLine(line.points, truth_camera.distortion(), edges, 2.0);
+    const auto before = ic::measureImageLine(line.detected, truth_camera.distortion(), edges, 2.0);
+    if (after.edge < 0 || before.edge < 0)
+    {
+      if (verbose)
+        std::printf("    %s: line on no true edge: %zu points, %.0f px, from (%.1f %.1f) to (%.1f %.1f)\n",
+                    label.c_str(), line.points.size(), line.length_px, line.points.front().x(), line.points.front().y(),
+                    line.points.back().x(), line.points.back().y());
+      continue;
+    }
+    ++run->matched;
+    run->after2 += after.rms_px * after.rms_px * after.samples;
+    run->before2 += before.rms_px * before.rms_px * after.samples;
+    run->samples += after.samples;
+    run->after_line.add(after.rms_px);
+    if (verbose && after.rms_px > 0.15)
+      std::printf(
+          "    %s: edge %d, %zu points, %.0f px, rms before %.3f after %.3f max %.3f px, (%.1f %.1f)-(%.1f %.1f)\n",
+          label.c_str(), after.edge, line.points.size(), line.length_px, before.rms_px, after.rms_px, after.max_px,
+          line.points.front().x(), line.points.front().y(), line.points.back().x(), line.points.back().y());
+  }
+}
+
+void printTimingTable(const std::vector<std::pair<std::string, const Series*>>& rows)
+{
+  std::printf("  | stage | mean | median | p90 | max |\n  |---|---|---|---|---|\n");
+  for (const auto& [name, s] : rows)
+    std::printf("  | %s | %.2f | %.2f | %.2f | %.2f ms |\n", name.c_str(), s->mean(), s->median(), s->quantile(0.9),
+                s->max());
+}
+
+// The survey simulator's frames (simulation/survey.h): every RGB-D frame of a survey and a few noisy frames of
+// every fixed camera, against the world's true edges.
+int runWorld(ic::CommandLine& cl, const std::vector<ic::SegmentDetectorKind>& kinds)
+{
+  const bool verbose = cl.flag("verbose");
+  const std::string world_path = cl.value("world", std::string(INSITU_SOURCE_DIR) + "/config/worlds/waiting_room.yaml");
+  sim::SurveyOptions options;
+  options.duration_s = cl.number("duration", 40.0);
+  options.rate_hz = cl.number("rate", 5.0);
+  options.seed = static_cast<uint64_t>(cl.number("seed", 1));
+  const int repeat = std::max(1, static_cast<int>(cl.number("repeat", 3)));
+  const int fixed_frames = std::max(0, static_cast<int>(cl.number("fixed-frames", 2)));
+  const int max_frames = static_cast<int>(cl.number("frames", 1e9));
+  const int min_support = std::max(1, static_cast<int>(cl.number("min-support", 2)));
+  auto world = sim::loadWorldFile(world_path);
+  if (!world)
+  {
+    std::cerr << "bench_lines: " << world.error().describe() << "\n";
+    return 2;
+  }
+  if (cl.has("rgb-noise"))
+    world->xtion.rgb_noise_sigma = cl.number("rgb-noise", 0.0);
+  if (!cl.error().empty())
+  {
+    std::cerr << "bench_lines: " << cl.error() << "\n" << kUsage;
+    return 2;
+  }
+  auto survey = sim::SurveySimulator::create(std::move(*world), options);
+  if (!survey)
+  {
+    std::cerr << "bench_lines: " << survey.error().describe() << "\n";
+    return 2;
+  }
+  const sim::World& w = survey->world();
+  const std::vector<ic::Segment3d> truth = sim::toSegments(sim::computeTrueEdges(w));
+  const int frames = static_cast<int>(std::min<size_t>(survey->xtionFrameCount(), std::max(0, max_frames)));
+  std::printf(
+      "bench_lines --world %s: seed %llu, %d RGB-D frames (%.0f s at %.1f Hz, RGB noise %.1f), %d noisy frames per "
+      "fixed camera, %zu true edges, best of %d runs, OpenCV threads %d\n",
+      w.name.c_str(), static_cast<unsigned long long>(options.seed), frames, options.duration_s, options.rate_hz,
+      w.xtion.rgb_noise_sigma, fixed_frames, truth.size(), repeat, cv::getNumThreads());
+
+  // ------------------------------------------------------------------------------------------------ RGB-D frames
+  const double bucket_edges[] = {0.0, 1.0, 2.0, 3.0, 4.0, 6.0};
+  const int buckets = 5;
+  std::vector<RgbdRun> runs;
+  for (const auto kind : kinds)
+  {
+    RgbdRun run;
+    run.kind = kind;
+    ic::RgbdLineOptions o;
+    o.detector.kind = kind;
+    run.extractor = std::make_unique<ic::RgbdLineExtractor>(o);
+    runs.push_back(std::move(run));
+  }
+  for (int i = 0; i < frames; ++i)
+  {
+    const sim::XtionFrame xf = survey->xtionFrame(i);
+    const ic::RgbdFrame frame = sim::toRgbdFrame(*survey, xf);
+    for (auto& run : runs)
+    {
+      ic::RgbdLineStats best;
+      double best_total = std::numeric_limits<double>::infinity();
+      std::vector<ic::Line3d> lines;
+      for (int r = 0; r < repeat; ++r)
+      {
+        ic::RgbdLineStats stats;
+        const double t = threadCpuMs();
+        auto result = run.extractor->extract(frame, &stats);
+        const double ms = msSince(t);
+        if (!result)
+        {
+          std::cerr << "bench_lines: frame " << i << ": " << result.error().describe() << "\n";
+          return 1;
+        }
+        if (ms < best_total)
+        {
+          best_total = ms;
+          best = stats;
+          lines = std::move(*result);
+        }
+      }
+      const double t = threadCpuMs();
+      run.map.insert(lines);
+      const double merge_ms = msSince(t);
+      run.detect.add(best.detect_ms);
+      run.refine.add(best.refine_ms);
+      run.depth.add(best.depth_ms);
+      run.fit.add(best.fit_ms);
+      run.merge.add(merge_ms);
+      run.total.add(best_total + merge_ms);
+      run.lines_per_frame.add(lines.size());
+      for (const auto& line : lines)
+      {
+        int bucket = 0;
+        while (bucket + 1 < buckets && line.range_m >= bucket_edges[bucket + 1])
+          ++bucket;
+        ++run.bucket_total[bucket];
+        const ic::Line3dError e = ic::measureLine3d(line.a, line.b, truth, 0.1, 5.0);
+        const double inf = std::numeric_limits<double>::infinity();
+        if (line.range_m < 3.0)
+        {
+          run.near_distance.push_back(e.edge < 0 ? inf : e.distance_m * 1000.0);
+          run.near_angle.push_back(e.edge < 0 ? inf : e.angle_deg);
+        }
+        if (e.edge < 0)
+        {
+          if (verbose)
+            std::printf(
+                "    frame %d: 3D line at %.2f m on no true edge (within 10 cm, 5 deg): image (%.1f %.1f)-(%.1f "
+                "%.1f), map (%.3f %.3f %.3f)-(%.3f %.3f %.3f)\n",
+                i, line.range_m, line.image.a.x(), line.image.a.y(), line.image.b.x(), line.image.b.y(), line.a.x(),
+                line.a.y(), line.a.z(), line.b.x(), line.b.y(), line.b.z());
+          continue;
+        }
+        run.bucket_distance[bucket].add(e.distance_m * 1000.0);
+        run.bucket_angle[bucket].add(e.angle_deg);
+        run.bucket_good[bucket] += e.distance_m <= 0.01 && e.angle_deg <= 0.5;
+        if (verbose && (e.distance_m > 0.01 || e.angle_deg > 0.5))
+          std::printf(
+              "    frame %d: 3D line at %.2f m, edge %d: %.1f mm %.3f deg, %d of %d inliers, rms %.1f mm, image (%.1f "
+              "%.1f)-(%.1f %.1f), map (%.3f %.3f %.3f)-(%.3f %.3f %.3f)\n",
+              i, line.range_m, e.edge, e.distance_m * 1000.0, e.angle_deg, line.inliers, line.samples,
+              line.rms_m * 1000.0, line.image.a.x(), line.image.a.y(), line.image.b.x(), line.image.b.y(), line.a.x(),
+              line.a.y(), line.a.z(), line.b.x(), line.b.y(), line.b.z());
+      }
+    }
+  }
+  for (auto& run : runs)
+  {
+    std::printf("\nRGB-D frame %dx%d, detector %s: %.1f 3D lines per frame, %zu map lines after %d frames\n",
+                w.xtion.width, w.xtion.height, ic::toString(run.kind), run.lines_per_frame.mean(), run.map.size(),
+                frames);
+    printTimingTable({{"detection", &run.detect},
+                      {"2D fine-tuning", &run.refine},
+                      {"depth sampling", &run.depth},
+                      {"RANSAC + refinement", &run.fit},
+                      {"line-map merge", &run.merge},
+                      {"**total**", &run.total}});
+    std::printf(
+        "\n  3D line error against the distance from the sensor (error: RMS of the end points' distances to the "
+        "true line; matched: within 10 cm and 5 deg of a true edge):\n");
+    std::printf("  | range | lines | matched | within 1 cm, 0.5 deg | median | p90 |\n  |---|---|---|---|---|---|\n");
+    for (int b = 0; b < buckets; ++b)
+    {
+      if (!run.bucket_total[b])
+        continue;
+      const int matched = static_cast<int>(run.bucket_distance[b].v.size());
+      std::printf("  | %.0f-%.0f m | %d | %d | %d (%.1f %%) | %.2f mm, %.3f deg | %.2f mm, %.3f deg |\n",
+                  bucket_edges[b], bucket_edges[b + 1], run.bucket_total[b], matched, run.bucket_good[b],
+                  100.0 * run.bucket_good[b] / run.bucket_total[b], run.bucket_distance[b].median(),
+                  run.bucket_angle[b].median(), run.bucket_distance[b].quantile(0.9),
+                  run.bucket_angle[b].quantile(0.9));
+    }
+    Series nd{run.near_distance}, na{run.near_angle};
+    std::printf("  within 3 m: %zu lines, median %.2f mm, %.3f deg (unmatched lines counted as infinite)\n",
+                nd.v.size(), nd.median(), na.median());
+    for (const int support : {min_support, 3})
+    {
+      Series d, a;
+      int on_edge = 0, over5 = 0, over10 = 0;
+      const auto lines = run.map.lines(support);
+      for (const auto& line : lines)
+      {
+        const ic::Line3dError e = ic::measureLine3d(line.a(), line.b(), truth, 0.1, 5.0);
+        if (e.edge < 0)
+        {
+          if (verbose && support == min_support)
+            std::printf("    map line on no true edge: support %d, %.2f m, (%.3f %.3f %.3f)-(%.3f %.3f %.3f)\n",
+                        line.support, line.length(), line.a().x(), line.a().y(), line.a().z(), line.b().x(),
+                        line.b().y(), line.b().z());
+          continue;
+        }
+        ++on_edge;
+        d.add(e.distance_m * 1000.0);
+        a.add(e.angle_deg);
+        over5 += e.distance_m > 0.005;
+        over10 += e.distance_m > 0.01;
+        if (verbose && support == min_support && e.distance_m > 0.005)
+          std::printf(
+              "    map line %.1f mm %.3f deg off edge %d: support %d, %.2f m, (%.3f %.3f %.3f)-(%.3f %.3f "
+              "%.3f)\n",
+              e.distance_m * 1000.0, e.angle_deg, e.edge, line.support, line.length(), line.a().x(), line.a().y(),
+              line.a().z(), line.b().x(), line.b().y(), line.b().z());
+      }
+      std::printf(
+          "  line map, support >= %d: %zu lines, %d on a true edge: median %.2f mm %.3f deg, p90 %.2f mm "
+          "%.3f deg, max %.2f mm %.3f deg; %d over 5 mm, %d over 1 cm\n",
+          support, lines.size(), on_edge, d.median(), a.median(), d.quantile(0.9), a.quantile(0.9), d.max(), a.max(),
+          over5, over10);
+    }
+  }
+
+  // ----------------------------------------------------------------------------------------------- fixed cameras
+  for (const auto kind : kinds)
+  {
+    ic::ImageLineOptions image_options;
+    image_options.detector.kind = kind;
+    std::printf(
+        "\nfixed cameras, detector %s (%d noisy frames each; first pass: lambda = 0 at the image centre; "
+        "then with the true lambda and centre)\n",
+        ic::toString(kind), fixed_frames);
+    std::printf(
+        "  | camera | size | pass | lines | on a true edge | detection | merging | fine-tuning | **total** "
+        "| RMS before | RMS after | per-line RMS after: median, p90, max |\n"
+        "  |---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    FixedRun all;
+    for (size_t c = 0; c < w.fixed_cameras.size(); ++c)
+    {
+      const sim::FixedCameraConfig& fc = w.fixed_cameras[c];
+      // Collinear true edges (a row of chairs' seat edges, window panes) are one 3D line for a 2D line.
+      const auto edges = ic::projectEdges(fc.camera, ic::mergeCollinearSegments(truth));
+      for (int pass = 0; pass < 2; ++pass)
+      {
+        ic::DivisionModel distortion;
+        distortion.center = Eigen::Vector2d(0.5 * (fc.width - 1), 0.5 * (fc.height - 1));
+        if (pass == 1)
+          distortion = fc.camera.distortion();
+        FixedRun run;
+        for (int k = 0; k < fixed_frames; ++k)
+        {
+          const cv::Mat image = sim::toBgr(survey->fixedFrame(static_cast<int>(c), k).image);
+          ic::ImageLineStats best;
+          double best_total = std::numeric_limits<double>::infinity();
+          std::vector<ic::ImageLine> lines;
+          for (int r = 0; r < repeat; ++r)
+          {
+            ic::ImageLineStats stats;
+            const double t = threadCpuMs();
+            auto result = ic::extractImageLines(image, distortion, image_options, &stats);
+            const double ms = msSince(t);
+            if (!result)
+            {
+              std::cerr << "bench_lines: " << fc.name << ": " << result.error().describe() << "\n";
+              return 1;
+            }
+            if (ms < best_total)
+            {
+              best_total = ms;
+              best = stats;
+              lines = std::move(*result);
+            }
+          }
+          run.detect.add(best.detect_ms);
+          run.merge.add(best.merge_ms);
+          run.refine.add(best.refine_ms);
+          run.total.add(best_total);
+          run.lines.add(lines.size());
+          addImageLines(lines, fc.camera, edges, verbose, fc.name + (pass ? " (true lambda)" : " (lambda 0)"), &run);
+        }
+        std::printf(
+            "  | %s | %dx%d | %s | %.1f | %d of %d | %.1f | %.2f | %.1f | **%.1f** (max %.1f) | %.3f px | %.3f "
+            "px | %.3f, %.3f, %.3f px |\n",
+            fc.name.c_str(), fc.width, fc.height, pass ? "true lambda" : "lambda 0", run.lines.mean(), run.matched,
+            run.extracted, run.detect.mean(), run.merge.mean(), run.refine.mean(), run.total.mean(), run.total.max(),
+            std::sqrt(run.before2 / std::max(1, run.samples)), std::sqrt(run.after2 / std::max(1, run.samples)),
+            run.after_line.median(), run.after_line.quantile(0.9), run.after_line.max());
+      }
+    }
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  ic::CommandLine cl(argc, argv,
+                     {"frames", "fixed", "detector", "seed", "repeat", "save", "world", "duration", "rate",
+                      "fixed-frames", "rgb-noise", "min-support"},
+                     {"verbose", "room"});
+  if (cl.help())
+  {
+    std::cout << kUsage;
+    return 0;
+  }
+  const std::string detector_name = cl.value("detector", cl.flag("room") ? "both" : "fld");
+  if (!cl.error().empty() || !cl.positional().empty() ||
+      (detector_name != "both" && !ic::parseSegmentDetectorKind(detector_name)))
+  {
+    std::cerr << "bench_lines: " << (cl.error().empty() ? "bad arguments" : cl.error()) << "\n" << kUsage;
+    return 2;
+  }
+  std::vector<ic::SegmentDetectorKind> kinds;
+  if (detector_name == "both")
+    kinds = {ic::SegmentDetectorKind::kFastLineDetector, ic::SegmentDetectorKind::kLsd};
+  else
+    kinds = {*ic::parseSegmentDetectorKind(detector_name)};
+  cv::setNumThreads(1);
+  return cl.flag("room") ? runRoom(cl, kinds) : runWorld(cl, kinds);
 }

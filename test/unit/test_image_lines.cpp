@@ -231,3 +231,103 @@ TEST(ImageLines, BadInputGivesErrorsOrEmptyResultsWithAReason)
     EXPECT_TRUE(segments->empty());
   }
 }
+
+namespace
+{
+// An image from a grey level per point (area-sampled with n x n samples per pixel) plus Gaussian noise.
+template <typename F>
+cv::Mat renderFunction(int width, int height, F grey, double noise_sigma, std::mt19937& rng, int n = 8)
+{
+  std::normal_distribution<double> noise(0.0, noise_sigma);
+  cv::Mat image(height, width, CV_8UC1);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x)
+    {
+      double sum = 0.0;
+      for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j)
+          sum += grey(x - 0.5 + (i + 0.5) / n, y - 0.5 + (j + 0.5) / n);
+      image.at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(sum / (n * n) + noise(rng));
+    }
+  return image;
+}
+
+}  // namespace
+
+// A second, weaker edge of the same polarity 2.2 px beside the edge (a ceiling tile's edge beside the wall-ceiling
+// crease, the far side of a thin strip): the wide window's centroids are pulled towards it; the narrow second stage
+// (polish_half_width_px) leaves it out. Edge at x = 100.3 + 0.05 y, grey 60 | 160 | 190.
+TEST(LineRefiner, CloseParallelEdgeDoesNotPullTheFineTunedEdge)
+{
+  std::mt19937 rng(kSeed);
+  auto edge_x = [](double y) { return 100.3 + 0.05 * y; };
+  const cv::Mat image = renderFunction(
+      240, 240, [&](double x, double y) { return x < edge_x(y) ? 60.0 : (x < edge_x(y) + 2.2 ? 160.0 : 190.0); }, 2.0,
+      rng);
+  auto error = [&](const ic::RefinedSegment& r) {
+    return std::max(std::abs(r.a.x() - edge_x(r.a.y())), std::abs(r.b.x() - edge_x(r.b.y())));
+  };
+  const Eigen::Vector2d a(edge_x(20.0) + 0.4, 20.0), b(edge_x(220.0) - 0.3, 220.0);
+  ic::RefinerOptions polished;
+  auto refiner = ic::LineRefiner::create(image, polished);
+  ASSERT_TRUE(refiner.ok());
+  const auto with = refiner->refineSegment(a, b);
+  ASSERT_TRUE(with.ok()) << with.error().describe();
+  ic::RefinerOptions wide_only;
+  wide_only.polish_half_width_px = 0.0;
+  auto wide = ic::LineRefiner::create(image, wide_only);
+  const auto without = wide->refineSegment(a, b);
+  ASSERT_TRUE(without.ok()) << without.error().describe();
+  std::cout << "largest end-point error: wide window " << error(*without) << " px, then narrow " << error(*with)
+            << " px; flank asymmetry " << without->asymmetry << " / " << with->asymmetry << std::endl;
+  EXPECT_LT(error(*with), 0.05);
+  EXPECT_GT(error(*without), 0.1);  // the first version's bias
+}
+
+// A polyline along two nearly collinear edges, 0.9 px apart where they meet (a table top's far edge running on as a
+// floor line behind it): fine-tuned, its parts disagree at the shared vertex, and the line is split there, so each
+// line lies on one edge.
+TEST(ImageLines, PolylineAlongTwoNearlyCollinearEdgesIsSplit)
+{
+  std::mt19937 rng(kSeed);
+  auto edge_y = [](double x) { return x < 300.0 ? 100.3 + 0.01 * x : 101.2 + 0.01 * x; };
+  const cv::Mat image = renderFunction(
+      600, 200, [&](double x, double y) { return y < edge_y(x) ? 190.0 : 70.0; }, 2.0, rng, 6);
+  auto worst = [&](const ic::ImageLine& line) {
+    double w = 0.0;
+    for (size_t k = 0; k + 1 < line.points.size(); ++k)
+      for (double t = 0.0; t <= 1.0; t += 0.1)
+      {
+        const Eigen::Vector2d p = line.points[k] + t * (line.points[k + 1] - line.points[k]);
+        if (std::abs(p.x() - 300.0) > 3.0)  // not at the step itself
+          w = std::max(w, std::abs(p.y() - edge_y(p.x())) / std::sqrt(1.0001));
+      }
+    return w;
+  };
+  ic::DivisionModel none;
+  none.center = Eigen::Vector2d(299.5, 99.5);
+  for (const double split : {0.3, 0.0})
+  {
+    ic::ImageLineOptions options;
+    options.split_gap_px = split;
+    ic::ImageLineStats stats;
+    const auto lines = ic::extractImageLines(image, none, options, &stats);
+    ASSERT_TRUE(lines.ok()) << lines.error().describe();
+    double max_error = 0.0;
+    for (const auto& line : *lines)
+      max_error = std::max(max_error, worst(line));
+    std::cout << "split_gap_px " << split << ": " << stats.segments.size() << " segments, " << stats.polylines
+              << " polylines, " << lines->size() << " lines, " << stats.splits << " split; largest distance to "
+              << "the edge " << max_error << " px" << std::endl;
+    ASSERT_GE(lines->size(), 1u);
+    if (split > 0.0)
+    {
+      EXPECT_LT(max_error, 0.15);
+      EXPECT_GE(stats.splits, 1);
+    }
+    else if (stats.polylines == 1)
+    {
+      EXPECT_GT(max_error, 0.3);  // the first version: one line across both edges
+    }
+  }
+}

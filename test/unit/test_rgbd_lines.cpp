@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <iostream>
 
 #include <opencv2/imgproc.hpp>
@@ -184,6 +185,43 @@ TEST(DepthSampler, TakesTheNearSideOfADiscontinuityAndTheEdgeDepthOnASlantedSurf
   {
     EXPECT_NEAR(sample.depth_m, 2.0, 2e-4);
     EXPECT_FALSE(sample.discontinuity);
+  }
+}
+
+// A chair back's top seen from above at a grazing angle: the wall at 2.10 m above the edge (y < 100.5), no return
+// from the top face (5 px below the edge, more than the band read), then the chair's front face at 1.90 m. The only
+// depth next to the edge is the wall's, the background: no sample may take it. With the front face farther than the
+// wall (a projector shadow on the background instead), the readings are the near side and are kept.
+TEST(DepthSampler, NoDepthFromTheBackgroundOfAnUnseenSurface)
+{
+  for (const bool shadow : {false, true})
+  {
+    cv::Mat depth(200, 200, CV_32FC1);
+    for (int y = 0; y < 200; ++y)
+      for (int x = 0; x < 200; ++x)
+      {
+        float z = 2.10f;  // wall
+        if (y > 100 && y <= 105)
+          z = std::numeric_limits<float>::quiet_NaN();  // no return
+        else if (y > 105)
+          z = shadow ? 2.60f : 1.90f;
+        depth.at<float>(y, x) = z;
+      }
+    const auto samples = ic::sampleDepthAlongSegment(depth, ic::Segment2d{{20.0, 100.5}, {180.0, 100.5}});
+    if (!shadow)
+    {
+      EXPECT_TRUE(samples.empty()) << samples.size() << " samples, the first at " << samples.front().depth_m << " m";
+    }
+    else
+    {
+      ASSERT_GT(samples.size(), 70u);
+      for (const auto& sample : samples)
+        EXPECT_NEAR(sample.depth_m, 2.10, 1e-4);
+    }
+    // Without the search beyond the gap, the wall was taken (the first version: 3 cm off at the chair backs).
+    ic::DepthSamplerOptions no_search;
+    no_search.gap_search_px = 0;
+    EXPECT_GT(ic::sampleDepthAlongSegment(depth, ic::Segment2d{{20.0, 100.5}, {180.0, 100.5}}, no_search).size(), 70u);
   }
 }
 

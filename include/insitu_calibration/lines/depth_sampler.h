@@ -7,7 +7,9 @@
 // evaluated on the edge itself: the depth of the front surface at the edge, without the bias of a reading one or two
 // pixels away on a slanted surface and without mixing in the background. A step smaller than the jump (a door frame
 // 1-2 cm proud of its wall, hidden in the noise of one sample) is found over the whole segment: the two sides'
-// depths extrapolated to the edge differ consistently, and the nearer side is taken.
+// depths extrapolated to the edge differ consistently, and the nearer side is taken. Where one side has no depth at all
+// near the edge, a nearer surface beyond the gap means the readings may be the background of an unseen near surface:
+// no sample there.
 #ifndef INSITU_CALIBRATION_LINES_DEPTH_SAMPLER_H
 #define INSITU_CALIBRATION_LINES_DEPTH_SAMPLER_H
 
@@ -30,6 +32,12 @@ struct DepthSamplerOptions
   double jump_ratio = 0.03;           // a depth discontinuity: readings farther than max(jump_min_m, jump_ratio z)
   double jump_min_m = 0.03;           //   behind the nearest reading
   double max_extrapolation_px = 2.5;  // the near cluster must come this close to the edge
+  // When one side has no reading in the band (no return from a surface seen at a grazing angle, or a projector
+  // shadow), the first reading beyond the gap, up to gap_search_px across the edge, tells which: a surface nearer
+  // than the readings by more than a jump means the edge may belong to the unseen surface (a chair back's top face
+  // between its front face and the wall) and the sample is dropped; otherwise (a shadow on the background) the
+  // readings are the near side. 0: no search.
+  int gap_search_px = 12;
   // Small steps (below the jump): when the two sides' depths extrapolated to the edge differ consistently along the
   // segment (by more than small_step_sigmas standard errors, and by at least small_step_min_m), the edge takes the
   // nearer side's depth. 0 sigmas: off.

@@ -34,11 +34,11 @@ namespace insitu_calibration
 {
 struct RefinerOptions
 {
-  double half_width_px = 3.0;     // region of interest across the line, each side (the sub-pixel window)
-  double extension_px = 10.0;     // region of interest beyond the end points of a segment / of a polyline
-  double search_px = 2.0;         // coarse search across the line, each side (0: skip the coarse stage)
-  double sample_step_px = 1.0;    // spacing of the samples m_k along the line
-  double profile_step_px = 0.25;  // spacing of the intensity samples across the line
+  double half_width_px = 3.0;    // region of interest across the line, each side (the sub-pixel window)
+  double extension_px = 10.0;    // region of interest beyond the end points of a segment / of a polyline
+  double search_px = 2.0;        // coarse search across the line, each side (0: skip the coarse stage)
+  double sample_step_px = 1.0;   // spacing of the samples m_k along the line
+  double profile_step_px = 0.5;  // spacing of the intensity samples across the line
   int max_iterations = 15;
   double convergence_px = 1e-3;     // stop when no point of the part moves more than this
   double min_contrast = 8.0;        // grey levels across the window: weaker samples do not see the edge
@@ -47,6 +47,12 @@ struct RefinerOptions
   double contrast_tolerance = 0.4;  // samples whose step differs from the median step by more (relative) are not
                                     // fitted: their window holds another edge (0: keep all)
   double smoothing_sigma_px = 0.0;  // optional Gaussian smoothing of the image (0: none; noise averages along)
+  // Second sub-pixel stage in a narrower window (0: none), from the first stage's line: another edge 1.5-3 px away
+  // (a close parallel edge, the far side of a thin strip) biases the centroids of the wide window.
+  double polish_half_width_px = 1.5;
+  // The grey-level steps of the last window's two flanks (|t| in [w / 2, w]) differ by more than this fraction of
+  // the edge's step: another edge inside the window, the part fails (kDegenerate). 0: no test.
+  double max_asymmetry = 0.0;
 };
 
 // A fine-tuned line part.
@@ -60,7 +66,8 @@ struct RefinedSegment
   double residual_px = 0.0;  // RMS of the per-sample centroids about the line (noise of the edge position)
   double shift_px = 0.0;     // largest displacement of a or b by the fine-tuning
   int iterations = 0;
-  int samples = 0;  // samples used in the final fit
+  int samples = 0;         // samples used in the final fit
+  double asymmetry = 0.0;  // difference of the last window's flank steps relative to the edge's step
 };
 
 struct RefinedPolyline

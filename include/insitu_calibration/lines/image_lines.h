@@ -24,6 +24,10 @@ struct ImageLineOptions
   PolylineMergeOptions merge;
   RefinerOptions refiner;
   double min_part_support = 0.5;  // a line is dropped when fewer than this fraction of its parts found the edge
+  // Two fine-tuned parts that disagree at their shared vertex by more than this (their projections of it are apart)
+  // lie on different edges (a polyline across a junction, or along two nearly collinear edges): the line is split
+  // there. 0: never split.
+  double split_gap_px = 0.3;
 };
 
 struct ImageLine
@@ -42,7 +46,8 @@ struct ImageLineStats
   int polylines = 0;                // after merging
   int lines = 0;                    // after fine-tuning
   int rejected = 0;                 // polylines whose fine-tuning found no edge
-  double detect_ms = 0.0;
+  int splits = 0;                   // polylines split where their fine-tuned parts disagree
+  double detect_ms = 0.0;           // times: CPU time of the calling thread (the cost on one core)
   double merge_ms = 0.0;
   double refine_ms = 0.0;  // includes building the LineRefiner
   std::string note;        // why the result is empty, when it is

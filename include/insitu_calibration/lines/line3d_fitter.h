@@ -12,6 +12,7 @@
 #define INSITU_CALIBRATION_LINES_LINE3D_FITTER_H
 
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include <Eigen/Core>
@@ -29,10 +30,17 @@ struct Line3d
   Eigen::Vector3d b = Eigen::Vector3d::Zero();
   int inliers = 0;
   int samples = 0;
-  double rms_m = 0.0;    // of the inliers about the line (3D distance)
+  double rms_m = 0.0;  // of the inliers about the line (3D distance)
+  // Standard error of the end points predicted from the fit's residuals (the larger of the two; for RGB-D lines
+  // along the line of sight, where the depth noise puts it): how far the line may be off its edge. 0: unknown.
+  double sigma_m = 0.0;
   double range_m = 0.0;  // distance of the segment's midpoint from the sensor when it was measured
-  Segment2d image;       // the RGB segment it comes from (RGB-D lines only)
-  double stamp = 0.0;    // of the frame (RGB-D lines only)
+  // The sensor's optical centre in the frame of a and b (RGB-D lines: the camera origin, then the map position of
+  // the frame); NaN when unknown (fitLine3d). The line map uses it to tell depth errors (along the line of sight,
+  // large) from offsets across it (as small as the 2D edge's).
+  Eigen::Vector3d sensor = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  Segment2d image;     // the RGB segment it comes from (RGB-D lines only)
+  double stamp = 0.0;  // of the frame (RGB-D lines only)
 
   Eigen::Vector3d direction() const { return (b - a).normalized(); }
   double length() const { return (b - a).norm(); }

@@ -21,6 +21,12 @@ struct TrueEdgeImage
   Eigen::Vector2d b = Eigen::Vector2d::Zero();
 };
 
+// True segments that lie on one 3D line (every end point within max_distance_m of the other's line, directions within
+// max_angle_deg), gaps between them allowed, joined into one segment spanning them all: a row of chairs' seat edges,
+// a window's panes. An image line along such a row is the image of one straight 3D line, as the calibration uses it.
+std::vector<Segment3d> mergeCollinearSegments(const std::vector<Segment3d>& segments, double max_distance_m = 0.001,
+                                              double max_angle_deg = 0.05);
+
 // Segments clipped to z >= near_m in the camera frame; segments fully behind are left out.
 std::vector<TrueEdgeImage> projectEdges(const CameraModel& camera, const std::vector<Segment3d>& segments,
                                         double near_m = 0.05);

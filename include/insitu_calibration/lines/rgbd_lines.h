@@ -31,12 +31,12 @@ struct RgbdLineOptions
 
 struct RgbdLineStats
 {
-  int segments = 0;   // detected in the RGB image
-  int lines = 0;      // 3D lines returned
-  int no_depth = 0;   // segments without enough depth samples
-  int no_line = 0;    // RANSAC found no line with enough inliers
-  int too_short = 0;  // inliers shorter than min_length_m
-  double detect_ms = 0.0;
+  int segments = 0;        // detected in the RGB image
+  int lines = 0;           // 3D lines returned
+  int no_depth = 0;        // segments without enough depth samples
+  int no_line = 0;         // RANSAC found no line with enough inliers
+  int too_short = 0;       // inliers shorter than min_length_m
+  double detect_ms = 0.0;  // times: CPU time of the calling thread (the cost on one core)
   double refine_ms = 0.0;  // 2D fine-tuning
   double depth_ms = 0.0;   // depth conversion and sampling
   double fit_ms = 0.0;     // RANSAC and refinement

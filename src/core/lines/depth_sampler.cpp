@@ -7,6 +7,42 @@
 
 namespace insitu_calibration
 {
+namespace
+{
+// True when one side of the edge has no reading in the band and the first reading beyond it (up to search_px across
+// the edge) is nearer than near_limit.
+bool occludedBySurfaceBeyondGap(const cv::Mat& depth_m, const Eigen::Vector2d& p, const Eigen::Vector2d& n,
+                                const std::vector<double>& offsets, int band, int search_px, double near_limit)
+{
+  if (search_px <= band)
+    return false;
+  for (const double side : {-1.0, 1.0})
+  {
+    bool seen = false;
+    for (const double o : offsets)
+      seen |= side * o > 0.25;
+    if (seen)
+      continue;
+    for (int j = band + 1; j <= search_px; ++j)
+    {
+      const Eigen::Vector2d q = p + side * static_cast<double>(j) * n;
+      const int x = static_cast<int>(std::lround(q.x()));
+      const int y = static_cast<int>(std::lround(q.y()));
+      if (x < 0 || y < 0 || x >= depth_m.cols || y >= depth_m.rows)
+        break;
+      const float z = depth_m.at<float>(y, x);
+      if (!std::isfinite(z))
+        continue;
+      if (z < near_limit)
+        return true;
+      break;
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
 Expected<cv::Mat> depthToMeters(const cv::Mat& depth, double min_range_m, double max_range_m)
 {
   if (depth.empty())
@@ -101,6 +137,11 @@ std::vector<DepthSample> sampleDepthAlongSegment(const cv::Mat& depth_m, const S
     if (depths.empty())
       continue;
     const double jump = std::max(options.jump_min_m, options.jump_ratio * z_min);
+    // A side without any reading in the band (no return: a surface seen at a grazing angle, or a projector shadow):
+    // when a surface nearer than the readings appears beyond the gap, the edge may belong to the unseen surface and
+    // the readings are the background: no sample here.
+    if (occludedBySurfaceBeyondGap(depth_m, p, n, offsets, band, options.gap_search_px, z_min - jump))
+      continue;
     // Near cluster: inverse depth, affine in the offset on each side of the edge and continuous across it (a
     // crease: both sides' slopes; an occluding contour: the near side only), evaluated at offset 0.
     Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();

@@ -214,20 +214,34 @@ Expected<RefinedSegment> LineRefiner::refineSegment(const Eigen::Vector2d& a, co
     int best_k = half_steps;
     int best_q = 0;
     const int tilt_steps = 2 * half_steps;
+    // Cumulative sums of each offset's column along the line: a tilted line is a few runs of samples at one offset
+    // each, so its score is a sum over runs instead of over samples.
+    std::vector<double> cumulative((s.size() + 1) * table_size, 0.0);
+    for (size_t i = 0; i < s.size(); ++i)
+      for (int k = 0; k < table_size; ++k)
+        cumulative[(i + 1) * table_size + k] =
+            cumulative[i * table_size + k] + std::max(0.0, table[i * table_size + k]);
+    std::vector<std::pair<size_t, int>> runs;  // (first sample, shift), in order
     for (int q = -tilt_steps; q <= tilt_steps; ++q)
     {
       const double phi = q * 0.5 / std::max(1.0, s_abs_max);
+      runs.clear();
+      for (size_t i = 0; i < s.size(); ++i)
+      {
+        const int shift = static_cast<int>(std::lround(phi * s[i] / 0.5));
+        if (runs.empty() || runs.back().second != shift)
+          runs.emplace_back(i, shift);
+      }
       for (int k = 0; k < table_size; ++k)
       {
         double score = 0.0;
-        for (size_t i = 0; i < s.size(); ++i)
+        for (size_t r = 0; r < runs.size(); ++r)
         {
-          const int kk = k + static_cast<int>(std::lround(phi * s[i] / 0.5));
+          const int kk = k + runs[r].second;
           if (kk < 0 || kk >= table_size)
             continue;
-          const double v = table[i * table_size + kk];
-          if (v > 0.0)
-            score += v;
+          const size_t end = r + 1 < runs.size() ? runs[r + 1].first : s.size();
+          score += cumulative[end * table_size + kk] - cumulative[runs[r].first * table_size + kk];
         }
         // Prefer the input line on ties (flat regions).
         if (score > best_score + 1e-9 ||
@@ -247,149 +261,174 @@ Expected<RefinedSegment> LineRefiner::refineSegment(const Eigen::Vector2d& a, co
     n = perpendicular(d);
   }
 
-  // 2. Sub-pixel: centroids of dI/dn in a window of half-width w about the line, weighted line fit, iterate.
-  const double w = o.half_width_px;
-  const int profile_count = static_cast<int>(std::floor(2.0 * w / o.profile_step_px + 1e-9)) + 1;
-  const double t0 = -0.5 * (profile_count - 1) * o.profile_step_px;
-  const double centroid_limit = 0.5 * (profile_count - 1) * o.profile_step_px - 0.5;
-  std::vector<double> intensity(profile_count);
-  std::vector<double> raw_weight(s.size()), centroid(s.size()), weight(s.size());
+  // 2. Sub-pixel: centroids of dI/dn in a window of half-width w about the line, weighted line fit, iterate; first
+  //    with half_width_px (capture range), then with polish_half_width_px (another edge 1.5-3 px away no longer
+  //    pulls the centroids). The last window's flanks tell whether another edge remains inside it.
+  std::vector<double> raw_weight(s.size()), centroid(s.size()), weight(s.size()), flank(s.size());
   std::vector<char> valid(s.size()), use(s.size());
   std::vector<double> robust_weight(s.size(), 0.0);
-  double typical_contrast = 0.0;
-  bool converged = false;
   double polarity = 0.0;
   RefinedSegment result;
   double support = 0.0;
   double residual_rms = 0.0;
   int used = 0;
   double contrast_sum = 0.0;
-  int iteration = 0;
-  for (iteration = 1; iteration <= o.max_iterations; ++iteration)
+  int total_iterations = 0;
+  double asymmetry = 0.0;
+  std::vector<double> windows = {o.half_width_px};
+  if (o.polish_half_width_px > 0.0 && o.polish_half_width_px < o.half_width_px)
+    windows.push_back(o.polish_half_width_px);
+  for (size_t stage = 0; stage < windows.size(); ++stage)
   {
-    for (size_t i = 0; i < s.size(); ++i)
+    const double w = windows[stage];
+    // A stage followed by another only has to bring the line close: coarser profiles, looser convergence.
+    const bool last_stage = stage + 1 == windows.size();
+    const double profile_step = last_stage ? o.profile_step_px : std::max(o.profile_step_px, 0.5);
+    const double convergence = last_stage ? o.convergence_px : std::max(o.convergence_px, 0.02);
+    const int profile_count = std::max(3, static_cast<int>(std::floor(2.0 * w / profile_step + 1e-9)) + 1);
+    const double step = 2.0 * w / (profile_count - 1);
+    const double t0 = -w;
+    const double centroid_limit = w - std::min(0.5, 0.5 * w);
+    const int inner = (profile_count - 1) / 4;  // the flanks: |t| in [w / 2, w]
+    std::vector<double> intensity(profile_count);
+    double typical_contrast = 0.0;
+    bool converged = false;
+    int iteration = 0;
+    for (iteration = 1; iteration <= o.max_iterations; ++iteration)
     {
-      const Eigen::Vector2d q = p0 + s[i] * d;
-      bool ok = true;
-      for (int j = 0; j < profile_count && ok; ++j)
-      {
-        const Eigen::Vector2d x = q + (t0 + j * o.profile_step_px) * n;
-        ok = bilinear(image_, x.x(), x.y(), &intensity[j]);
-      }
-      valid[i] = ok;
-      if (!ok)
-        continue;
-      double moment = 0.0;
-      for (int j = 0; j + 1 < profile_count; ++j)
-        moment += (t0 + (j + 0.5) * o.profile_step_px) * (intensity[j + 1] - intensity[j]);
-      raw_weight[i] = intensity[profile_count - 1] - intensity[0];
-      centroid[i] = raw_weight[i] != 0.0 ? moment / raw_weight[i] : 0.0;
-    }
-    if (iteration == 1)
-    {
-      double sum = 0.0;
       for (size_t i = 0; i < s.size(); ++i)
-        if (valid[i] && inside[i])
-          sum += raw_weight[i];
-      polarity = sum >= 0.0 ? 1.0 : -1.0;
-    }
-    size_t supported = 0;
-    for (size_t i = 0; i < s.size(); ++i)
-    {
-      weight[i] = polarity * raw_weight[i];
-      valid[i] = valid[i] && weight[i] >= o.min_contrast && std::abs(centroid[i]) <= centroid_limit;
-      use[i] = valid[i];
-      if (valid[i] && inside[i])
-        ++supported;
-    }
-    // Samples whose window also holds another edge (near corners, parallel neighbours) see a different step:
-    // they see the edge (support) but are left out of the fit. The typical step is fixed at the first iteration.
-    if (o.contrast_tolerance > 0.0)
-    {
-      if (iteration == 1)
       {
-        std::vector<double> contrasts;
+        const Eigen::Vector2d q = p0 + s[i] * d;
+        bool ok = true;
+        for (int j = 0; j < profile_count && ok; ++j)
+        {
+          const Eigen::Vector2d x = q + (t0 + j * step) * n;
+          ok = bilinear(image_, x.x(), x.y(), &intensity[j]);
+        }
+        valid[i] = ok;
+        if (!ok)
+          continue;
+        double moment = 0.0;
+        for (int j = 0; j + 1 < profile_count; ++j)
+          moment += (t0 + (j + 0.5) * step) * (intensity[j + 1] - intensity[j]);
+        raw_weight[i] = intensity[profile_count - 1] - intensity[0];
+        centroid[i] = raw_weight[i] != 0.0 ? moment / raw_weight[i] : 0.0;
+        flank[i] =
+            (intensity[profile_count - 1] - intensity[profile_count - 1 - inner]) - (intensity[inner] - intensity[0]);
+      }
+      if (stage == 0 && iteration == 1)
+      {
+        double sum = 0.0;
         for (size_t i = 0; i < s.size(); ++i)
           if (valid[i] && inside[i])
-            contrasts.push_back(weight[i]);
-        typical_contrast = medianOf(contrasts);
+            sum += raw_weight[i];
+        polarity = sum >= 0.0 ? 1.0 : -1.0;
       }
+      size_t supported = 0;
       for (size_t i = 0; i < s.size(); ++i)
-        if (use[i] && std::abs(weight[i] - typical_contrast) > o.contrast_tolerance * typical_contrast)
-          use[i] = 0;
-    }
-    support = static_cast<double>(supported) / static_cast<double>(n_inside);
-    if (support < o.min_support || supported < 3)
-      return Error(ErrorCode::kNotEnoughData, "no edge under the segment: " + std::to_string(supported) + " of " +
-                                                  std::to_string(n_inside) + " samples see a contrast of at least " +
-                                                  std::to_string(o.min_contrast) + " grey levels");
-    // Robust weights (Tukey's biweight, scale from the MAD) on the residuals about the current line (after the
-    // first iteration: the previous fit) or, in the first iteration, about a plain weighted fit: iteratively
-    // reweighted least squares of the same objective, so the iteration converges instead of switching between
-    // subsets of samples.
-    std::vector<double> residual(s.size(), 0.0);
-    if (iteration == 1)
-    {
-      const WeightedLineFit first = fitOffsetSlope(s, centroid, weight, use);
-      if (!first.ok)
-        return Error(ErrorCode::kDegenerate, "the edge samples do not determine a line");
-      for (size_t i = 0; i < s.size(); ++i)
-        residual[i] = centroid[i] - first.offset - first.slope * s[i];
-    }
-    else
-    {
-      residual = centroid;
-    }
-    std::vector<double> abs_residuals;
-    for (size_t i = 0; i < s.size(); ++i)
-      if (use[i])
-        abs_residuals.push_back(std::abs(residual[i]));
-    const double scale = std::max(o.outlier_px / 3.0, 1.4826 * medianOf(abs_residuals));
-    const double cutoff = 4.685 * scale;
-    used = 0;
-    for (size_t i = 0; i < s.size(); ++i)
-    {
-      robust_weight[i] = 0.0;
-      if (!use[i] || std::abs(residual[i]) >= cutoff)
       {
-        use[i] = 0;
-        continue;
+        weight[i] = polarity * raw_weight[i];
+        valid[i] = valid[i] && weight[i] >= o.min_contrast && std::abs(centroid[i]) <= centroid_limit;
+        use[i] = valid[i];
+        if (valid[i] && inside[i])
+          ++supported;
       }
-      const double u = residual[i] / cutoff;
-      robust_weight[i] = weight[i] * (1.0 - u * u) * (1.0 - u * u);
-      ++used;
-    }
-    if (used < 3)
-      return Error(ErrorCode::kNotEnoughData, "too few edge samples after outlier rejection");
-    const WeightedLineFit fit = fitOffsetSlope(s, centroid, robust_weight, use);
-    if (!fit.ok)
-      return Error(ErrorCode::kDegenerate, "the edge samples do not determine a line");
-    double r2 = 0.0, wsum = 0.0;
-    contrast_sum = 0.0;
-    for (size_t i = 0; i < s.size(); ++i)
-    {
-      if (!use[i])
-        continue;
-      const double r = centroid[i] - fit.offset - fit.slope * s[i];
-      r2 += weight[i] * r * r;
-      wsum += weight[i];
-      contrast_sum += weight[i];
-    }
-    residual_rms = std::sqrt(r2 / wsum);
+      // Samples whose window also holds another edge (near corners, parallel neighbours) see a different step:
+      // they see the edge (support) but are left out of the fit. The typical step is fixed at the first iteration
+      // of each window.
+      if (o.contrast_tolerance > 0.0)
+      {
+        if (iteration == 1)
+        {
+          std::vector<double> contrasts;
+          for (size_t i = 0; i < s.size(); ++i)
+            if (valid[i] && inside[i])
+              contrasts.push_back(weight[i]);
+          typical_contrast = medianOf(contrasts);
+        }
+        for (size_t i = 0; i < s.size(); ++i)
+          if (use[i] && std::abs(weight[i] - typical_contrast) > o.contrast_tolerance * typical_contrast)
+            use[i] = 0;
+      }
+      support = static_cast<double>(supported) / static_cast<double>(n_inside);
+      if (support < o.min_support || supported < 3)
+        return Error(ErrorCode::kNotEnoughData, "no edge under the segment: " + std::to_string(supported) + " of " +
+                                                    std::to_string(n_inside) + " samples see a contrast of at least " +
+                                                    std::to_string(o.min_contrast) + " grey levels");
+      // Robust weights (Tukey's biweight, scale from the MAD) on the residuals about the current line (after the
+      // first iteration: the previous fit) or, in the first iteration, about a plain weighted fit: iteratively
+      // reweighted least squares of the same objective, so the iteration converges instead of switching between
+      // subsets of samples.
+      std::vector<double> residual(s.size(), 0.0);
+      if (iteration == 1)
+      {
+        const WeightedLineFit first = fitOffsetSlope(s, centroid, weight, use);
+        if (!first.ok)
+          return Error(ErrorCode::kDegenerate, "the edge samples do not determine a line");
+        for (size_t i = 0; i < s.size(); ++i)
+          residual[i] = centroid[i] - first.offset - first.slope * s[i];
+      }
+      else
+      {
+        residual = centroid;
+      }
+      std::vector<double> abs_residuals;
+      for (size_t i = 0; i < s.size(); ++i)
+        if (use[i])
+          abs_residuals.push_back(std::abs(residual[i]));
+      const double scale = std::max(o.outlier_px / 3.0, 1.4826 * medianOf(abs_residuals));
+      const double cutoff = 4.685 * scale;
+      used = 0;
+      for (size_t i = 0; i < s.size(); ++i)
+      {
+        robust_weight[i] = 0.0;
+        if (!use[i] || std::abs(residual[i]) >= cutoff)
+        {
+          use[i] = 0;
+          continue;
+        }
+        const double u = residual[i] / cutoff;
+        robust_weight[i] = weight[i] * (1.0 - u * u) * (1.0 - u * u);
+        ++used;
+      }
+      if (used < 3)
+        return Error(ErrorCode::kNotEnoughData, "too few edge samples after outlier rejection");
+      const WeightedLineFit fit = fitOffsetSlope(s, centroid, robust_weight, use);
+      if (!fit.ok)
+        return Error(ErrorCode::kDegenerate, "the edge samples do not determine a line");
+      double r2 = 0.0, wsum = 0.0, flank_sum = 0.0;
+      contrast_sum = 0.0;
+      for (size_t i = 0; i < s.size(); ++i)
+      {
+        if (!use[i])
+          continue;
+        const double r = centroid[i] - fit.offset - fit.slope * s[i];
+        r2 += weight[i] * r * r;
+        wsum += weight[i];
+        contrast_sum += weight[i];
+        flank_sum += polarity * flank[i];
+      }
+      residual_rms = std::sqrt(r2 / wsum);
+      asymmetry = flank_sum / wsum;
 
-    p0 += fit.offset * n;
-    d = (d + fit.slope * n).normalized();
-    n = perpendicular(d);
-    const double move = std::abs(fit.offset) + std::abs(fit.slope) * s_abs_max;
-    if (move < o.convergence_px)
-    {
-      converged = true;
-      break;
+      p0 += fit.offset * n;
+      d = (d + fit.slope * n).normalized();
+      n = perpendicular(d);
+      const double move = std::abs(fit.offset) + std::abs(fit.slope) * s_abs_max;
+      if (move < convergence)
+      {
+        converged = true;
+        break;
+      }
     }
+    total_iterations += std::min(iteration, o.max_iterations);
+    if (!converged)
+      return Error(ErrorCode::kNoSolution, "fine-tuning did not converge in " + std::to_string(o.max_iterations) +
+                                               " iterations (the segment may span a corner or two edges)");
   }
-  if (!converged)
-    return Error(ErrorCode::kNoSolution, "fine-tuning did not converge in " + std::to_string(o.max_iterations) +
-                                             " iterations (the segment may span a corner or two edges)");
+  if (o.max_asymmetry > 0.0 && std::abs(asymmetry) > o.max_asymmetry)
+    return Error(ErrorCode::kDegenerate, "another edge lies within " + std::to_string(windows.back()) +
+                                             " px of the line (flank asymmetry " + std::to_string(asymmetry) + ")");
 
   result.line = Eigen::Vector3d(n.x(), n.y(), -n.dot(p0));
   result.a = p0 + (a - p0).dot(d) * d;
@@ -398,7 +437,8 @@ Expected<RefinedSegment> LineRefiner::refineSegment(const Eigen::Vector2d& a, co
   result.support = support;
   result.residual_px = residual_rms;
   result.shift_px = std::max((result.a - a).norm(), (result.b - b).norm());
-  result.iterations = std::min(iteration, o.max_iterations);
+  result.iterations = total_iterations;
+  result.asymmetry = asymmetry;
   result.samples = used;
   return result;
 }

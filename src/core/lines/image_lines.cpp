@@ -1,15 +1,21 @@
 #include "insitu_calibration/lines/image_lines.h"
 
-#include <chrono>
+#include <ctime>
 
 namespace insitu_calibration
 {
 namespace
 {
-using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t)
+// CPU time of the calling thread, ms: what the work costs on one core, whatever else runs on the machine.
+double threadCpuMs()
 {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return 1e3 * static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_nsec);
+}
+double msSince(double t)
+{
+  return threadCpuMs() - t;
 }
 
 // Drops failed parts at the two ends of a refined polyline (the edge is shorter than the detection there).
@@ -40,7 +46,7 @@ Expected<std::vector<ImageLine>> extractImageLines(const cv::Mat& image, const D
   if (!std::isfinite(distortion.lambda) || !distortion.center.allFinite())
     return Error(ErrorCode::kInvalidInput, "the distortion model is not finite");
 
-  auto t = Clock::now();
+  double t = threadCpuMs();
   SegmentDetector detector(options.detector);
   auto segments = detector.detect(image);
   if (!segments)
@@ -48,12 +54,12 @@ Expected<std::vector<ImageLine>> extractImageLines(const cv::Mat& image, const D
   st.segments = std::move(*segments);
   st.detect_ms = msSince(t);
 
-  t = Clock::now();
+  t = threadCpuMs();
   const std::vector<ImagePolyline> polylines = mergeSegments(st.segments, distortion, options.merge);
   st.polylines = static_cast<int>(polylines.size());
   st.merge_ms = msSince(t);
 
-  t = Clock::now();
+  t = threadCpuMs();
   std::vector<ImageLine> lines;
   if (!polylines.empty())
   {
@@ -68,34 +74,66 @@ Expected<std::vector<ImageLine>> extractImageLines(const cv::Mat& image, const D
         ++st.rejected;
         continue;
       }
-      ImageLine line;
-      line.detected = polyline.points;
-      line.points = refined->points;
-      line.parts = refined->parts;
-      line.fragments = polyline.fragments;
-      line.length_px = polyline.length_px;
-      const int parts = static_cast<int>(line.parts.size());
+      const int parts = static_cast<int>(refined->parts.size());
       if (parts - refined->failed_parts < options.min_part_support * parts)
       {
         ++st.rejected;
         continue;
       }
-      trimFailedEnds(line);
-      if (line.points.size() < 2)
+      // Pieces between the vertices where two fine-tuned parts disagree.
+      std::vector<size_t> cuts = {0};
+      for (size_t k = 1; k < refined->parts.size(); ++k)
       {
-        ++st.rejected;
-        continue;
+        const RefinedSegment& before = refined->parts[k - 1];
+        const RefinedSegment& after = refined->parts[k];
+        if (options.split_gap_px > 0.0 && before.samples > 0 && after.samples > 0 &&
+            (before.b - after.a).norm() > options.split_gap_px)
+          cuts.push_back(k);
       }
-      double contrast = 0.0;
-      int ok_parts = 0;
-      for (const auto& p : line.parts)
-        if (p.samples > 0)
+      cuts.push_back(refined->parts.size());
+      st.splits += cuts.size() > 2;
+      for (size_t c = 0; c + 1 < cuts.size(); ++c)
+      {
+        const size_t first = cuts[c], last = cuts[c + 1];  // parts [first, last), vertices [first, last]
+        ImageLine line;
+        line.detected.assign(polyline.points.begin() + first, polyline.points.begin() + last + 1);
+        line.points.assign(refined->points.begin() + first, refined->points.begin() + last + 1);
+        line.parts.assign(refined->parts.begin() + first, refined->parts.begin() + last);
+        line.fragments = polyline.fragments;
+        // A cut vertex belongs to the part on its side only.
+        if (c > 0)
+          line.points.front() = line.parts.front().a;
+        if (c + 2 < cuts.size())
+          line.points.back() = line.parts.back().b;
+        trimFailedEnds(line);
+        if (line.points.size() < 2)
         {
-          contrast += p.contrast;
-          ++ok_parts;
+          ++st.rejected;
+          continue;
         }
-      line.contrast = ok_parts ? contrast / ok_parts : 0.0;
-      lines.push_back(std::move(line));
+        line.length_px = polyline.length_px;
+        if (cuts.size() > 2)
+        {
+          line.length_px = 0.0;
+          for (size_t k = 0; k + 1 < line.points.size(); ++k)
+            line.length_px += (line.points[k + 1] - line.points[k]).norm();
+        }
+        if (cuts.size() > 2 && line.length_px < options.merge.min_length_px)
+        {
+          ++st.rejected;
+          continue;
+        }
+        double contrast = 0.0;
+        int ok_parts = 0;
+        for (const auto& p : line.parts)
+          if (p.samples > 0)
+          {
+            contrast += p.contrast;
+            ++ok_parts;
+          }
+        line.contrast = ok_parts ? contrast / ok_parts : 0.0;
+        lines.push_back(std::move(line));
+      }
     }
   }
   st.refine_ms = msSince(t);

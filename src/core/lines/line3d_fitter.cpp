@@ -267,6 +267,7 @@ Expected<Line3d> fitLine3dToDepthSamples(const Segment2d& segment, const std::ve
       inliers.swap(next);
     }
     line = finishLine(points, inliers, point, direction);
+    line.sigma_m = 2.0 * line.rms_m / std::sqrt(static_cast<double>(std::max<size_t>(1, inliers.size())));
   }
   else
   {
@@ -319,6 +320,26 @@ Expected<Line3d> fitLine3dToDepthSamples(const Segment2d& segment, const std::ve
     line = finishLine(points, inliers, pa, direction);
     line.a = pa;  // the extent is the inliers' on the image line
     line.b = pb;
+    // Standard errors of the inverse depth at the two ends (affine least squares), then of the end points along
+    // their rays: sigma_z = sigma_v z^2, times the ray's length per unit z.
+    double t_mean = 0.0;
+    for (int i : inliers)
+      t_mean += t[i];
+    t_mean /= static_cast<double>(inliers.size());
+    double stt = 0.0, rss = 0.0;
+    for (int i : inliers)
+    {
+      stt += (t[i] - t_mean) * (t[i] - t_mean);
+      const double r = 1.0 / points[i].z() - alpha - beta * t[i];
+      rss += r * r;
+    }
+    const double n = static_cast<double>(inliers.size());
+    const double sigma_v = std::sqrt(rss / std::max(1.0, n - 2.0));
+    auto end_sigma = [&](double t_end, double v_end, const Eigen::Vector3d& p) {
+      const double var = sigma_v * sigma_v * (1.0 / n + (t_end - t_mean) * (t_end - t_mean) / std::max(stt, 1e-12));
+      return std::sqrt(var) / (v_end * v_end) * p.norm() / p.z();
+    };
+    line.sigma_m = std::max(end_sigma(t_lo, va, pa), end_sigma(t_hi, vb, pb));
   }
   const double required = std::max<double>(options.min_inliers, options.min_inlier_ratio * points.size());
   if (static_cast<double>(line.inliers) < required)
@@ -326,6 +347,7 @@ Expected<Line3d> fitLine3dToDepthSamples(const Segment2d& segment, const std::ve
                  std::to_string(line.inliers) + " inliers of " + std::to_string(points.size()) + " depth samples");
   line.samples = static_cast<int>(samples.size());
   line.image = segment;
+  line.sensor = Eigen::Vector3d::Zero();
   if (auto s = checkLength(line, options); !s)
     return s.error();
   return line;

@@ -5,6 +5,70 @@
 
 namespace insitu_calibration
 {
+std::vector<Segment3d> mergeCollinearSegments(const std::vector<Segment3d>& segments, double max_distance_m,
+                                              double max_angle_deg)
+{
+  const size_t n = segments.size();
+  std::vector<size_t> parent(n);
+  for (size_t i = 0; i < n; ++i)
+    parent[i] = i;
+  auto root = [&](size_t i) {
+    while (parent[i] != i)
+      i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  auto onLine = [&](const Segment3d& line, const Eigen::Vector3d& p) {
+    const Eigen::Vector3d u = (line.b - line.a).normalized();
+    const Eigen::Vector3d r = p - line.a;
+    return (r - r.dot(u) * u).norm() <= max_distance_m;
+  };
+  const double cos_limit = std::cos(max_angle_deg * M_PI / 180.0);
+  for (size_t i = 0; i < n; ++i)
+  {
+    if (!(segments[i].length() > 0.0))
+      continue;
+    for (size_t j = i + 1; j < n; ++j)
+    {
+      if (!(segments[j].length() > 0.0))
+        continue;
+      const Eigen::Vector3d ui = (segments[i].b - segments[i].a).normalized();
+      const Eigen::Vector3d uj = (segments[j].b - segments[j].a).normalized();
+      if (std::abs(ui.dot(uj)) < cos_limit || !onLine(segments[i], segments[j].a) ||
+          !onLine(segments[i], segments[j].b) || !onLine(segments[j], segments[i].a) ||
+          !onLine(segments[j], segments[i].b))
+        continue;
+      parent[root(j)] = root(i);
+    }
+  }
+  std::vector<Segment3d> out;
+  std::vector<int> index(n, -1);
+  for (size_t i = 0; i < n; ++i)
+  {
+    const size_t r = root(i);
+    if (index[r] < 0)
+    {
+      index[r] = static_cast<int>(out.size());
+      out.push_back(segments[r]);
+    }
+    // Extend the group's segment along its direction to cover segment i.
+    Segment3d& g = out[index[r]];
+    const Eigen::Vector3d u = (g.b - g.a).normalized();
+    if (!u.allFinite())
+      continue;
+    double lo = 0.0, hi = (g.b - g.a).dot(u);
+    const Eigen::Vector3d origin = g.a;
+    for (const Eigen::Vector3d& p : {segments[i].a, segments[i].b})
+    {
+      const double t = (p - origin).dot(u);
+      lo = std::min(lo, t);
+      hi = std::max(hi, t);
+    }
+    g.a = origin + lo * u;
+    g.b = origin + hi * u;
+  }
+  return out;
+}
+
 std::vector<TrueEdgeImage> projectEdges(const CameraModel& camera, const std::vector<Segment3d>& segments,
                                         double near_m)
 {

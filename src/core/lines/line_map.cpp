@@ -69,7 +69,8 @@ std::vector<Eigen::Vector3d> MapLine::samplePoints(int n) const
 
 LineMap::LineMap(const LineMapOptions& options) : options_(options) {}
 
-bool LineMap::compatible(const MapLine& line, const Eigen::Vector3d& a, const Eigen::Vector3d& b, double range_m,
+bool LineMap::compatible(const MapLine& line, const Eigen::Vector3d& a, const Eigen::Vector3d& b, double limit_m,
+                         const Eigen::Vector3d& lateral_normal, double lateral_limit_m, double depth_limit_m,
                          double* distance) const
 {
   const Eigen::Vector3d d = b - a;
@@ -78,13 +79,19 @@ bool LineMap::compatible(const MapLine& line, const Eigen::Vector3d& a, const Ei
     return false;
   if (std::abs(d.dot(line.direction)) / len < std::cos(options_.max_angle_deg * M_PI / 180.0))
     return false;
-  const double limit = options_.max_distance_m + options_.max_distance_per_m * std::max(0.0, range_m);
-  auto perpendicular = [&](const Eigen::Vector3d& p) {
+  auto offset = [&](const Eigen::Vector3d& p) {
     const Eigen::Vector3d r = p - line.point;
-    return (r - r.dot(line.direction) * line.direction).norm();
+    return Eigen::Vector3d(r - r.dot(line.direction) * line.direction);
   };
-  const double da = perpendicular(a), db = perpendicular(b);
-  if (da > limit || db > limit)
+  const Eigen::Vector3d oa = offset(a), ob = offset(b);
+  const double da = oa.norm(), db = ob.norm();
+  if (da > limit_m || db > limit_m)
+    return false;
+  const double la = oa.dot(lateral_normal), lb = ob.dot(lateral_normal);
+  if (std::abs(la) > lateral_limit_m || std::abs(lb) > lateral_limit_m)
+    return false;
+  if (lateral_normal.squaredNorm() > 0.0 && (std::sqrt(std::max(0.0, da * da - la * la)) > depth_limit_m ||
+                                             std::sqrt(std::max(0.0, db * db - lb * lb)) > depth_limit_m))
     return false;
   const double sa = (a - line.point).dot(line.direction), sb = (b - line.point).dot(line.direction);
   const double gap = std::max({0.0, std::min(sa, sb) - line.s_max, line.s_min - std::max(sa, sb)});
@@ -98,12 +105,31 @@ int LineMap::insert(const Line3d& o)
 {
   if (!o.a.allFinite() || !o.b.allFinite() || !((o.b - o.a).norm() > 0.0))
     return -1;
+  if (options_.max_sigma_m > 0.0 && o.sigma_m > options_.max_sigma_m)
+    return -1;
+  if (options_.max_sigma_angle_deg > 0.0 &&
+      std::atan(std::sqrt(2.0) * o.sigma_m / (o.b - o.a).norm()) * 180.0 / M_PI > options_.max_sigma_angle_deg)
+    return -1;
+  const double range = std::max(0.0, o.range_m);
+  const double limit = options_.max_distance_m + options_.max_distance_per_m * range;
+  // The normal of the interpretation plane (sensor, a, b), when the sensor is known and not on the line.
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+  if (o.sensor.allFinite())
+  {
+    const Eigen::Vector3d n = (o.a - o.sensor).cross(o.b - o.sensor);
+    if (n.norm() > 1e-9 * (o.a - o.sensor).norm() * (o.b - o.sensor).norm())
+      normal = n.normalized();
+  }
+  const double lateral_limit = options_.max_lateral_m + options_.max_lateral_per_m * range;
+  const double depth_limit =
+      o.sigma_m > 0.0 ? options_.depth_sigmas * std::hypot(o.sigma_m, options_.depth_floor_m) : limit;
   int best = -1;
   double best_distance = std::numeric_limits<double>::infinity();
   for (size_t i = 0; i < lines_.size(); ++i)
   {
     double distance = 0.0;
-    if (compatible(lines_[i], o.a, o.b, o.range_m, &distance) && distance < best_distance)
+    if (compatible(lines_[i], o.a, o.b, limit, normal, lateral_limit, depth_limit, &distance) &&
+        distance < best_distance)
     {
       best_distance = distance;
       best = static_cast<int>(i);
@@ -149,9 +175,12 @@ int LineMap::fuseWithOthers(int index)
         continue;
       const MapLine& other = lines_[j];
       double distance = 0.0;
-      // The smaller line's end points against the other line (range unknown here: the base tolerance only).
-      if (!compatible(lines_[index], other.a(), other.b(), 0.0, &distance) ||
-          !compatible(other, lines_[index].a(), lines_[index].b(), 0.0, &distance))
+      // Each line's end points against the other line, within the lateral tolerance in every direction (map lines
+      // are averages of many observations; depth errors mostly average out).
+      const double limit = std::min(options_.max_distance_m, options_.max_lateral_m);
+      const Eigen::Vector3d none = Eigen::Vector3d::Zero();
+      if (!compatible(lines_[index], other.a(), other.b(), limit, none, limit, limit, &distance) ||
+          !compatible(other, lines_[index].a(), lines_[index].b(), limit, none, limit, limit, &distance))
         continue;
       MapLine& line = lines_[index];
       // The other's moments about this line's reference.

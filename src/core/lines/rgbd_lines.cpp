@@ -1,15 +1,21 @@
 #include "insitu_calibration/lines/rgbd_lines.h"
 
-#include <chrono>
+#include <ctime>
 
 namespace insitu_calibration
 {
 namespace
 {
-using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t)
+// CPU time of the calling thread, ms: what the work costs on one core, whatever else runs on the machine.
+double threadCpuMs()
 {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return 1e3 * static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_nsec);
+}
+double msSince(double t)
+{
+  return threadCpuMs() - t;
 }
 }  // namespace
 
@@ -30,13 +36,13 @@ Expected<std::vector<Line3d>> RgbdLineExtractor::extract(const RgbdFrame& frame,
   if (auto s = validateFrame(frame); !s)
     return s.error();
 
-  auto t = Clock::now();
+  double t = threadCpuMs();
   auto depth = depthToMeters(frame.depth, options_.min_range_m, options_.max_range_m);
   if (!depth)
     return depth.error();
   st.depth_ms += msSince(t);
 
-  t = Clock::now();
+  t = threadCpuMs();
   auto segments = detector_.detect(frame.rgb);
   if (!segments)
     return segments.error();
@@ -45,7 +51,7 @@ Expected<std::vector<Line3d>> RgbdLineExtractor::extract(const RgbdFrame& frame,
 
   if (options_.refine_segments && !segments->empty())
   {
-    t = Clock::now();
+    t = threadCpuMs();
     auto refiner = LineRefiner::create(frame.rgb, options_.refiner);
     if (!refiner)
       return refiner.error();
@@ -66,7 +72,7 @@ Expected<std::vector<Line3d>> RgbdLineExtractor::extract(const RgbdFrame& frame,
   for (size_t i = 0; i < segments->size(); ++i)
   {
     const Segment2d& segment = (*segments)[i];
-    t = Clock::now();
+    t = threadCpuMs();
     const std::vector<DepthSample> samples = sampleDepthAlongSegment(*depth, segment, options_.sampler);
     st.depth_ms += msSince(t);
     if (samples.size() < static_cast<size_t>(std::max(2, fit.min_inliers)))
@@ -74,7 +80,7 @@ Expected<std::vector<Line3d>> RgbdLineExtractor::extract(const RgbdFrame& frame,
       ++st.no_depth;
       continue;
     }
-    t = Clock::now();
+    t = threadCpuMs();
     fit.seed = options_.fit.seed + static_cast<uint32_t>(i);
     auto line = fitLine3dToDepthSamples(segment, samples, frame.camera, fit);
     st.fit_ms += msSince(t);
@@ -90,6 +96,7 @@ Expected<std::vector<Line3d>> RgbdLineExtractor::extract(const RgbdFrame& frame,
     }
     line->a = frame.T_map_camera * line->a;
     line->b = frame.T_map_camera * line->b;
+    line->sensor = frame.T_map_camera.translation();
     line->stamp = frame.stamp;
     lines.push_back(*line);
   }
