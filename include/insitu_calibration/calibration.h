@@ -38,6 +38,9 @@ struct CalibrationOptions
   // inlier_sigmas x the noise level the residuals show)).
   double inlier_sigmas = 4.0;
   double min_inlier_threshold_px = 0.75;
+  // ... and, once refined, by the line's residual had it been left out of the fit (RefinementResult::line_loo_rms_px)
+  // against the same threshold.
+  bool leave_one_out = false;
   bool refine = true;
   RefinementOptions refinement;  // estimate_distortion is set from the distortion decision
 };
@@ -59,7 +62,11 @@ struct CameraCalibration
   bool converged = true;          // the principal-point iteration and the refinement both converged
 };
 
-Expected<CameraCalibration> calibrateCamera(const CorrespondenceSet& data, const CalibrationOptions& options = {});
+// initial: an approximate camera known beforehand (the matcher's current camera). With RANSAC on it is refined
+// robustly on all lines and competes with RANSAC's best hypothesis; the one that explains the lines better (MSAC
+// score) chooses the inliers. The linear DLT on those inliers and the refinement follow as without it.
+Expected<CameraCalibration> calibrateCamera(const CorrespondenceSet& data, const CalibrationOptions& options = {},
+                                            const std::optional<CameraModel>& initial = std::nullopt);
 
 CalibrationFile toCalibrationFile(const CorrespondenceSet& data, const CameraCalibration& result,
                                   const std::string& world_frame);

@@ -3,11 +3,15 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
+#include <cstdio>
+#include <cstdlib>
 #include <set>
 
 #include <Eigen/Geometry>
 
 #include "insitu_calibration/metrics.h"
+#include "insitu_calibration/solvers/ransac.h"
 
 namespace insitu_calibration
 {
@@ -268,13 +272,15 @@ std::vector<CameraModel> searchPrior(const std::vector<Segment3d>& map_lines, co
   return cameras;
 }
 
-// How well a camera explains the image lines: the sum over image lines of the mean distance to the nearest
-// compatible projected 3D line (through the division model), capped. Lower is better; the set of image lines is
-// the same for every candidate camera, so the sums compare.
+// How well a camera explains the image lines: the sum over image lines of the squared mean distance to the nearest
+// compatible projected 3D line (through the division model), capped at cap_px^2. Lower is better; the set of image
+// lines is the same for every candidate camera, so the sums compare. The cap near the noise level makes it count
+// the lines explained as precisely as the right camera explains them: a camera pulled off by a wrong match fits its
+// matches worse and falls behind, however many lines it roughly explains.
 double explanationScore(const CameraModel& camera, const std::vector<Segment3d>& map_lines,
-                        const std::vector<ImageChord>& image, int width, int height, double min_length_px)
+                        const std::vector<ImageChord>& image, int width, int height, double min_length_px,
+                        double cap_px)
 {
-  constexpr double kCap = 10.0;
   constexpr double kAngle = 3.0;
   std::vector<ProjectedLine> projected;
   for (const auto& s : map_lines)
@@ -283,15 +289,20 @@ double explanationScore(const CameraModel& camera, const std::vector<Segment3d>&
     if (p.visible)
       projected.push_back(std::move(p));
   }
+  const double cap2 = cap_px * cap_px;
   double score = 0.0;
   for (const auto& l : image)
   {
     if (l.points->size() < 2 || l.length < min_length_px)
       continue;
-    double best = kCap;
+    double best = cap2;
     for (const auto& p : projected)
-      if (angleBetween(l.direction, p.direction) <= kAngle && overlap(l, p) >= 0.3 && chordDistance(l, p) < 2.0 * kCap)
-        best = std::min(best, meanDistance(l, p));
+      if (angleBetween(l.direction, p.direction) <= kAngle && overlap(l, p) >= 0.3 &&
+          chordDistance(l, p) < 2.0 * cap_px + 2.0)
+      {
+        const double d = meanDistance(l, p);
+        best = std::min(best, d * d);
+      }
     score += best;
   }
   return score;
@@ -320,6 +331,12 @@ CorrespondenceSet correspondencesOf(const std::vector<LineMatch>& matches, const
   return set;
 }
 }  // namespace
+
+LineMatcherOptions::LineMatcherOptions()
+{
+  calibration.refinement.aspect_prior_sigma = 0.005;
+  calibration.refinement.principal_point_prior_sigma = 0.03;
+}
 
 CameraModel cameraFromPrior(const CameraPrior& prior, int image_width, int image_height, double yaw_deg,
                             double pitch_deg, double fov_scale)
@@ -370,10 +387,15 @@ std::optional<std::pair<double, double>> visibleInterval(const CameraModel& came
   return std::make_pair(t0, t1);
 }
 
-std::vector<LineMatch> matchLines(const std::vector<Segment3d>& map_lines,
-                                  const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
-                                  const CameraModel& camera, int image_width, int image_height, double max_angle_deg,
-                                  double max_distance_px, const LineMatcherOptions& options)
+namespace
+{
+using PairSet = std::set<std::pair<size_t, size_t>>;  // (image line, map line) pairs
+
+std::vector<LineMatch> matchLinesExcept(const std::vector<Segment3d>& map_lines,
+                                        const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                                        const CameraModel& camera, int image_width, int image_height,
+                                        double max_angle_deg, double max_distance_px, const LineMatcherOptions& options,
+                                        const PairSet& banned)
 {
   const std::vector<ImageChord> image = summarize(image_lines);
   std::vector<ProjectedLine> projected;
@@ -398,7 +420,7 @@ std::vector<LineMatch> matchLines(const std::vector<Segment3d>& map_lines,
       if (chordDistance(image[i], p) > 2.0 * max_distance_px)
         continue;
       const double d = meanDistance(image[i], p);
-      if (d <= max_distance_px)
+      if (d <= max_distance_px && !banned.count({i, j}))
         own.push_back({i, j, d});
     }
     std::sort(own.begin(), own.end(),
@@ -429,6 +451,16 @@ std::vector<LineMatch> matchLines(const std::vector<Segment3d>& map_lines,
             [](const LineMatch& a, const LineMatch& b) { return a.image_line < b.image_line; });
   return matches;
 }
+}  // namespace
+
+std::vector<LineMatch> matchLines(const std::vector<Segment3d>& map_lines,
+                                  const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                                  const CameraModel& camera, int image_width, int image_height, double max_angle_deg,
+                                  double max_distance_px, const LineMatcherOptions& options)
+{
+  return matchLinesExcept(map_lines, image_lines, camera, image_width, image_height, max_angle_deg, max_distance_px,
+                          options, {});
+}
 
 namespace
 {
@@ -436,12 +468,13 @@ namespace
 Expected<LineMatchResult> refineMatches(const std::vector<Segment3d>& map_lines,
                                         const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                         const CameraModel& start, int image_width, int image_height,
-                                        const LineMatcherOptions& options)
+                                        const LineMatcherOptions& options, double initial_max_distance_px,
+                                        const PairSet& banned)
 {
   LineMatchResult result;
   result.search_camera = start;
   CameraModel camera = start;
-  double max_distance = options.initial_max_distance_px;
+  double max_distance = initial_max_distance_px;
   double max_angle = options.max_angle_deg;
   std::vector<LineMatch> previous;
   std::optional<CameraCalibration> calibrated;
@@ -450,8 +483,8 @@ Expected<LineMatchResult> refineMatches(const std::vector<Segment3d>& map_lines,
   for (int iteration = 0; iteration < options.max_iterations; ++iteration)
   {
     result.iterations = iteration + 1;
-    std::vector<LineMatch> matches =
-        matchLines(map_lines, image_lines, camera, image_width, image_height, max_angle, max_distance, options);
+    std::vector<LineMatch> matches = matchLinesExcept(map_lines, image_lines, camera, image_width, image_height,
+                                                      max_angle, max_distance, options, banned);
     const bool same =
         !previous.empty() && matches.size() == previous.size() &&
         std::equal(matches.begin(), matches.end(), previous.begin(), [](const LineMatch& a, const LineMatch& b) {
@@ -464,13 +497,22 @@ Expected<LineMatchResult> refineMatches(const std::vector<Segment3d>& map_lines,
     }
     CorrespondenceSet set = correspondencesOf(matches, map_lines, image_lines, camera, image_width, image_height,
                                               options.world_points_per_line);
-    auto calibration = calibrateCamera(set, options.calibration);
+    auto calibration = calibrateCamera(set, options.calibration, camera);
     if (!calibration)
     {
       if (calibrated)
         break;  // keep the last good calibration
       return Error(calibration.error().code(), "calibration on " + std::to_string(matches.size()) +
                                                    " matched lines failed: " + calibration.error().message());
+    }
+    if (std::getenv("MATCH_DEBUG"))
+    {
+      const Eigen::Vector3d pos = calibration->camera.pose().center();
+      std::fprintf(
+          stderr,
+          "  iteration %d: %zu matches (max %.1f px, %.1f deg), %zu inliers, fx %.1f, rms %.3f, pos %.3f %.3f %.3f\n",
+          iteration, matches.size(), max_distance, max_angle, calibration->inlier_count,
+          calibration->camera.intrinsics().fx, calibration->reprojection.rms_px, pos.x(), pos.y(), pos.z());
     }
     calibrated = *calibration;
     used = matches;
@@ -491,6 +533,15 @@ Expected<LineMatchResult> refineMatches(const std::vector<Segment3d>& map_lines,
 }
 }  // namespace
 
+namespace
+{
+// Each start refined (match, calibrate, re-match), the best explanation kept, then its influential matches checked.
+Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_lines,
+                                          const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                                          const std::vector<CameraModel>& starts, int image_width, int image_height,
+                                          const LineMatcherOptions& options, double initial_max_distance_px);
+}  // namespace
+
 Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_lines,
                                             const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                             const CameraPrior& prior, int image_width, int image_height,
@@ -509,21 +560,63 @@ Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_li
                  "horizontal field of view between 0 and 180 degrees");
 
   const std::vector<ImageChord> image = summarize(image_lines);
-  const std::vector<CameraModel> starts =
+  std::vector<CameraModel> starts =
       searchPrior(map_lines, image, prior, image_width, image_height, options.search_steps, options.search_starts);
+  return matchFromStarts(map_lines, image_lines, starts, image_width, image_height, options,
+                         options.initial_max_distance_px);
+}
+
+Expected<LineMatchResult> matchAndCalibrateFrom(const std::vector<Segment3d>& map_lines,
+                                                const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                                                const CameraModel& start, int image_width, int image_height,
+                                                const LineMatcherOptions& options)
+{
+  if (map_lines.empty())
+    return Error(ErrorCode::kNotEnoughData, "the line map is empty: survey the area the camera sees first");
+  if (image_lines.empty())
+    return Error(ErrorCode::kNotEnoughData, "no lines were found in the camera's image");
+  if (image_width <= 0 || image_height <= 0)
+    return Error(ErrorCode::kInvalidInput, "the image size is not positive");
+  return matchFromStarts(map_lines, image_lines, {start}, image_width, image_height, options,
+                         options.known_camera_max_distance_px);
+}
+
+namespace
+{
+Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_lines,
+                                          const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                                          const std::vector<CameraModel>& starts, int image_width, int image_height,
+                                          const LineMatcherOptions& options, double initial_max_distance_px)
+{
+  const std::vector<ImageChord> image = summarize(image_lines);
+  const bool debug = std::getenv("MATCH_DEBUG") != nullptr;
+  const auto scoreOf = [&](const LineMatchResult& r) {
+    return explanationScore(r.calibration.camera, map_lines, image, image_width, image_height,
+                            options.min_image_length_px, options.explanation_cap_px);
+  };
+  const auto describe = [&](const char* what, const LineMatchResult& r, double score) {
+    if (!debug)
+      return;
+    const auto& c = r.calibration;
+    const Eigen::Vector3d pos = c.camera.pose().center();
+    std::fprintf(stderr, "%s: score %.3f, %zu matches, fx %.1f, rms %.3f, pos %.3f %.3f %.3f, iterations %d\n", what,
+                 score, r.matches.size(), c.camera.intrinsics().fx, c.reprojection.rms_px, pos.x(), pos.y(), pos.z(),
+                 r.iterations);
+  };
   std::optional<LineMatchResult> best;
   double best_score = std::numeric_limits<double>::infinity();
   std::string last_error = "no start camera";
   for (const CameraModel& start : starts)
   {
-    auto candidate = refineMatches(map_lines, image_lines, start, image_width, image_height, options);
+    auto candidate =
+        refineMatches(map_lines, image_lines, start, image_width, image_height, options, initial_max_distance_px, {});
     if (!candidate)
     {
       last_error = candidate.error().message();
       continue;
     }
-    const double score = explanationScore(candidate->calibration.camera, map_lines, image, image_width, image_height,
-                                          options.min_image_length_px);
+    const double score = scoreOf(*candidate);
+    describe("start", *candidate, score);
     if (score < best_score)
     {
       best_score = score;
@@ -532,7 +625,56 @@ Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_li
   }
   if (!best)
     return Error(ErrorCode::kNoSolution, "no start of the prior search led to a calibration: " + last_error);
+
+  // A wrong match with enough leverage pulls the camera onto itself: its own residual is small, the others' grow a
+  // little. Its influence (how far the camera moves without it) gives it away: the most influential matches are
+  // each banned in turn and the matching redone from the current camera; a result that explains the image better
+  // is kept, and the check repeated on it.
+  PairSet banned;
+  for (int round = 0; round < options.influence_rounds; ++round)
+  {
+    const auto& refinement = best->calibration.refinement;
+    if (!refinement || refinement->line_influence.size() != best->matches.size())
+      break;
+    std::vector<size_t> order(best->matches.size());
+    std::iota(order.begin(), order.end(), 0);
+    const auto influence = [&](size_t k) {
+      const double v = refinement->line_influence[k];
+      return std::isnan(v) ? 0.0 : v;
+    };
+    std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return influence(a) > influence(b); });
+    const double distance =
+        std::max(options.min_distance_px, options.distance_factor * best->calibration.reprojection.rms_px);
+    bool improved = false;
+    for (size_t n = 0; n < order.size() && n < static_cast<size_t>(options.influence_candidates); ++n)
+    {
+      const LineMatch& m = best->matches[order[n]];
+      if (influence(order[n]) < options.min_influence)
+        break;
+      PairSet trial = banned;
+      trial.insert({m.image_line, m.map_line});
+      auto candidate = refineMatches(map_lines, image_lines, best->calibration.camera, image_width, image_height,
+                                     options, distance, trial);
+      if (!candidate)
+        continue;
+      const double score = scoreOf(*candidate);
+      if (debug)
+        std::fprintf(stderr, "without %zu-%zu (influence %.3g): ", m.image_line, m.map_line, influence(order[n]));
+      describe("result", *candidate, score);
+      if (score < best_score - options.min_score_gain)
+      {
+        best_score = score;
+        best = std::move(*candidate);
+        banned = std::move(trial);
+        improved = true;
+        break;
+      }
+    }
+    if (!improved)
+      break;
+  }
   return *best;
 }
+}  // namespace
 
 }  // namespace insitu_calibration
