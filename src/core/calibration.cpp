@@ -223,10 +223,22 @@ Expected<CameraCalibration> calibrateCamera(const CorrespondenceSet& data, const
       break;
     // Once refined, the residuals tell the noise level: lines beyond inlier_sigmas of it are outliers too, which a
     // loose RANSAC threshold let through and which would bias a weakly constrained camera.
+    // The noise level is estimated robustly (the median absolute residual over the inliers' world points): an RMS
+    // would grow with the very outliers it is meant to find.
     double threshold = options.ransac_options.inlier_threshold_px;
-    if (result.uncertainty.available && result.uncertainty.residual_sigma_px > 0.0)
-      threshold = std::min(threshold, std::max(options.min_inlier_threshold_px,
-                                               options.inlier_sigmas * result.uncertainty.residual_sigma_px));
+    if (result.refinement)
+    {
+      std::vector<double> residuals;
+      for (const auto& line : inliers.lines)
+        for (double r : lineResiduals(result.camera, line))
+          if (std::isfinite(r))
+            residuals.push_back(std::abs(r));
+      if (!residuals.empty())
+      {
+        const double sigma = 1.4826 * summarize(residuals).median_px;
+        threshold = std::min(threshold, std::max(options.min_inlier_threshold_px, options.inlier_sigmas * sigma));
+      }
+    }
     // A line is judged by its own error and, when the refinement ran, by its error had it been left out: a wrong
     // line with enough leverage pulls the camera onto itself and only the second shows it.
     std::vector<bool> judged(selected.lines.size());

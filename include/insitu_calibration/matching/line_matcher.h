@@ -44,19 +44,32 @@ struct LineMatcherOptions
   double known_camera_max_distance_px = 8.0;  // the first matching threshold from a known camera
   double min_distance_px = 4.0;               // thresholds never tighten below this
   double distance_factor = 4.0;               // re-matching threshold: this times the calibration's RMS error
-  double min_overlap = 0.3;                   // fraction of the image line's length the projected 3D line must cover
-  double min_image_length_px = 30.0;          // shorter image lines are not matched
-  int world_points_per_line = 6;              // samples along the visible part of a matched 3D line
+  double distance_shrink = 0.5;  // ... reached by shrinking the previous threshold by at most this factor per iteration
+  double min_overlap = 0.3;      // fraction of the image line's length the projected 3D line must cover
+  double min_image_length_px = 30.0;  // shorter image lines are not matched
+  int world_points_per_line = 6;      // samples along the visible part of a matched 3D line
   // Ambiguity: an image line whose second-best 3D line is not worse by max(50 %, min_separation_px) is not matched,
   // unless both are within near_duplicate_px (the map holding one edge twice).
   double min_separation_px = 1.0;
   double near_duplicate_px = 1.5;
   int max_iterations = 10;
-  int search_steps = 9;   // per dimension of the prior search (odd: includes the prior itself)
+  int search_steps = 9;  // per dimension of the prior search (odd: includes the prior itself)
+  // The search scores a camera by each image line's distance to its nearest compatible projected 3D line, capped
+  // (8 % of the image diagonal on the grid); each round of the pattern search multiplies the cap by
+  // search_cap_shrink, down to search_min_cap_px, so that the last rounds count precisely explained lines.
+  double search_min_cap_px = 4.0;
+  double search_cap_shrink = 0.5;
   int search_starts = 4;  // distinct search results each refined; the one explaining most image lines wins
   // The explanation score that picks among results: per image line its squared mean distance to the nearest
   // compatible projected 3D line, capped at this (px), summed.
   double explanation_cap_px = 1.0;
+  // Basin hopping around the chosen result: up to hop_rounds rounds of 8 cameras moved by hop_position_m (along the
+  // axis with the focal length compensated, and sideways) or with the focal length scaled by 1 +- hop_focal_relative,
+  // each matched again from a first threshold of hop_max_distance_px.
+  int hop_rounds = 2;
+  double hop_position_m = 0.15;
+  double hop_focal_relative = 0.04;
+  double hop_max_distance_px = 20.0;
   // Influence check of the chosen result: up to influence_rounds times, the influence_candidates most influential
   // matches (Cook's distance at least min_influence) are each banned in turn and the matching redone.
   int influence_rounds = 3;

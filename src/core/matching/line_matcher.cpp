@@ -175,7 +175,8 @@ CameraModel cameraOf(const CameraPrior& prior, int width, int height, const Sear
 // by a pattern search over all seven values (repetitive structure such as a row of windows gives several local
 // optima, and the best grid cell is not always the right one).
 std::vector<CameraModel> searchPrior(const std::vector<Segment3d>& map_lines, const std::vector<ImageChord>& image,
-                                     const CameraPrior& prior, int width, int height, int steps, int starts)
+                                     const CameraPrior& prior, int width, int height, int steps, int starts,
+                                     double min_cap_px, double cap_shrink)
 {
   const double angle_range = 1.5 * prior.direction_sigma_deg;
   const double fov_range = 1.5 * prior.fov_sigma_relative;
@@ -224,10 +225,13 @@ std::vector<CameraModel> searchPrior(const std::vector<Segment3d>& map_lines, co
                            prior.position_sigma_m / 2,
                            prior.position_sigma_m / 2};
     double tolerance = coarse_angle;
+    double round_cap = cap;
     for (int round = 0; round < 6; ++round)
     {
       tolerance = std::max(3.0, tolerance * 0.75);
-      best_score = searchScore(cameraOf(prior, width, height, best), map_lines, image, width, height, tolerance, cap);
+      round_cap = std::max(min_cap_px, round_cap * cap_shrink);
+      best_score =
+          searchScore(cameraOf(prior, width, height, best), map_lines, image, width, height, tolerance, round_cap);
       bool improved = true;
       for (int sweep = 0; sweep < 8 && improved; ++sweep)
       {
@@ -255,7 +259,7 @@ std::vector<CameraModel> searchPrior(const std::vector<Segment3d>& map_lines, co
                 s.offset(v - 4) += d;
             }
             const double score =
-                searchScore(cameraOf(prior, width, height, s), map_lines, image, width, height, tolerance, cap);
+                searchScore(cameraOf(prior, width, height, s), map_lines, image, width, height, tolerance, round_cap);
             if (score < best_score - 1e-9)
             {
               best_score = score;
@@ -268,6 +272,10 @@ std::vector<CameraModel> searchPrior(const std::vector<Segment3d>& map_lines, co
         step *= 0.5;
     }
     cameras.push_back(cameraOf(prior, width, height, best));
+    if (std::getenv("MATCH_DEBUG"))
+      std::fprintf(
+          stderr, "search result score %.2f (prior itself %.2f)\n", best_score,
+          searchScore(cameraFromPrior(prior, width, height), map_lines, image, width, height, tolerance, round_cap));
   }
   return cameras;
 }
@@ -519,7 +527,10 @@ Expected<LineMatchResult> refineMatches(const std::vector<Segment3d>& map_lines,
     used_set = set;
     previous = matches;
     camera = calibration->camera;
-    max_distance = std::max(options.min_distance_px, options.distance_factor * calibration->reprojection.rms_px);
+    // The threshold shrinks towards what the residuals call for, at most halving per iteration: a start far from
+    // the truth moves step by step, with the lines it already explains, instead of locking onto a wrong subset.
+    const double target = std::max(options.min_distance_px, options.distance_factor * calibration->reprojection.rms_px);
+    max_distance = std::max(target, options.distance_shrink * max_distance);
     max_angle = std::max(2.0, std::min(options.max_angle_deg, 10.0 * calibration->reprojection.rms_px / 20.0 + 2.0));
   }
   if (!calibrated)
@@ -539,7 +550,7 @@ namespace
 Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_lines,
                                           const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                           const std::vector<CameraModel>& starts, int image_width, int image_height,
-                                          const LineMatcherOptions& options, double initial_max_distance_px);
+                                          const LineMatcherOptions& options, double initial_max_distance_px, bool hop);
 }  // namespace
 
 Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_lines,
@@ -561,9 +572,10 @@ Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_li
 
   const std::vector<ImageChord> image = summarize(image_lines);
   std::vector<CameraModel> starts =
-      searchPrior(map_lines, image, prior, image_width, image_height, options.search_steps, options.search_starts);
+      searchPrior(map_lines, image, prior, image_width, image_height, options.search_steps, options.search_starts,
+                  options.search_min_cap_px, options.search_cap_shrink);
   return matchFromStarts(map_lines, image_lines, starts, image_width, image_height, options,
-                         options.initial_max_distance_px);
+                         options.initial_max_distance_px, true);
 }
 
 Expected<LineMatchResult> matchAndCalibrateFrom(const std::vector<Segment3d>& map_lines,
@@ -578,15 +590,70 @@ Expected<LineMatchResult> matchAndCalibrateFrom(const std::vector<Segment3d>& ma
   if (image_width <= 0 || image_height <= 0)
     return Error(ErrorCode::kInvalidInput, "the image size is not positive");
   return matchFromStarts(map_lines, image_lines, {start}, image_width, image_height, options,
-                         options.known_camera_max_distance_px);
+                         options.known_camera_max_distance_px, false);
 }
 
 namespace
 {
+// Cameras around a result (see the basin hopping in matchFromStarts): along the optical axis by +-step with the
+// focal length scaled to keep the scale at the median depth Z of the matched lines, sideways (x and y of the camera)
+// by +-step turned towards the point at depth Z on the axis, and the focal length alone by 1 +- focal_relative.
+std::vector<CameraModel> hopCameras(const LineMatchResult& result, const std::vector<Segment3d>& map_lines, double step,
+                                    double focal_relative)
+{
+  const CameraModel& camera = result.calibration.camera;
+  std::vector<double> depths;
+  for (const auto& m : result.matches)
+  {
+    const Segment3d& s = map_lines[m.map_line];
+    depths.push_back((camera.pose().rotation * (0.5 * (s.a + s.b)) + camera.pose().translation).z());
+  }
+  std::vector<CameraModel> out;
+  if (depths.empty())
+    return out;
+  std::nth_element(depths.begin(), depths.begin() + depths.size() / 2, depths.end());
+  const double z = depths[depths.size() / 2];
+  if (!(z > 2.0 * step))
+    return out;
+  const Eigen::Isometry3d world_from_camera = camera.pose().worldFromCamera();
+  const Eigen::Matrix3d r = world_from_camera.linear();
+  const Eigen::Vector3d c = world_from_camera.translation();
+  const Eigen::Vector3d target = c + z * r.col(2);
+  for (double sign : {-1.0, 1.0})
+  {
+    // Along the axis, focal compensated.
+    CameraModel dolly = camera;
+    Eigen::Isometry3d moved = world_from_camera;
+    moved.translation() = c + sign * step * r.col(2);
+    dolly.pose() = CameraPose::fromWorldFromCamera(moved);
+    const double scale = (z - sign * step) / z;
+    dolly.intrinsics().fx *= scale;
+    dolly.intrinsics().fy *= scale;
+    out.push_back(dolly);
+    // Sideways, looking at the same point.
+    for (int axis : {0, 1})
+    {
+      CameraModel side = camera;
+      Eigen::Isometry3d turned = world_from_camera;
+      turned.translation() = c + sign * step * r.col(axis);
+      const Eigen::Vector3d forward = (target - turned.translation()).normalized();
+      turned.linear() = Eigen::Matrix3d(Eigen::Quaterniond::FromTwoVectors(r.col(2), forward)) * r;
+      side.pose() = CameraPose::fromWorldFromCamera(turned);
+      out.push_back(side);
+    }
+    // Focal length alone.
+    CameraModel zoom = camera;
+    zoom.intrinsics().fx *= 1.0 + sign * focal_relative;
+    zoom.intrinsics().fy *= 1.0 + sign * focal_relative;
+    out.push_back(zoom);
+  }
+  return out;
+}
+
 Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_lines,
                                           const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                           const std::vector<CameraModel>& starts, int image_width, int image_height,
-                                          const LineMatcherOptions& options, double initial_max_distance_px)
+                                          const LineMatcherOptions& options, double initial_max_distance_px, bool hop)
 {
   const std::vector<ImageChord> image = summarize(image_lines);
   const bool debug = std::getenv("MATCH_DEBUG") != nullptr;
@@ -608,6 +675,13 @@ Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_line
   std::string last_error = "no start camera";
   for (const CameraModel& start : starts)
   {
+    if (debug)
+    {
+      const Eigen::Vector3d c = start.pose().center();
+      const Eigen::Vector3d f = start.pose().rotation.row(2).transpose();
+      std::fprintf(stderr, "search camera: fx %.1f pos %.3f %.3f %.3f forward %.3f %.3f %.3f\n", start.intrinsics().fx,
+                   c.x(), c.y(), c.z(), f.x(), f.y(), f.z());
+    }
     auto candidate =
         refineMatches(map_lines, image_lines, start, image_width, image_height, options, initial_max_distance_px, {});
     if (!candidate)
@@ -625,6 +699,33 @@ Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_line
   }
   if (!best)
     return Error(ErrorCode::kNoSolution, "no start of the prior search led to a calibration: " + last_error);
+
+  // Basin hopping: the result of a start can be a wrong local optimum next to the right one (a camera a little
+  // farther with a longer focal length, or shifted along a repeated structure, matches most lines). The camera is
+  // moved by the typical size of such errors, along the optical axis with the focal length compensated (the scene
+  // at the matched lines' median depth keeps its scale) and sideways with the view turned to keep that depth's
+  // centre, and the matching redone from each; a result that explains the image better is kept.
+  for (int round = 0; hop && round < options.hop_rounds; ++round)
+  {
+    bool improved = false;
+    for (const CameraModel& hop : hopCameras(*best, map_lines, options.hop_position_m, options.hop_focal_relative))
+    {
+      auto candidate = refineMatches(map_lines, image_lines, hop, image_width, image_height, options,
+                                     options.hop_max_distance_px, {});
+      if (!candidate)
+        continue;
+      const double score = scoreOf(*candidate);
+      describe("hop", *candidate, score);
+      if (score < best_score - options.min_score_gain)
+      {
+        best_score = score;
+        best = std::move(*candidate);
+        improved = true;
+      }
+    }
+    if (!improved)
+      break;
+  }
 
   // A wrong match with enough leverage pulls the camera onto itself: its own residual is small, the others' grow a
   // little. Its influence (how far the camera moves without it) gives it away: the most influential matches are
