@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <sstream>
 
 namespace insitu_calibration
@@ -115,7 +116,7 @@ std::optional<CameraModel> robustRefinement(const CorrespondenceSet& data, const
     camera = refined->camera;
     if (last)
       break;
-    scale = std::max(final_scale, 0.5 * scale);
+    scale = std::max(final_scale, 0.4 * scale);
   }
   // A camera that ran away (focal length changed by more than half) is no anchor.
   const double ratio = camera.intrinsics().fx / initial.intrinsics().fx;
@@ -177,8 +178,8 @@ Expected<CameraCalibration> calibrateCamera(const CorrespondenceSet& data, const
   result.inlier_lines.assign(selected.lines.size(), true);
   const size_t minimal = dlt.estimate_distortion ? 7 : 6;
   // The known camera, refined robustly on every line: the anchor. Graduated: a Cauchy loss whose scale starts at
-  // the lines' typical error under the known camera and halves down to a third of the inlier threshold, so that
-  // the right lines pull first and the wrong ones fall out as the scale shrinks; focal length and pose only while
+  // the lines' typical error under the known camera and shrinks (x 0.4) down to a third of the inlier threshold, so
+  // that the right lines pull first and the wrong ones fall out as the scale shrinks; focal length and pose only while
   // the scale is large.
   std::optional<CameraModel> anchor;
   if (initial && options.refine && !selected.lines.empty())
@@ -187,20 +188,33 @@ Expected<CameraCalibration> calibrateCamera(const CorrespondenceSet& data, const
   {
     if (const Status s = checkDltInput(selected, dlt); !s)
       return s.error();
-    const auto ransac = ransacDlt(selected, dlt, options.ransac_options);
-    if (!ransac)
-      return ransac.error();
-    result.inlier_lines = ransac->inliers;
-    result.ransac_iterations = ransac->iterations;
+    // The anchor's inliers, and whether they are so many that RANSAC cannot do better (it is then skipped).
+    const double t = options.ransac_options.inlier_threshold_px;
+    std::vector<bool> anchor_inliers;
+    double anchor_score = std::numeric_limits<double>::infinity();
     if (anchor)
+      anchor_score = msacScore(*anchor, selected, t, &anchor_inliers);
+    const long anchor_count = std::count(anchor_inliers.begin(), anchor_inliers.end(), true);
+    if (anchor && anchor_count >= static_cast<long>(minimal) &&
+        anchor_count >= options.anchor_skips_ransac_fraction * static_cast<double>(selected.lines.size()))
     {
+      result.inlier_lines = anchor_inliers;
+    }
+    else
+    {
+      // With an anchor competing, RANSAC only has to find a better consensus when there is one: fewer draws.
+      RansacOptions ransac_options = options.ransac_options;
+      if (anchor)
+        ransac_options.max_iterations = std::min(ransac_options.max_iterations, options.anchored_ransac_iterations);
+      const auto ransac = ransacDlt(selected, dlt, ransac_options);
+      if (!ransac)
+        return ransac.error();
+      result.inlier_lines = ransac->inliers;
+      result.ransac_iterations = ransac->iterations;
       // The known camera against RANSAC's hypothesis: the lower MSAC score picks the inliers.
-      const double t = options.ransac_options.inlier_threshold_px;
-      std::vector<bool> ransac_inliers, anchor_inliers;
+      std::vector<bool> ransac_inliers;
       const double ransac_score = msacScore(ransac->camera, selected, t, &ransac_inliers);
-      const double anchor_score = msacScore(*anchor, selected, t, &anchor_inliers);
-      if (anchor_score < ransac_score &&
-          std::count(anchor_inliers.begin(), anchor_inliers.end(), true) >= static_cast<long>(minimal))
+      if (anchor && anchor_score < ransac_score && anchor_count >= static_cast<long>(minimal))
         result.inlier_lines = anchor_inliers;
     }
   }
@@ -223,10 +237,10 @@ Expected<CameraCalibration> calibrateCamera(const CorrespondenceSet& data, const
       break;
     // Once refined, the residuals tell the noise level: lines beyond inlier_sigmas of it are outliers too, which a
     // loose RANSAC threshold let through and which would bias a weakly constrained camera.
-    // The noise level is estimated robustly (the median absolute residual over the inliers' world points): an RMS
-    // would grow with the very outliers it is meant to find.
+    // The noise level: from the refinement's residual variance, or robustly (the median absolute residual over the
+    // inliers' world points), which does not grow with the very outliers it is meant to find.
     double threshold = options.ransac_options.inlier_threshold_px;
-    if (result.refinement)
+    if (options.robust_noise_level && result.refinement)
     {
       std::vector<double> residuals;
       for (const auto& line : inliers.lines)
@@ -238,6 +252,11 @@ Expected<CameraCalibration> calibrateCamera(const CorrespondenceSet& data, const
         const double sigma = 1.4826 * summarize(residuals).median_px;
         threshold = std::min(threshold, std::max(options.min_inlier_threshold_px, options.inlier_sigmas * sigma));
       }
+    }
+    else if (result.uncertainty.available && result.uncertainty.residual_sigma_px > 0.0)
+    {
+      threshold = std::min(threshold, std::max(options.min_inlier_threshold_px,
+                                               options.inlier_sigmas * result.uncertainty.residual_sigma_px));
     }
     // A line is judged by its own error and, when the refinement ran, by its error had it been left out: a wrong
     // line with enough leverage pulls the camera onto itself and only the second shows it.

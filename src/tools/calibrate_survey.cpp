@@ -49,7 +49,8 @@ Options:
                         the wrong edges and how far the matched map lines are from the true edges
   --prior-from-truth P,D,F[,SEED]
                         with --truth-dir: replace every camera's prior by its true camera moved P m in a random
-                        direction, turned D degrees about a random axis and its field of view scaled by 1 +- F
+                        direction, its viewing direction turned D degrees (about a random axis across it; the
+                        roll stays true) and its field of view scaled by 1 +- F
                         (sign random); the sigmas stay as configured. Tests the matching from other priors.
   --prior-sigmas P,D,F  with --prior-from-truth: the priors' position, direction and field-of-view sigmas
   --oracle              with --truth-dir: instead of the pipeline, calibrate on the matches the TRUE camera makes (the accuracy the
@@ -280,13 +281,18 @@ std::optional<ic::CameraPrior> priorFromTruth(const std::string& truth_dir, cons
   ic::CameraPrior prior = configured;
   const Eigen::Isometry3d world_from_camera = truth->camera.pose().worldFromCamera();
   prior.position = world_from_camera.translation() + offsets[0] * randomUnit();
-  const Eigen::Matrix3d turn(Eigen::AngleAxisd(offsets[1] * M_PI / 180.0, randomUnit()));
-  const Eigen::Matrix3d rotation = turn * world_from_camera.linear();
-  prior.direction = rotation.col(2);
-  // The roll that cameraFromPrior needs to reproduce the rotated camera's x axis.
-  Eigen::Vector3d right = prior.direction.cross(Eigen::Vector3d::UnitZ()).normalized();
-  const Eigen::Vector3d down = prior.direction.cross(right).normalized();
-  prior.roll_deg = std::atan2(rotation.col(0).dot(down), rotation.col(0).dot(right)) * 180.0 / M_PI;
+  // The viewing direction turned by D about a random axis across it; the roll (rotation about the viewing
+  // direction, which an installer knows: the image rows are level) stays the true one.
+  const Eigen::Matrix3d truth_rotation = world_from_camera.linear();
+  const Eigen::Vector3d forward = truth_rotation.col(2);
+  Eigen::Vector3d axis = randomUnit();
+  axis = (axis - axis.dot(forward) * forward).normalized();
+  prior.direction = Eigen::AngleAxisd(offsets[1] * M_PI / 180.0, axis) * forward;
+  {
+    Eigen::Vector3d right = forward.cross(Eigen::Vector3d::UnitZ()).normalized();
+    const Eigen::Vector3d down = forward.cross(right).normalized();
+    prior.roll_deg = std::atan2(truth_rotation.col(0).dot(down), truth_rotation.col(0).dot(right)) * 180.0 / M_PI;
+  }
   const double fx = truth->camera.intrinsics().fx;
   const double sign = std::uniform_int_distribution<int>(0, 1)(rng) ? 1.0 : -1.0;
   prior.horizontal_fov_deg = 2.0 * std::atan(0.5 * truth->image_width / fx) * 180.0 / M_PI * (1.0 + sign * offsets[2]);

@@ -63,16 +63,21 @@ struct LineMatcherOptions
   // The explanation score that picks among results: per image line its squared mean distance to the nearest
   // compatible projected 3D line, capped at this (px), summed.
   double explanation_cap_px = 1.0;
-  // Basin hopping around the chosen result: up to hop_rounds rounds of 8 cameras moved by hop_position_m (along the
-  // axis with the focal length compensated, and sideways) or with the focal length scaled by 1 +- hop_focal_relative,
-  // each matched again from a first threshold of hop_max_distance_px.
-  int hop_rounds = 2;
+  // Local moves around the chosen result, alternated while they improve its explanation score (by more than
+  // min_score_gain), at most max_local_rounds times:
+  // - basin hopping (with the prior search only): 8 cameras moved by hop_position_m (along the axis with the focal
+  //   length compensated, and sideways) or with the focal length scaled by 1 +- hop_focal_relative, each matched
+  //   again from a first threshold of hop_max_distance_px;
+  // - influence check: the influence_candidates most influential matches (Cook's distance at least min_influence)
+  //   each banned in turn and the matching redone.
+  int max_local_rounds = 6;
+  bool basin_hopping = true;
   double hop_position_m = 0.15;
   double hop_focal_relative = 0.04;
   double hop_max_distance_px = 20.0;
-  // Influence check of the chosen result: up to influence_rounds times, the influence_candidates most influential
-  // matches (Cook's distance at least min_influence) are each banned in turn and the matching redone.
-  int influence_rounds = 3;
+  std::vector<double> hop_scales = {1.0, 2.0};  // the moves above at each of these scales
+  int abandon_after = 3;  // a hop still explaining the image worse than the current result after this many rounds
+                          // of matching is abandoned
   int influence_candidates = 3;
   double min_influence = 0.5;
   double min_score_gain = 0.05;  // a result replaces the current one when its score is lower by more than this

@@ -342,6 +342,7 @@ CorrespondenceSet correspondencesOf(const std::vector<LineMatch>& matches, const
 
 LineMatcherOptions::LineMatcherOptions()
 {
+  calibration.robust_noise_level = true;
   calibration.refinement.aspect_prior_sigma = 0.005;
   calibration.refinement.principal_point_prior_sigma = 0.03;
 }
@@ -477,8 +478,10 @@ Expected<LineMatchResult> refineMatches(const std::vector<Segment3d>& map_lines,
                                         const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                         const CameraModel& start, int image_width, int image_height,
                                         const LineMatcherOptions& options, double initial_max_distance_px,
-                                        const PairSet& banned)
+                                        const PairSet& banned,
+                                        double abandon_above = std::numeric_limits<double>::infinity())
 {
+  const std::vector<ImageChord> image = summarize(image_lines);
   LineMatchResult result;
   result.search_camera = start;
   CameraModel camera = start;
@@ -522,6 +525,12 @@ Expected<LineMatchResult> refineMatches(const std::vector<Segment3d>& map_lines,
           iteration, matches.size(), max_distance, max_angle, calibration->inlier_count,
           calibration->camera.intrinsics().fx, calibration->reprojection.rms_px, pos.x(), pos.y(), pos.z());
     }
+    // A start that still explains the image worse than a known result after a few rounds is abandoned (the local
+    // moves try many starts, most of them in vain).
+    if (iteration + 1 >= options.abandon_after &&
+        explanationScore(calibration->camera, map_lines, image, image_width, image_height, options.min_image_length_px,
+                         options.explanation_cap_px) > abandon_above)
+      return Error(ErrorCode::kNoSolution, "abandoned: explains the image worse than the current result");
     calibrated = *calibration;
     used = matches;
     used_set = set;
@@ -597,7 +606,8 @@ namespace
 {
 // Cameras around a result (see the basin hopping in matchFromStarts): along the optical axis by +-step with the
 // focal length scaled to keep the scale at the median depth Z of the matched lines, sideways (x and y of the camera)
-// by +-step turned towards the point at depth Z on the axis, and the focal length alone by 1 +- focal_relative.
+// by +-step turned towards the point at depth Z on the axis, along the world axes by +-step, and the focal length
+// alone by 1 +- focal_relative.
 std::vector<CameraModel> hopCameras(const LineMatchResult& result, const std::vector<Segment3d>& map_lines, double step,
                                     double focal_relative)
 {
@@ -640,6 +650,16 @@ std::vector<CameraModel> hopCameras(const LineMatchResult& result, const std::ve
       turned.linear() = Eigen::Matrix3d(Eigen::Quaterniond::FromTwoVectors(r.col(2), forward)) * r;
       side.pose() = CameraPose::fromWorldFromCamera(turned);
       out.push_back(side);
+    }
+    // Pure translations along the world axes: lines parallel to the move keep their images (vertical edges when
+    // the height is wrong), so a camera off along them can match most lines and still be wrong.
+    for (int axis : {0, 1, 2})
+    {
+      CameraModel shifted = camera;
+      Eigen::Isometry3d moved = world_from_camera;
+      moved.translation() = c + sign * step * Eigen::Vector3d::Unit(axis);
+      shifted.pose() = CameraPose::fromWorldFromCamera(moved);
+      out.push_back(shifted);
     }
     // Focal length alone.
     CameraModel zoom = camera;
@@ -700,18 +720,37 @@ Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_line
   if (!best)
     return Error(ErrorCode::kNoSolution, "no start of the prior search led to a calibration: " + last_error);
 
-  // Basin hopping: the result of a start can be a wrong local optimum next to the right one (a camera a little
-  // farther with a longer focal length, or shifted along a repeated structure, matches most lines). The camera is
-  // moved by the typical size of such errors, along the optical axis with the focal length compensated (the scene
-  // at the matched lines' median depth keeps its scale) and sideways with the view turned to keep that depth's
-  // centre, and the matching redone from each; a result that explains the image better is kept.
-  for (int round = 0; hop && round < options.hop_rounds; ++round)
-  {
+  // Two local moves, alternated while either explains the image better (lower score by min_score_gain), at most
+  // max_local_rounds times:
+  // - Basin hopping: the result of a start can be a wrong local optimum next to the right one (a camera a little
+  //   farther with a longer focal length, or shifted along a repeated structure, matches most lines). The camera is
+  //   moved by the typical size of such errors, along the optical axis with the focal length compensated (the scene
+  //   at the matched lines' median depth keeps its scale) and sideways with the view turned to keep that depth's
+  //   centre, and the matching redone from each.
+  // - Influence check: a wrong match with enough leverage pulls the camera onto itself; its own residual is small,
+  //   the others' grow a little. Its influence (how far the camera moves without it) gives it away: the most
+  //   influential matches are each banned in turn and the matching redone from the current camera.
+  PairSet banned;
+  const auto hopRound = [&]() {
     bool improved = false;
-    for (const CameraModel& hop : hopCameras(*best, map_lines, options.hop_position_m, options.hop_focal_relative))
+    std::vector<CameraModel> hops;
+    for (double scale : options.hop_scales)
     {
-      auto candidate = refineMatches(map_lines, image_lines, hop, image_width, image_height, options,
-                                     options.hop_max_distance_px, {});
+      const auto more =
+          hopCameras(*best, map_lines, scale * options.hop_position_m, scale * options.hop_focal_relative);
+      hops.insert(hops.end(), more.begin(), more.end());
+    }
+    for (const CameraModel& camera : hops)
+    {
+      if (debug)
+      {
+        const Eigen::Vector3d c = camera.pose().center();
+        const Eigen::Vector3d f = camera.pose().rotation.row(2).transpose();
+        std::fprintf(stderr, "hop camera: fx %.1f pos %.3f %.3f %.3f forward %.3f %.3f %.3f\n", camera.intrinsics().fx,
+                     c.x(), c.y(), c.z(), f.x(), f.y(), f.z());
+      }
+      auto candidate = refineMatches(map_lines, image_lines, camera, image_width, image_height, options,
+                                     options.hop_max_distance_px, {}, best_score);
       if (!candidate)
         continue;
       const double score = scoreOf(*candidate);
@@ -720,23 +759,16 @@ Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_line
       {
         best_score = score;
         best = std::move(*candidate);
+        banned.clear();
         improved = true;
       }
     }
-    if (!improved)
-      break;
-  }
-
-  // A wrong match with enough leverage pulls the camera onto itself: its own residual is small, the others' grow a
-  // little. Its influence (how far the camera moves without it) gives it away: the most influential matches are
-  // each banned in turn and the matching redone from the current camera; a result that explains the image better
-  // is kept, and the check repeated on it.
-  PairSet banned;
-  for (int round = 0; round < options.influence_rounds; ++round)
-  {
+    return improved;
+  };
+  const auto influenceRound = [&]() {
     const auto& refinement = best->calibration.refinement;
     if (!refinement || refinement->line_influence.size() != best->matches.size())
-      break;
+      return false;
     std::vector<size_t> order(best->matches.size());
     std::iota(order.begin(), order.end(), 0);
     const auto influence = [&](size_t k) {
@@ -746,7 +778,6 @@ Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_line
     std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return influence(a) > influence(b); });
     const double distance =
         std::max(options.min_distance_px, options.distance_factor * best->calibration.reprojection.rms_px);
-    bool improved = false;
     for (size_t n = 0; n < order.size() && n < static_cast<size_t>(options.influence_candidates); ++n)
     {
       const LineMatch& m = best->matches[order[n]];
@@ -767,11 +798,16 @@ Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_line
         best_score = score;
         best = std::move(*candidate);
         banned = std::move(trial);
-        improved = true;
-        break;
+        return true;
       }
     }
-    if (!improved)
+    return false;
+  };
+  for (int round = 0; round < options.max_local_rounds; ++round)
+  {
+    const bool hopped = hop && options.basin_hopping && hopRound();
+    const bool pruned = influenceRound();
+    if (!hopped && !pruned)
       break;
   }
   return *best;

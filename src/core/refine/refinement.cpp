@@ -345,7 +345,8 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
       changed = changed || parts != assignment[i];
       assignment[i] = parts;
     }
-    if (round > 0 && !changed)
+    // The pairing only matters for world-point residuals: with image-point residuals one solve is enough.
+    if (round > 0 && (!changed || options.line_residual == LineResidual::kImagePoints))
       break;
 
     ceres::Problem::Options problem_options;
