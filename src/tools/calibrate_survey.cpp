@@ -146,7 +146,7 @@ void oracleCalibration(const std::string& truth_dir, const std::string& name, co
     for (const auto& e : *edges)
       segments.push_back({e.start, e.end});
   const ic::CameraModel& t = truth->camera;
-  ic::CorrespondenceSet true_world = set, true_image = set;
+  ic::CorrespondenceSet true_world = set, true_image = set, true_both = set;
   for (size_t i = 0; i < set.lines.size(); ++i)
   {
     const ic::Segment3d& m = map[matches[i].map_line];
@@ -161,6 +161,21 @@ void oracleCalibration(const std::string& truth_dir, const std::string& name, co
     if (!ua || !ub)
       continue;
     const Eigen::Vector2d ud = (*ub - *ua).normalized();
+    if (std::getenv("ORACLE_IMAGE"))
+    {
+      std::printf("    line %zu (image %zu, edge %d):", i, matches[i].image_line, err.edge);
+      for (const auto& m2 : set.lines[i].image)
+      {
+        const auto u = t.distortion().undistort(m2);
+        if (!u)
+          continue;
+        const Eigen::Vector2d foot = *ua + ud * ud.dot(*u - *ua);
+        const auto back = t.distortion().distort(foot);
+        const Eigen::Vector2d n(-ud.y(), ud.x());
+        std::printf(" %+.3f", back ? n.dot(m2 - *back) : 0.0);
+      }
+      std::printf("\n");
+    }
     for (auto& m2 : true_image.lines[i].image)
     {
       const auto u = t.distortion().undistort(m2);
@@ -170,6 +185,11 @@ void oracleCalibration(const std::string& truth_dir, const std::string& name, co
       if (back)
         m2 = *back;
     }
+  }
+  for (size_t i = 0; i < set.lines.size(); ++i)
+  {
+    true_both.lines[i].world = true_world.lines[i].world;
+    true_both.lines[i].image = true_image.lines[i].image;
   }
   if (std::getenv("ORACLE_VERBOSE"))
   {
@@ -233,7 +253,7 @@ void oracleCalibration(const std::string& truth_dir, const std::string& name, co
           range, set.lines[i].image.size(), 1000.0 * spread);
     }
   const std::vector<std::pair<const char*, const ic::CorrespondenceSet*>> variants = {
-      {"oracle", &set}, {"  true 3D", &true_world}, {"  true 2D", &true_image}};
+      {"oracle", &set}, {"  true 3D", &true_world}, {"  true 2D", &true_image}, {"  both true", &true_both}};
   for (const auto& [label, data] : variants)
   {
     const auto calibration = ic::calibrateCamera(*data, options.matcher.calibration);

@@ -61,6 +61,12 @@ struct RefinementOptions
   // repeated while it changes, at most this many times.
   int max_reassignments = 3;
   bool compute_uncertainty = true;
+  // Image-point residuals: after a solve, image points farther from their projected line than
+  // max(min_vertex_outlier_px, vertex_outlier_sigmas x the noise level of all image points (1.4826 x median)) are
+  // left out and the solve repeated (within the max_reassignments rounds); a line keeps at least two points.
+  // Catches a polyline whose end runs past its edge onto the next one. 0: off.
+  double vertex_outlier_sigmas = 0.0;
+  double min_vertex_outlier_px = 0.15;
   // The residuals of one line are not independent: the error of its 3D line (depth noise, map fusion) and of its
   // fine-tuned image line moves all of them together. The standard deviations are therefore the larger of the
   // usual ones (independent residuals, scaled by their variance) and a jackknife over lines (each line left out in

@@ -343,6 +343,7 @@ CorrespondenceSet correspondencesOf(const std::vector<LineMatch>& matches, const
 LineMatcherOptions::LineMatcherOptions()
 {
   calibration.robust_noise_level = true;
+  calibration.refinement.vertex_outlier_sigmas = 5.0;
   calibration.refinement.aspect_prior_sigma = 0.005;
   calibration.refinement.principal_point_prior_sigma = 0.03;
 }

@@ -326,6 +326,11 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
   // The group of every residual row, in the order the blocks are added: the line index, or lines + k for point k.
   std::vector<size_t> row_group;
   std::unique_ptr<ceres::Problem> problem;
+  // Image points left out as outliers (a polyline that runs past the end of its edge onto the next one).
+  std::vector<std::vector<bool>> vertex_used(data.lines.size());
+  for (size_t i = 0; i < data.lines.size(); ++i)
+    vertex_used[i].assign(data.lines[i].image.size(), true);
+  bool vertices_changed = false;
   for (int round = 0; round <= options.max_reassignments; ++round)
   {
     // Pair each world point with its nearest part under the current camera.
@@ -346,7 +351,7 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
       assignment[i] = parts;
     }
     // The pairing only matters for world-point residuals: with image-point residuals one solve is enough.
-    if (round > 0 && (!changed || options.line_residual == LineResidual::kImagePoints))
+    if (round > 0 && !vertices_changed && (!changed || options.line_residual == LineResidual::kImagePoints))
       break;
 
     ceres::Problem::Options problem_options;
@@ -362,10 +367,12 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
       if (options.line_residual != LineResidual::kWorldPoints && line.world.size() >= 2 &&
           (line.world.back() - line.world.front()).norm() > 0.0)
       {
-        for (const auto& m : line.image)
+        for (size_t v = 0; v < line.image.size(); ++v)
         {
+          if (!vertex_used[i][v])
+            continue;
           auto* cost = new ceres::AutoDiffCostFunction<ImagePointToLineResidual, 1, 2, 2, 1, 1, 3, 3>(
-              new ImagePointToLineResidual{projector, line.world.front(), line.world.back(), m});
+              new ImagePointToLineResidual{projector, line.world.front(), line.world.back(), line.image[v]});
           problem->AddResidualBlock(cost, makeLoss(options.loss, result.loss_scale_px).release(), p.focal, p.principal,
                                     p.skew, p.distortion, p.delta, p.center);
           ++residual_count;
@@ -439,6 +446,54 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
     result.iterations += static_cast<int>(summary.iterations.size());
     if (summary.termination_type == ceres::FAILURE)
       return Error(ErrorCode::kNoSolution, "refinement failed: " + summary.message);
+
+    // Image points far beyond the noise level of all image points are left out and the solve repeated; a line keeps
+    // at least two.
+    vertices_changed = false;
+    if (options.vertex_outlier_sigmas > 0.0 && options.line_residual != LineResidual::kWorldPoints)
+    {
+      std::vector<std::vector<double>> distance(data.lines.size());
+      std::vector<double> all;
+      for (size_t i = 0; i < data.lines.size(); ++i)
+      {
+        const auto& line = data.lines[i];
+        if (!selected(i) || line.world.size() < 2 || !((line.world.back() - line.world.front()).norm() > 0.0))
+          continue;
+        const ImagePointToLineResidual functor{projector, line.world.front(), line.world.back(), Eigen::Vector2d()};
+        for (const auto& m : line.image)
+        {
+          ImagePointToLineResidual f = functor;
+          f.image = m;
+          double r = std::numeric_limits<double>::infinity();
+          f(p.focal, p.principal, p.skew, p.distortion, p.delta, p.center, &r);
+          distance[i].push_back(std::abs(r));
+        }
+        for (size_t v = 0; v < distance[i].size(); ++v)
+          if (vertex_used[i][v] && std::isfinite(distance[i][v]))
+            all.push_back(distance[i][v]);
+      }
+      if (!all.empty())
+      {
+        std::nth_element(all.begin(), all.begin() + all.size() / 2, all.end());
+        const double threshold =
+            std::max(options.min_vertex_outlier_px, options.vertex_outlier_sigmas * 1.4826 * all[all.size() / 2]);
+        for (size_t i = 0; i < data.lines.size(); ++i)
+        {
+          if (distance[i].empty())
+            continue;
+          std::vector<bool> used(distance[i].size());
+          for (size_t v = 0; v < used.size(); ++v)
+            used[v] = distance[i][v] <= threshold;
+          if (std::count(used.begin(), used.end(), true) < 2)
+            used.assign(used.size(), true);
+          if (used != vertex_used[i])
+          {
+            vertex_used[i] = used;
+            vertices_changed = true;
+          }
+        }
+      }
+    }
   }
 
   result.camera = toCamera(p, projector);
