@@ -34,10 +34,20 @@ struct CalibrationOptions
   // Both off reproduce the paper's plain DLT.
   bool ransac = true;
   RansacOptions ransac_options;
+  // With a known camera (calibrateCamera's `initial`): when its robust refinement explains at least this fraction
+  // of the lines within RANSAC's threshold, RANSAC is not run (it could not find more inliers).
+  double anchor_skips_ransac_fraction = 0.9;
+  int anchored_ransac_iterations = 300;  // RANSAC's draws at most, with a known camera competing
   // After refinement the inliers are judged again with min(RANSAC's threshold, max(min_inlier_threshold_px,
   // inlier_sigmas x the noise level the residuals show)).
   double inlier_sigmas = 4.0;
   double min_inlier_threshold_px = 0.75;
+  // The noise level above from the median absolute residual (true) instead of the residuals' RMS (false): for many
+  // automatically matched lines, where the RMS grows with the wrong lines it should find.
+  bool robust_noise_level = false;
+  // ... and, once refined, by the line's residual had it been left out of the fit (RefinementResult::line_loo_rms_px)
+  // against the same threshold.
+  bool leave_one_out = false;
   bool refine = true;
   RefinementOptions refinement;  // estimate_distortion is set from the distortion decision
 };
@@ -59,7 +69,11 @@ struct CameraCalibration
   bool converged = true;          // the principal-point iteration and the refinement both converged
 };
 
-Expected<CameraCalibration> calibrateCamera(const CorrespondenceSet& data, const CalibrationOptions& options = {});
+// initial: an approximate camera known beforehand (the matcher's current camera). With RANSAC on it is refined
+// robustly on all lines and competes with RANSAC's best hypothesis; the one that explains the lines better (MSAC
+// score) chooses the inliers. The linear DLT on those inliers and the refinement follow as without it.
+Expected<CameraCalibration> calibrateCamera(const CorrespondenceSet& data, const CalibrationOptions& options = {},
+                                            const std::optional<CameraModel>& initial = std::nullopt);
 
 CalibrationFile toCalibrationFile(const CorrespondenceSet& data, const CameraCalibration& result,
                                   const std::string& world_frame);

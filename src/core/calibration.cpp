@@ -1,7 +1,9 @@
 #include "insitu_calibration/calibration.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <limits>
 #include <sstream>
 
 namespace insitu_calibration
@@ -19,39 +21,127 @@ std::optional<DistortionMode> parseDistortionMode(const std::string& name)
 
 namespace
 {
-// The DLT with the principal-point iteration, then the refinement, on lines already selected.
+// The DLT with the principal-point iteration, then the refinement, on lines already selected. With an anchor (a
+// camera known to be close, refined before), the refinement also starts from it and the better of the two optima
+// (lower RMS) is kept; the anchor alone is used when the linear solve fails.
 Status solveAndRefine(const CorrespondenceSet& inliers, const DltOptions& dlt, const CalibrationOptions& options,
-                      CameraCalibration* result)
+                      const std::optional<CameraModel>& anchor, CameraCalibration* result)
 {
   auto solved = solveDlt(inliers, dlt);
-  if (!solved)
+  if (!solved && !(anchor && options.refine))
     return solved.error();
-  result->dlt = *solved;
+  if (solved)
+  {
+    result->dlt = *solved;
+    result->linear_camera = solved->camera;
+    result->camera = solved->camera;
+    result->iterations = solved->center_iterations;
+    result->converged = solved->center_converged;
+  }
+  else
+  {
+    result->dlt = DltResult();
+    result->dlt.camera = *anchor;
+    result->dlt.constraints = inliers.lineConstraintCount();
+    result->dlt.points_used = inliers.points.size();
+    result->linear_camera = *anchor;
+    result->camera = *anchor;
+    result->iterations = 0;
+    result->converged = true;
+  }
   result->dlt.lines_used = inliers.lines.size();
-  result->linear_camera = solved->camera;
-  result->camera = solved->camera;
-  result->distortion_estimated = solved->distortion_estimated;
-  result->iterations = solved->center_iterations;
-  result->converged = solved->center_converged;
+  result->distortion_estimated = dlt.estimate_distortion;
 
   if (options.refine)
   {
     RefinementOptions refinement = options.refinement;
     refinement.estimate_distortion = result->distortion_estimated;
-    auto refined = refineCamera(inliers, result->linear_camera, refinement);
-    if (!refined)
-      return refined.error();
-    result->camera = refined->camera;
-    result->uncertainty = refined->uncertainty;
-    result->iterations += refined->iterations;
-    result->converged = result->converged && refined->converged;
-    result->refinement = std::move(*refined);
+    std::optional<RefinementResult> best;
+    std::string failure;
+    std::vector<CameraModel> starts;
+    if (solved)
+      starts.push_back(solved->camera);
+    if (anchor)
+      starts.push_back(*anchor);
+    for (const CameraModel& start : starts)
+    {
+      auto refined = refineCamera(inliers, start, refinement);
+      if (!refined)
+      {
+        failure = refined.error().message();
+        continue;
+      }
+      if (!best || refined->final_rms_px < best->final_rms_px - 1e-9)
+        best = std::move(*refined);
+    }
+    if (!best)
+      return Error(ErrorCode::kNoSolution, "refinement failed: " + failure);
+    result->camera = best->camera;
+    result->uncertainty = best->uncertainty;
+    result->iterations += best->iterations;
+    result->converged = result->converged && best->converged;
+    result->refinement = std::move(*best);
   }
   return Success{};
 }
+
+std::optional<CameraModel> robustRefinement(const CorrespondenceSet& data, const CameraModel& initial,
+                                            const CalibrationOptions& options, bool estimate_distortion)
+{
+  std::vector<double> errors;
+  for (const auto& line : data.lines)
+  {
+    const double e = lineError(initial, line);
+    if (std::isfinite(e))
+      errors.push_back(e);
+  }
+  if (errors.empty())
+    return std::nullopt;
+  std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
+  const double final_scale = options.ransac_options.inlier_threshold_px / 3.0;
+  double scale = std::max(final_scale, 2.0 * errors[errors.size() / 2]);
+  RefinementOptions robust = options.refinement;
+  robust.loss = RobustLoss::kCauchy;
+  robust.compute_uncertainty = false;
+  CameraModel camera = initial;
+  for (int stage = 0; stage < 12; ++stage)
+  {
+    const bool last = scale <= final_scale * 1.0001;
+    robust.loss_scale_px = scale;
+    robust.estimate_distortion = estimate_distortion && scale <= 4.0 * final_scale;
+    robust.estimate_principal_point = scale <= 4.0 * final_scale;
+    const auto refined = refineCamera(data, camera, robust);
+    if (!refined)
+      return std::nullopt;
+    camera = refined->camera;
+    if (last)
+      break;
+    scale = std::max(final_scale, 0.4 * scale);
+  }
+  // A camera that ran away (focal length changed by more than half) is no anchor.
+  const double ratio = camera.intrinsics().fx / initial.intrinsics().fx;
+  if (!(ratio > 0.5 && ratio < 2.0))
+    return std::nullopt;
+  return camera;
+}
+
+// MSAC score of a camera over the lines (sum of min(e^2, t^2), e a line's RMS error) and its inliers (e < t).
+double msacScore(const CameraModel& camera, const CorrespondenceSet& data, double t, std::vector<bool>* inliers)
+{
+  double score = 0.0;
+  inliers->assign(data.lines.size(), false);
+  for (size_t i = 0; i < data.lines.size(); ++i)
+  {
+    const double e = lineError(camera, data.lines[i]);
+    (*inliers)[i] = e < t;
+    score += std::isfinite(e) ? std::min(e * e, t * t) : t * t;
+  }
+  return score;
+}
 }  // namespace
 
-Expected<CameraCalibration> calibrateCamera(const CorrespondenceSet& data, const CalibrationOptions& options)
+Expected<CameraCalibration> calibrateCamera(const CorrespondenceSet& data, const CalibrationOptions& options,
+                                            const std::optional<CameraModel>& initial)
 {
   CameraCalibration result;
   DltOptions dlt = options.dlt;
@@ -87,15 +177,46 @@ Expected<CameraCalibration> calibrateCamera(const CorrespondenceSet& data, const
   // Robust selection of lines, then the DLT with the principal-point iteration on the inliers.
   result.inlier_lines.assign(selected.lines.size(), true);
   const size_t minimal = dlt.estimate_distortion ? 7 : 6;
+  // The known camera, refined robustly on every line: the anchor. Graduated: a Cauchy loss whose scale starts at
+  // the lines' typical error under the known camera and shrinks (x 0.4) down to a third of the inlier threshold, so
+  // that the right lines pull first and the wrong ones fall out as the scale shrinks; focal length and pose only while
+  // the scale is large.
+  std::optional<CameraModel> anchor;
+  if (initial && options.refine && !selected.lines.empty())
+    anchor = robustRefinement(selected, *initial, options, dlt.estimate_distortion);
   if (options.ransac && selected.lines.size() > minimal)
   {
     if (const Status s = checkDltInput(selected, dlt); !s)
       return s.error();
-    const auto ransac = ransacDlt(selected, dlt, options.ransac_options);
-    if (!ransac)
-      return ransac.error();
-    result.inlier_lines = ransac->inliers;
-    result.ransac_iterations = ransac->iterations;
+    // The anchor's inliers, and whether they are so many that RANSAC cannot do better (it is then skipped).
+    const double t = options.ransac_options.inlier_threshold_px;
+    std::vector<bool> anchor_inliers;
+    double anchor_score = std::numeric_limits<double>::infinity();
+    if (anchor)
+      anchor_score = msacScore(*anchor, selected, t, &anchor_inliers);
+    const long anchor_count = std::count(anchor_inliers.begin(), anchor_inliers.end(), true);
+    if (anchor && anchor_count >= static_cast<long>(minimal) &&
+        anchor_count >= options.anchor_skips_ransac_fraction * static_cast<double>(selected.lines.size()))
+    {
+      result.inlier_lines = anchor_inliers;
+    }
+    else
+    {
+      // With an anchor competing, RANSAC only has to find a better consensus when there is one: fewer draws.
+      RansacOptions ransac_options = options.ransac_options;
+      if (anchor)
+        ransac_options.max_iterations = std::min(ransac_options.max_iterations, options.anchored_ransac_iterations);
+      const auto ransac = ransacDlt(selected, dlt, ransac_options);
+      if (!ransac)
+        return ransac.error();
+      result.inlier_lines = ransac->inliers;
+      result.ransac_iterations = ransac->iterations;
+      // The known camera against RANSAC's hypothesis: the lower MSAC score picks the inliers.
+      std::vector<bool> ransac_inliers;
+      const double ransac_score = msacScore(ransac->camera, selected, t, &ransac_inliers);
+      if (anchor && anchor_score < ransac_score && anchor_count >= static_cast<long>(minimal))
+        result.inlier_lines = anchor_inliers;
+    }
   }
   // The RANSAC hypotheses are linear and centred on the image centre; the final camera judges the lines better, so
   // the inlier set is re-evaluated with it and the solve repeated once when it changes.
@@ -108,19 +229,51 @@ Expected<CameraCalibration> calibrateCamera(const CorrespondenceSet& data, const
       if (result.inlier_lines[i])
         inliers.lines.push_back(selected.lines[i]);
     result.inlier_count = inliers.lines.size();
-    if (const Status s = solveAndRefine(inliers, dlt, options, &result); !s)
+    if (const Status s = solveAndRefine(inliers, dlt, options, anchor, &result); !s)
       return s.error();
+    if (anchor)
+      anchor = result.camera;
     if (!options.ransac)
       break;
     // Once refined, the residuals tell the noise level: lines beyond inlier_sigmas of it are outliers too, which a
     // loose RANSAC threshold let through and which would bias a weakly constrained camera.
+    // The noise level: from the refinement's residual variance, or robustly (the median absolute residual over the
+    // inliers' world points), which does not grow with the very outliers it is meant to find.
     double threshold = options.ransac_options.inlier_threshold_px;
-    if (result.uncertainty.available && result.uncertainty.residual_sigma_px > 0.0)
+    if (options.robust_noise_level && result.refinement)
+    {
+      std::vector<double> residuals;
+      for (const auto& line : inliers.lines)
+        for (double r : lineResiduals(result.camera, line))
+          if (std::isfinite(r))
+            residuals.push_back(std::abs(r));
+      if (!residuals.empty())
+      {
+        const double sigma = 1.4826 * summarize(residuals).median_px;
+        threshold = std::min(threshold, std::max(options.min_inlier_threshold_px, options.inlier_sigmas * sigma));
+      }
+    }
+    else if (result.uncertainty.available && result.uncertainty.residual_sigma_px > 0.0)
+    {
       threshold = std::min(threshold, std::max(options.min_inlier_threshold_px,
                                                options.inlier_sigmas * result.uncertainty.residual_sigma_px));
+    }
+    // A line is judged by its own error and, when the refinement ran, by its error had it been left out: a wrong
+    // line with enough leverage pulls the camera onto itself and only the second shows it.
     std::vector<bool> judged(selected.lines.size());
+    std::vector<double> loo(selected.lines.size(), 0.0);
+    if (result.refinement && options.leave_one_out)
+    {
+      size_t k = 0;
+      for (size_t i = 0; i < selected.lines.size(); ++i)
+        if (result.inlier_lines[i])
+        {
+          const double e = result.refinement->line_loo_rms_px[k++];
+          loo[i] = std::isnan(e) ? 0.0 : e;
+        }
+    }
     for (size_t i = 0; i < selected.lines.size(); ++i)
-      judged[i] = lineError(result.camera, selected.lines[i]) < threshold;
+      judged[i] = lineError(result.camera, selected.lines[i]) < threshold && loo[i] < threshold;
     if (judged == result.inlier_lines || std::count(judged.begin(), judged.end(), true) < static_cast<long>(minimal))
       break;
     result.inlier_lines = judged;

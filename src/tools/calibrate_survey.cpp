@@ -4,6 +4,8 @@
 #include <chrono>
 #include <deque>
 #include <iostream>
+#include <random>
+#include <sstream>
 
 #include <opencv2/imgcodecs.hpp>
 #include <rosbag/bag.h>
@@ -41,10 +43,19 @@ Options:
   --out-dir DIR         where to write the calibrations
   --world-frame NAME    default map
   --min-support N       map lines seen fewer times are not used (default 2)
+  --max-spread M        map lines whose observations spread more (RMS across the line, m) are not used (default 0.01)
   --camera NAME         calibrate only this camera
   --search-starts N     distinct results of the prior search refined per camera (default 4)
   --truth-dir DIR       the simulator's truth folder (<bag>_truth): also report, per camera, how many matches pair
                         the wrong edges and how far the matched map lines are from the true edges
+  --prior-from-truth P,D,F[,SEED]
+                        with --truth-dir: replace every camera's prior by its true camera moved P m in a random
+                        direction, its viewing direction turned D degrees (about a random axis across it; the
+                        roll stays true) and its field of view scaled by 1 +- F
+                        (sign random); the sigmas stay as configured. Tests the matching from other priors.
+  --prior-sigmas P,D,F  with --prior-from-truth: the priors' position, direction and field-of-view sigmas
+  --oracle              with --truth-dir: instead of the pipeline, calibrate on the matches the TRUE camera makes (the accuracy the
+                        map and image lines allow when matching is perfect), printed with its errors
   --no-refine           the paper's linear DLT after matching (no Ceres refinement)
   --no-ransac           no RANSAC over the matched lines
   --quiet               print only errors and the result table
@@ -99,6 +110,222 @@ void reportAgainstTruth(const std::string& truth_dir, const std::string& name, c
       result.matched_image_lines.size(), wrong, unknown_image, unknown_map, map_stats.median_px, map_stats.max_px);
 }
 
+// Diagnostic: the image lines matched under the true camera (tight thresholds), calibrated like the pipeline does.
+void oracleCalibration(const std::string& truth_dir, const std::string& name, const ic::FixedCamera& camera,
+                       const std::vector<ic::Segment3d>& map, const ic::FixedCameraOptions& options,
+                       const std::vector<ic::MapLine>& map_lines)
+{
+  const auto truth = ic::loadCalibrationFile(truth_dir + "/" + name + ".yaml");
+  if (!truth)
+    return;
+  const int w = truth->image_width, h = truth->image_height;
+  const auto lines = ic::extractImageLines(camera.medianImage(), truth->camera.distortion(), options.image_lines);
+  if (!lines)
+    return;
+  std::vector<std::vector<Eigen::Vector2d>> polylines;
+  for (const auto& l : *lines)
+    polylines.push_back(l.points);
+  const auto matches = ic::matchLines(map, polylines, truth->camera, w, h, 2.0, 3.0, options.matcher);
+  ic::CorrespondenceSet set;
+  set.image_width = w;
+  set.image_height = h;
+  for (const auto& m : matches)
+  {
+    const auto interval = ic::visibleInterval(truth->camera, map[m.map_line], w, h);
+    ic::LineCorrespondence c;
+    c.image = polylines[m.image_line];
+    for (int k = 0; k < options.matcher.world_points_per_line; ++k)
+      c.world.push_back(map[m.map_line].pointAt(interval->first + (interval->second - interval->first) * k /
+                                                                      (options.matcher.world_points_per_line - 1.0)));
+    set.lines.push_back(c);
+  }
+  // Variants: the map lines replaced by their true edges (image-line errors only), the image lines replaced by the
+  // true edges' images (map-line errors only).
+  const auto edges = ic::simulation::loadTrueEdges(truth_dir + "/edges.yaml");
+  std::vector<ic::Segment3d> segments;
+  if (edges)
+    for (const auto& e : *edges)
+      segments.push_back({e.start, e.end});
+  const ic::CameraModel& t = truth->camera;
+  ic::CorrespondenceSet true_world = set, true_image = set, true_both = set;
+  for (size_t i = 0; i < set.lines.size(); ++i)
+  {
+    const ic::Segment3d& m = map[matches[i].map_line];
+    const ic::Line3dError err = ic::measureLine3d(m.a, m.b, segments, 0.1, 5.0);
+    if (err.edge < 0)
+      continue;
+    const ic::Segment3d& e = segments[err.edge];
+    const Eigen::Vector3d d = (e.b - e.a).normalized();
+    for (auto& x : true_world.lines[i].world)
+      x = e.a + d * d.dot(x - e.a);
+    const auto ua = t.projectUndistorted(e.a), ub = t.projectUndistorted(e.b);
+    if (!ua || !ub)
+      continue;
+    const Eigen::Vector2d ud = (*ub - *ua).normalized();
+    if (std::getenv("ORACLE_IMAGE"))
+    {
+      std::printf("    line %zu (image %zu, edge %d):", i, matches[i].image_line, err.edge);
+      for (const auto& m2 : set.lines[i].image)
+      {
+        const auto u = t.distortion().undistort(m2);
+        if (!u)
+          continue;
+        const Eigen::Vector2d foot = *ua + ud * ud.dot(*u - *ua);
+        const auto back = t.distortion().distort(foot);
+        const Eigen::Vector2d n(-ud.y(), ud.x());
+        std::printf(" %+.3f", back ? n.dot(m2 - *back) : 0.0);
+      }
+      std::printf("\n");
+    }
+    for (auto& m2 : true_image.lines[i].image)
+    {
+      const auto u = t.distortion().undistort(m2);
+      if (!u)
+        continue;
+      const auto back = t.distortion().distort(*ua + ud * ud.dot(*u - *ua));
+      if (back)
+        m2 = *back;
+    }
+  }
+  for (size_t i = 0; i < set.lines.size(); ++i)
+  {
+    true_both.lines[i].world = true_world.lines[i].world;
+    true_both.lines[i].image = true_image.lines[i].image;
+  }
+  if (std::getenv("ORACLE_VERBOSE"))
+  {
+    const auto images = ic::projectEdges(t, segments);
+    std::vector<int> map_edge(map.size(), -1);
+    for (size_t j = 0; j < map.size(); ++j)
+      map_edge[j] = ic::measureLine3d(map[j].a, map[j].b, segments, 0.1, 5.0).edge;
+    if (std::getenv("ORACLE_EDGES"))
+      for (size_t e = 0; e < segments.size(); ++e)
+      {
+        const auto vis = ic::visibleInterval(t, segments[e], w, h);
+        if (!vis)
+          continue;
+        int n = 0;
+        for (size_t j = 0; j < map.size(); ++j)
+          n += map_edge[j] == static_cast<int>(e) ? 1 : 0;
+        std::printf("    edge %3zu (%s): %d map lines, visible %.2f m\n", e,
+                    (*edges)[e].surfaces.empty() ? "" : (*edges)[e].surfaces[0].c_str(), n,
+                    (vis->second - vis->first) * (segments[e].b - segments[e].a).norm());
+      }
+    for (size_t i = 0; i < polylines.size(); ++i)
+    {
+      const ic::ImageLineError ie = ic::measureImageLine(polylines[i], t.distortion(), images, 3.0, 1.0, 0.6);
+      double length = 0.0;
+      for (size_t k = 1; k < polylines[i].size(); ++k)
+        length += (polylines[i][k] - polylines[i][k - 1]).norm();
+      std::string maps;
+      for (size_t j = 0; j < map.size(); ++j)
+        if (ie.edge >= 0 && map_edge[j] == ie.edge)
+        {
+          const auto vis = ic::visibleInterval(t, map[j], w, h);
+          char b[128];
+          std::snprintf(b, sizeof(b), " m%zu(%.2fm%s)", j, (map[j].b - map[j].a).norm(), vis ? "" : ",invisible");
+          maps += b;
+        }
+      std::string matched = "-";
+      for (const auto& m : matches)
+        if (m.image_line == i)
+          matched = "m" + std::to_string(m.map_line) + " d=" + std::to_string(m.distance_px);
+      std::printf("    image %2zu: %3zu pts %6.1f px, edge %3d rms %.2f px; match %s; map lines of the edge:%s\n", i,
+                  polylines[i].size(), length, ie.edge, ie.rms_px, matched.c_str(), maps.c_str());
+    }
+  }
+  if (std::getenv("ORACLE_MAP"))
+    for (size_t i = 0; i < set.lines.size(); ++i)
+    {
+      const ic::MapLine& ml = map_lines[matches[i].map_line];
+      const ic::Segment3d& m = map[matches[i].map_line];
+      const ic::Line3dError err = ic::measureLine3d(m.a, m.b, segments, 0.1, 5.0);
+      const auto vis = ic::visibleInterval(t, m, w, h);
+      const double range = (0.5 * (m.a + m.b) - t.pose().center()).norm();
+      const Eigen::Vector3d mean = ml.sum_wx / ml.weight;
+      const Eigen::Matrix3d cov = ml.sum_wxx / ml.weight - mean * mean.transpose();
+      const Eigen::Matrix3d perp = Eigen::Matrix3d::Identity() - ml.direction * ml.direction.transpose();
+      const double spread = std::sqrt(std::max(0.0, (perp * cov * perp).trace()));
+      std::printf(
+          "    match image %zu map %zu: support %d, length %.2f m (visible %.0f %%), weight %.3g, edge %d off %.1f "
+          "mm, %.2f deg, range %.2f m, image line %zu pts, spread %.1f mm\n",
+          matches[i].image_line, matches[i].map_line, ml.support, ml.length(),
+          vis ? 100.0 * (vis->second - vis->first) : 0.0, ml.weight, err.edge, 1000.0 * err.distance_m, err.angle_deg,
+          range, set.lines[i].image.size(), 1000.0 * spread);
+    }
+  const std::vector<std::pair<const char*, const ic::CorrespondenceSet*>> variants = {
+      {"oracle", &set}, {"  true 3D", &true_world}, {"  true 2D", &true_image}, {"  both true", &true_both}};
+  for (const auto& [label, data] : variants)
+  {
+    const auto calibration = ic::calibrateCamera(*data, options.matcher.calibration);
+    if (!calibration)
+    {
+      std::printf("  %s: %zu matches, calibration failed: %s\n", label, matches.size(),
+                  calibration.error().describe().c_str());
+      continue;
+    }
+    const ic::CameraErrors e = ic::compareCameras(truth->camera, calibration->camera);
+    const ic::CameraUncertainty& u = calibration->uncertainty;
+    std::printf(
+        "  %s: %zu matches (%zu inliers): focal %+.4f %%, pp %.2f px, lambda %.2f %%, rotation %.4f deg, position "
+        "%.2f mm, RMS %.3f px; 1 sigma fx %.4f %%, lambda %.2f %%, rotation %.4f deg, position %.2f mm\n",
+        label, matches.size(), calibration->inlier_count, 100.0 * e.focal_relative, e.principal_point_px,
+        100.0 * e.lambda_relative, e.rotation_rad * 180.0 / M_PI, 1000.0 * e.center_m, calibration->reprojection.rms_px,
+        100.0 * u.fx / truth->camera.intrinsics().fx, 100.0 * u.lambda / std::abs(truth->camera.distortion().lambda),
+        u.rotation_deg, 1000.0 * u.position_m);
+  }
+}
+
+std::vector<double> numbers(const std::string& list)
+{
+  std::vector<double> out;
+  std::stringstream in(list);
+  std::string item;
+  while (std::getline(in, item, ','))
+    out.push_back(std::strtod(item.c_str(), nullptr));
+  return out;
+}
+
+// A prior from the true camera, off by exactly the given amounts in random directions.
+std::optional<ic::CameraPrior> priorFromTruth(const std::string& truth_dir, const std::string& name,
+                                              const ic::CameraPrior& configured, const std::vector<double>& offsets,
+                                              const std::vector<double>& sigmas, std::mt19937& rng)
+{
+  const auto truth = ic::loadCalibrationFile(truth_dir + "/" + name + ".yaml");
+  if (!truth)
+    return std::nullopt;
+  std::normal_distribution<double> normal;
+  const auto randomUnit = [&]() {
+    Eigen::Vector3d v(normal(rng), normal(rng), normal(rng));
+    return Eigen::Vector3d(v.normalized());
+  };
+  ic::CameraPrior prior = configured;
+  const Eigen::Isometry3d world_from_camera = truth->camera.pose().worldFromCamera();
+  prior.position = world_from_camera.translation() + offsets[0] * randomUnit();
+  // The viewing direction turned by D about a random axis across it; the roll (rotation about the viewing
+  // direction, which an installer knows: the image rows are level) stays the true one.
+  const Eigen::Matrix3d truth_rotation = world_from_camera.linear();
+  const Eigen::Vector3d forward = truth_rotation.col(2);
+  Eigen::Vector3d axis = randomUnit();
+  axis = (axis - axis.dot(forward) * forward).normalized();
+  prior.direction = Eigen::AngleAxisd(offsets[1] * M_PI / 180.0, axis) * forward;
+  {
+    Eigen::Vector3d right = forward.cross(Eigen::Vector3d::UnitZ()).normalized();
+    const Eigen::Vector3d down = forward.cross(right).normalized();
+    prior.roll_deg = std::atan2(truth_rotation.col(0).dot(down), truth_rotation.col(0).dot(right)) * 180.0 / M_PI;
+  }
+  const double fx = truth->camera.intrinsics().fx;
+  const double sign = std::uniform_int_distribution<int>(0, 1)(rng) ? 1.0 : -1.0;
+  prior.horizontal_fov_deg = 2.0 * std::atan(0.5 * truth->image_width / fx) * 180.0 / M_PI * (1.0 + sign * offsets[2]);
+  if (sigmas.size() == 3)
+  {
+    prior.position_sigma_m = sigmas[0];
+    prior.direction_sigma_deg = sigmas[1];
+    prior.fov_sigma_relative = sigmas[2];
+  }
+  return prior;
+}
+
 double seconds(std::chrono::steady_clock::time_point start)
 {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -109,14 +336,16 @@ int main(int argc, char** argv)
 {
   ic::quietSolverLogging();
   ic::CommandLine cli(argc, argv,
-                      {"cameras", "out-dir", "world-frame", "min-support", "camera", "search-starts", "truth-dir"},
-                      {"no-refine", "no-ransac", "quiet"});
+                      {"cameras", "out-dir", "world-frame", "min-support", "camera", "search-starts", "truth-dir",
+                       "prior-from-truth", "prior-sigmas", "max-spread"},
+                      {"no-refine", "no-ransac", "quiet", "oracle"});
   if (cli.help())
   {
     std::cout << kUsage;
     return 0;
   }
   const int min_support = static_cast<int>(cli.number("min-support", 2));
+  const bool quiet = cli.flag("quiet");
   if (!cli.error().empty() || cli.positional().size() != 1 || !cli.has("cameras") || !cli.has("out-dir"))
   {
     std::cerr << "calibrate_survey: "
@@ -124,7 +353,6 @@ int main(int argc, char** argv)
               << kUsage;
     return 2;
   }
-  const bool quiet = cli.flag("quiet");
   const std::string world_frame = cli.value("world-frame", "map");
   const std::string out_dir = cli.value("out-dir");
   const auto configs = ic::loadCameraConfig(cli.value("cameras"));
@@ -135,14 +363,45 @@ int main(int argc, char** argv)
   }
   ic::SurveyOptions options;
   options.min_map_support = min_support;
+  options.max_map_spread_m = cli.number("max-spread", options.max_map_spread_m);
   options.cameras.matcher.calibration.refine = !cli.flag("no-refine");
   options.cameras.matcher.calibration.ransac = !cli.flag("no-ransac");
   options.cameras.matcher.search_starts = static_cast<int>(cli.number("search-starts", 4));
   std::vector<ic::FixedCameraConfig> cameras;
   std::map<std::string, std::string> topic_to_camera;
+  std::mt19937 rng(0);
+  std::vector<double> prior_offsets;
+  if (cli.has("prior-from-truth"))
+  {
+    prior_offsets = numbers(cli.value("prior-from-truth"));
+    if (prior_offsets.size() == 4)
+      rng.seed(static_cast<unsigned>(prior_offsets[3]));
+    if (prior_offsets.size() < 3 || !cli.has("truth-dir"))
+    {
+      std::cerr << "calibrate_survey: --prior-from-truth needs P,D,F[,SEED] and --truth-dir\n";
+      return 2;
+    }
+  }
   for (const auto& entry : *configs)
   {
     cameras.push_back(entry.camera);
+    if (!prior_offsets.empty() && entry.camera.prior)
+    {
+      const auto prior = priorFromTruth(cli.value("truth-dir"), entry.camera.name, *entry.camera.prior, prior_offsets,
+                                        numbers(cli.value("prior-sigmas")), rng);
+      if (!prior)
+      {
+        std::cerr << "calibrate_survey: no truth for " << entry.camera.name << "\n";
+        return 2;
+      }
+      cameras.back().prior = *prior;
+      if (!quiet)
+        std::printf(
+            "%s: prior from the truth at %.3f %.3f %.3f, direction %.3f %.3f %.3f, roll %.2f deg, fov %.2f deg\n",
+            entry.camera.name.c_str(), prior->position.x(), prior->position.y(), prior->position.z(),
+            prior->direction.x(), prior->direction.y(), prior->direction.z(), prior->roll_deg,
+            prior->horizontal_fov_deg);
+    }
     topic_to_camera[entry.camera.image_topic] = entry.camera.name;
   }
   ic::Survey survey(cameras, options);
@@ -243,9 +502,19 @@ int main(int argc, char** argv)
 
   int status = 0;
   const std::vector<ic::Segment3d> map = survey.mapSegments();
+  if (const char* show = std::getenv("SHOW_MAP_LINES"))
+  {
+    const auto lines = survey.usedMapLines();
+    for (const double j : numbers(show))
+    {
+      const auto& l = lines.at(static_cast<size_t>(j));
+      std::printf("map line %d: %.3f %.3f %.3f -> %.3f %.3f %.3f, support %d\n", static_cast<int>(j), l.a().x(),
+                  l.a().y(), l.a().z(), l.b().x(), l.b().y(), l.b().z(), l.support);
+    }
+  }
   for (const auto& name : survey.cameraNames())
   {
-    if (cli.has("camera") && cli.value("camera") != name)
+    if ((cli.has("camera") && cli.value("camera") != name) || cli.flag("oracle"))
       continue;
     const auto calibration_start = std::chrono::steady_clock::now();
     ic::FixedCamera& camera = survey.camera(name);
@@ -271,5 +540,13 @@ int main(int argc, char** argv)
     if (cli.has("truth-dir"))
       reportAgainstTruth(cli.value("truth-dir"), name, *result);
   }
+  if (cli.flag("oracle") && cli.has("truth-dir"))
+    for (const auto& name : survey.cameraNames())
+      if (!cli.has("camera") || cli.value("camera") == name)
+      {
+        std::printf("%s:\n", name.c_str());
+        oracleCalibration(cli.value("truth-dir"), name, survey.camera(name), map, options.cameras,
+                          survey.usedMapLines());
+      }
   return status;
 }

@@ -66,6 +66,9 @@ struct MapLine
   double length() const { return s_max - s_min; }
   // n >= 2 points evenly spaced from a() to b() (for LineCorrespondence::world).
   std::vector<Eigen::Vector3d> samplePoints(int n) const;
+  // How far the observations lie from the fitted line: the RMS perpendicular distance (weighted, m). A few mm for a
+  // clean edge; much more when the map line mixes nearby parallel edges (stripes, a frame's two sides).
+  double spread() const;
 
   // Sufficient statistics (constant size), about reference (the first observation's midpoint, for precision).
   Eigen::Vector3d reference = Eigen::Vector3d::Zero();

@@ -37,11 +37,15 @@ CameraModel cameraFromPrior(const CameraPrior& prior, int image_width, int image
 
 struct LineMatcherOptions
 {
+  LineMatcherOptions();
+
   double max_angle_deg = 5.0;  // image line vs projected 3D line, once the search has run
   double initial_max_distance_px = 40.0;
-  double min_distance_px = 4.0;       // thresholds never tighten below this
-  double distance_factor = 4.0;       // re-matching threshold: this times the calibration's RMS error
-  double min_overlap = 0.3;           // fraction of the image line's length the projected 3D line must cover
+  double known_camera_max_distance_px = 8.0;  // the first matching threshold from a known camera
+  double min_distance_px = 4.0;               // thresholds never tighten below this
+  double distance_factor = 4.0;               // re-matching threshold: this times the calibration's RMS error
+  double distance_shrink = 0.5;  // ... reached by shrinking the previous threshold by at most this factor per iteration
+  double min_overlap = 0.3;      // fraction of the image line's length the projected 3D line must cover
   double min_image_length_px = 30.0;  // shorter image lines are not matched
   int world_points_per_line = 6;      // samples along the visible part of a matched 3D line
   // Ambiguity: an image line whose second-best 3D line is not worse by max(50 %, min_separation_px) is not matched,
@@ -49,8 +53,36 @@ struct LineMatcherOptions
   double min_separation_px = 1.0;
   double near_duplicate_px = 1.5;
   int max_iterations = 10;
-  int search_steps = 9;   // per dimension of the prior search (odd: includes the prior itself)
+  int search_steps = 9;  // per dimension of the prior search (odd: includes the prior itself)
+  // The search scores a camera by each image line's distance to its nearest compatible projected 3D line, capped
+  // (8 % of the image diagonal on the grid); each round of the pattern search multiplies the cap by
+  // search_cap_shrink, down to search_min_cap_px, so that the last rounds count precisely explained lines.
+  double search_min_cap_px = 4.0;
+  double search_cap_shrink = 0.5;
   int search_starts = 4;  // distinct search results each refined; the one explaining most image lines wins
+  // The explanation score that picks among results: per image line its squared mean distance to the nearest
+  // compatible projected 3D line, capped at this (px), summed.
+  double explanation_cap_px = 1.0;
+  // Local moves around the chosen result, alternated while they improve its explanation score (by more than
+  // min_score_gain), at most max_local_rounds times:
+  // - basin hopping (with the prior search only): 8 cameras moved by hop_position_m (along the axis with the focal
+  //   length compensated, and sideways) or with the focal length scaled by 1 +- hop_focal_relative, each matched
+  //   again from a first threshold of hop_max_distance_px;
+  // - influence check: the influence_candidates most influential matches (Cook's distance at least min_influence)
+  //   each banned in turn and the matching redone.
+  int max_local_rounds = 6;
+  bool basin_hopping = true;
+  double hop_position_m = 0.15;
+  double hop_focal_relative = 0.04;
+  double hop_max_distance_px = 20.0;
+  std::vector<double> hop_scales = {1.0, 2.0};  // the moves above at each of these scales
+  int abandon_after = 3;  // a hop still explaining the image worse than the current result after this many rounds
+                          // of matching is abandoned
+  int influence_candidates = 3;
+  double min_influence = 0.5;
+  double min_score_gain = 0.05;  // a result replaces the current one when its score is lower by more than this
+  // The survey's calibration: as calibrateCamera's defaults, plus weak priors of square pixels (0.5 %) and a principal
+  // point near the image centre (3 % of the width), which only matter for weakly constrained cameras.
   CalibrationOptions calibration;
 };
 
@@ -76,6 +108,13 @@ Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_li
                                             const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                             const CameraPrior& prior, int image_width, int image_height,
                                             const LineMatcherOptions& options = {});
+
+// Steps 2 and 3 from a camera known to be close (an earlier calibration: the paper's loop after re-extracting the
+// image lines with its distortion), without the prior search.
+Expected<LineMatchResult> matchAndCalibrateFrom(const std::vector<Segment3d>& map_lines,
+                                                const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                                                const CameraModel& start, int image_width, int image_height,
+                                                const LineMatcherOptions& options = {});
 
 // Step 2 alone: matches under a given camera.
 std::vector<LineMatch> matchLines(const std::vector<Segment3d>& map_lines,

@@ -45,6 +45,13 @@ struct RefinementOptions
   bool single_focal = false;   // fx = fy
   bool estimate_skew = false;  // skew fixed (at its initial value, normally 0) by default
   bool estimate_distortion = true;
+  bool estimate_principal_point = true;  // false: kept at its initial value
+  // Weak priors for weakly constrained cameras (0: off): square pixels, (fx - fy) / f ~ N(0, aspect_prior_sigma),
+  // and the principal point ~ N(image centre, principal_point_prior_sigma x image width) per axis. Data that determine
+  // the camera outweigh them; data that leave a direction open (a partial view of one wall) get a sane answer there,
+  // with its uncertainty, instead of an arbitrary one.
+  double aspect_prior_sigma = 0.0;
+  double principal_point_prior_sigma = 0.0;
   RobustLoss loss = RobustLoss::kHuber;
   // The robust loss's scale in px; 0 (the default) sets it to 2.5 times the noise level estimated from the initial
   // camera's residuals (median absolute residual / 0.6745), at least 0.5 px: Huber then treats inliers as Gaussian.
@@ -54,6 +61,17 @@ struct RefinementOptions
   // repeated while it changes, at most this many times.
   int max_reassignments = 3;
   bool compute_uncertainty = true;
+  // Image-point residuals: after a solve, image points farther from their projected line than
+  // max(min_vertex_outlier_px, vertex_outlier_sigmas x the noise level of all image points (1.4826 x median)) are
+  // left out and the solve repeated (within the max_reassignments rounds); a line keeps at least two points.
+  // Catches a polyline whose end runs past its edge onto the next one. 0: off.
+  double vertex_outlier_sigmas = 0.0;
+  double min_vertex_outlier_px = 0.15;
+  // The residuals of one line are not independent: the error of its 3D line (depth noise, map fusion) and of its
+  // fine-tuned image line moves all of them together. The standard deviations are therefore the larger of the
+  // usual ones (independent residuals, scaled by their variance) and a jackknife over lines (each line left out in
+  // turn, linearised), which holds whatever the correlation within a line.
+  bool per_line_uncertainty = true;
 };
 
 // One-sigma uncertainties from the covariance at the optimum.
@@ -69,6 +87,12 @@ struct CameraUncertainty
   double position_m = 0.0;         // sqrt of the trace of the centre's covariance: RMS of the 3D position error
   double rotation_deg = 0.0;       // sqrt of the trace of the rotation's covariance: RMS of the rotation angle
   double residual_sigma_px = 0.0;  // noise level estimated from the residuals, which scales the covariance
+  // How much the jackknife over lines widened the standard deviations, at most over the parameters (1: the residuals
+  // look independent; much larger: errors shared along lines dominate).
+  double line_correlation_factor = 1.0;
+  // Condition of the normal equations (column-scaled, smallest / largest eigenvalue): near zero when the data leave
+  // a direction of the camera nearly unconstrained (mostly coplanar or parallel lines).
+  double reciprocal_condition = 0.0;
 };
 
 struct RefinementResult
@@ -82,6 +106,15 @@ struct RefinementResult
   double final_rms_px = 0.0;
   size_t residuals = 0;
   CameraUncertainty uncertainty;
+  // Per input line (NaN for lines not used): the RMS of its residuals at the optimum, and the RMS of its residuals
+  // had it been left out of the fit (linearised leave-one-out). A wrong correspondence that pulled the camera onto
+  // itself has a small residual but a large leave-one-out residual; infinity when the line alone constrains a
+  // direction of the camera (no other line can check it).
+  std::vector<double> line_rms_px;
+  std::vector<double> line_loo_rms_px;
+  // Per input line: Cook's distance, how far the camera would move without the line, in units of its uncertainty
+  // (||J dtheta||^2 / (parameters x residual variance)); NaN for lines not used, infinity when it is irreplaceable.
+  std::vector<double> line_influence;
 };
 
 // Silences Ceres' own log lines (glog on stderr: failed trust-region steps, a rank-deficient covariance), whose

@@ -23,6 +23,7 @@ struct SurveyOptions
   LineMapOptions map;
   FixedCameraOptions cameras;
   int min_map_support = 2;            // map lines seen fewer times are not used for calibration
+  double max_map_spread_m = 0.01;     // nor map lines whose observations disagree more (MapLine::spread)
   double fixed_image_period_s = 0.5;  // one image per period per camera goes into its median
 };
 
@@ -48,6 +49,8 @@ public:
 
   // The map lines with enough support, as segments.
   std::vector<Segment3d> mapSegments() const;
+  // The map lines behind mapSegments() (same order): support and spread within the options' limits.
+  std::vector<MapLine> usedMapLines() const;
   const LineMap& lineMap() const { return map_; }
   const SurveyStats& stats() const { return stats_; }
 

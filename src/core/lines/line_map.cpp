@@ -67,6 +67,16 @@ std::vector<Eigen::Vector3d> MapLine::samplePoints(int n) const
   return out;
 }
 
+double MapLine::spread() const
+{
+  if (!(weight > 0.0))
+    return 0.0;
+  const Eigen::Vector3d mean = sum_wx / weight;
+  const Eigen::Matrix3d cov = sum_wxx / weight - mean * mean.transpose();
+  const Eigen::Matrix3d across = Eigen::Matrix3d::Identity() - direction * direction.transpose();
+  return std::sqrt(std::max(0.0, (across * cov * across).trace()));
+}
+
 LineMap::LineMap(const LineMapOptions& options) : options_(options) {}
 
 bool LineMap::compatible(const MapLine& line, const Eigen::Vector3d& a, const Eigen::Vector3d& b, double limit_m,

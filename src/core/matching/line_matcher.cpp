@@ -3,11 +3,15 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
+#include <cstdio>
+#include <cstdlib>
 #include <set>
 
 #include <Eigen/Geometry>
 
 #include "insitu_calibration/metrics.h"
+#include "insitu_calibration/solvers/ransac.h"
 
 namespace insitu_calibration
 {
@@ -171,7 +175,8 @@ CameraModel cameraOf(const CameraPrior& prior, int width, int height, const Sear
 // by a pattern search over all seven values (repetitive structure such as a row of windows gives several local
 // optima, and the best grid cell is not always the right one).
 std::vector<CameraModel> searchPrior(const std::vector<Segment3d>& map_lines, const std::vector<ImageChord>& image,
-                                     const CameraPrior& prior, int width, int height, int steps, int starts)
+                                     const CameraPrior& prior, int width, int height, int steps, int starts,
+                                     double min_cap_px, double cap_shrink)
 {
   const double angle_range = 1.5 * prior.direction_sigma_deg;
   const double fov_range = 1.5 * prior.fov_sigma_relative;
@@ -220,10 +225,13 @@ std::vector<CameraModel> searchPrior(const std::vector<Segment3d>& map_lines, co
                            prior.position_sigma_m / 2,
                            prior.position_sigma_m / 2};
     double tolerance = coarse_angle;
+    double round_cap = cap;
     for (int round = 0; round < 6; ++round)
     {
       tolerance = std::max(3.0, tolerance * 0.75);
-      best_score = searchScore(cameraOf(prior, width, height, best), map_lines, image, width, height, tolerance, cap);
+      round_cap = std::max(min_cap_px, round_cap * cap_shrink);
+      best_score =
+          searchScore(cameraOf(prior, width, height, best), map_lines, image, width, height, tolerance, round_cap);
       bool improved = true;
       for (int sweep = 0; sweep < 8 && improved; ++sweep)
       {
@@ -251,7 +259,7 @@ std::vector<CameraModel> searchPrior(const std::vector<Segment3d>& map_lines, co
                 s.offset(v - 4) += d;
             }
             const double score =
-                searchScore(cameraOf(prior, width, height, s), map_lines, image, width, height, tolerance, cap);
+                searchScore(cameraOf(prior, width, height, s), map_lines, image, width, height, tolerance, round_cap);
             if (score < best_score - 1e-9)
             {
               best_score = score;
@@ -264,17 +272,23 @@ std::vector<CameraModel> searchPrior(const std::vector<Segment3d>& map_lines, co
         step *= 0.5;
     }
     cameras.push_back(cameraOf(prior, width, height, best));
+    if (std::getenv("MATCH_DEBUG"))
+      std::fprintf(
+          stderr, "search result score %.2f (prior itself %.2f)\n", best_score,
+          searchScore(cameraFromPrior(prior, width, height), map_lines, image, width, height, tolerance, round_cap));
   }
   return cameras;
 }
 
-// How well a camera explains the image lines: the sum over image lines of the mean distance to the nearest
-// compatible projected 3D line (through the division model), capped. Lower is better; the set of image lines is
-// the same for every candidate camera, so the sums compare.
+// How well a camera explains the image lines: the sum over image lines of the squared mean distance to the nearest
+// compatible projected 3D line (through the division model), capped at cap_px^2. Lower is better; the set of image
+// lines is the same for every candidate camera, so the sums compare. The cap near the noise level makes it count
+// the lines explained as precisely as the right camera explains them: a camera pulled off by a wrong match fits its
+// matches worse and falls behind, however many lines it roughly explains.
 double explanationScore(const CameraModel& camera, const std::vector<Segment3d>& map_lines,
-                        const std::vector<ImageChord>& image, int width, int height, double min_length_px)
+                        const std::vector<ImageChord>& image, int width, int height, double min_length_px,
+                        double cap_px)
 {
-  constexpr double kCap = 10.0;
   constexpr double kAngle = 3.0;
   std::vector<ProjectedLine> projected;
   for (const auto& s : map_lines)
@@ -283,15 +297,20 @@ double explanationScore(const CameraModel& camera, const std::vector<Segment3d>&
     if (p.visible)
       projected.push_back(std::move(p));
   }
+  const double cap2 = cap_px * cap_px;
   double score = 0.0;
   for (const auto& l : image)
   {
     if (l.points->size() < 2 || l.length < min_length_px)
       continue;
-    double best = kCap;
+    double best = cap2;
     for (const auto& p : projected)
-      if (angleBetween(l.direction, p.direction) <= kAngle && overlap(l, p) >= 0.3 && chordDistance(l, p) < 2.0 * kCap)
-        best = std::min(best, meanDistance(l, p));
+      if (angleBetween(l.direction, p.direction) <= kAngle && overlap(l, p) >= 0.3 &&
+          chordDistance(l, p) < 2.0 * cap_px + 2.0)
+      {
+        const double d = meanDistance(l, p);
+        best = std::min(best, d * d);
+      }
     score += best;
   }
   return score;
@@ -320,6 +339,14 @@ CorrespondenceSet correspondencesOf(const std::vector<LineMatch>& matches, const
   return set;
 }
 }  // namespace
+
+LineMatcherOptions::LineMatcherOptions()
+{
+  calibration.robust_noise_level = true;
+  calibration.refinement.vertex_outlier_sigmas = 5.0;
+  calibration.refinement.aspect_prior_sigma = 0.005;
+  calibration.refinement.principal_point_prior_sigma = 0.03;
+}
 
 CameraModel cameraFromPrior(const CameraPrior& prior, int image_width, int image_height, double yaw_deg,
                             double pitch_deg, double fov_scale)
@@ -370,10 +397,15 @@ std::optional<std::pair<double, double>> visibleInterval(const CameraModel& came
   return std::make_pair(t0, t1);
 }
 
-std::vector<LineMatch> matchLines(const std::vector<Segment3d>& map_lines,
-                                  const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
-                                  const CameraModel& camera, int image_width, int image_height, double max_angle_deg,
-                                  double max_distance_px, const LineMatcherOptions& options)
+namespace
+{
+using PairSet = std::set<std::pair<size_t, size_t>>;  // (image line, map line) pairs
+
+std::vector<LineMatch> matchLinesExcept(const std::vector<Segment3d>& map_lines,
+                                        const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                                        const CameraModel& camera, int image_width, int image_height,
+                                        double max_angle_deg, double max_distance_px, const LineMatcherOptions& options,
+                                        const PairSet& banned)
 {
   const std::vector<ImageChord> image = summarize(image_lines);
   std::vector<ProjectedLine> projected;
@@ -398,7 +430,7 @@ std::vector<LineMatch> matchLines(const std::vector<Segment3d>& map_lines,
       if (chordDistance(image[i], p) > 2.0 * max_distance_px)
         continue;
       const double d = meanDistance(image[i], p);
-      if (d <= max_distance_px)
+      if (d <= max_distance_px && !banned.count({i, j}))
         own.push_back({i, j, d});
     }
     std::sort(own.begin(), own.end(),
@@ -429,6 +461,16 @@ std::vector<LineMatch> matchLines(const std::vector<Segment3d>& map_lines,
             [](const LineMatch& a, const LineMatch& b) { return a.image_line < b.image_line; });
   return matches;
 }
+}  // namespace
+
+std::vector<LineMatch> matchLines(const std::vector<Segment3d>& map_lines,
+                                  const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                                  const CameraModel& camera, int image_width, int image_height, double max_angle_deg,
+                                  double max_distance_px, const LineMatcherOptions& options)
+{
+  return matchLinesExcept(map_lines, image_lines, camera, image_width, image_height, max_angle_deg, max_distance_px,
+                          options, {});
+}
 
 namespace
 {
@@ -436,12 +478,15 @@ namespace
 Expected<LineMatchResult> refineMatches(const std::vector<Segment3d>& map_lines,
                                         const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                         const CameraModel& start, int image_width, int image_height,
-                                        const LineMatcherOptions& options)
+                                        const LineMatcherOptions& options, double initial_max_distance_px,
+                                        const PairSet& banned,
+                                        double abandon_above = std::numeric_limits<double>::infinity())
 {
+  const std::vector<ImageChord> image = summarize(image_lines);
   LineMatchResult result;
   result.search_camera = start;
   CameraModel camera = start;
-  double max_distance = options.initial_max_distance_px;
+  double max_distance = initial_max_distance_px;
   double max_angle = options.max_angle_deg;
   std::vector<LineMatch> previous;
   std::optional<CameraCalibration> calibrated;
@@ -450,8 +495,8 @@ Expected<LineMatchResult> refineMatches(const std::vector<Segment3d>& map_lines,
   for (int iteration = 0; iteration < options.max_iterations; ++iteration)
   {
     result.iterations = iteration + 1;
-    std::vector<LineMatch> matches =
-        matchLines(map_lines, image_lines, camera, image_width, image_height, max_angle, max_distance, options);
+    std::vector<LineMatch> matches = matchLinesExcept(map_lines, image_lines, camera, image_width, image_height,
+                                                      max_angle, max_distance, options, banned);
     const bool same =
         !previous.empty() && matches.size() == previous.size() &&
         std::equal(matches.begin(), matches.end(), previous.begin(), [](const LineMatch& a, const LineMatch& b) {
@@ -464,7 +509,7 @@ Expected<LineMatchResult> refineMatches(const std::vector<Segment3d>& map_lines,
     }
     CorrespondenceSet set = correspondencesOf(matches, map_lines, image_lines, camera, image_width, image_height,
                                               options.world_points_per_line);
-    auto calibration = calibrateCamera(set, options.calibration);
+    auto calibration = calibrateCamera(set, options.calibration, camera);
     if (!calibration)
     {
       if (calibrated)
@@ -472,12 +517,30 @@ Expected<LineMatchResult> refineMatches(const std::vector<Segment3d>& map_lines,
       return Error(calibration.error().code(), "calibration on " + std::to_string(matches.size()) +
                                                    " matched lines failed: " + calibration.error().message());
     }
+    if (std::getenv("MATCH_DEBUG"))
+    {
+      const Eigen::Vector3d pos = calibration->camera.pose().center();
+      std::fprintf(
+          stderr,
+          "  iteration %d: %zu matches (max %.1f px, %.1f deg), %zu inliers, fx %.1f, rms %.3f, pos %.3f %.3f %.3f\n",
+          iteration, matches.size(), max_distance, max_angle, calibration->inlier_count,
+          calibration->camera.intrinsics().fx, calibration->reprojection.rms_px, pos.x(), pos.y(), pos.z());
+    }
+    // A start that still explains the image worse than a known result after a few rounds is abandoned (the local
+    // moves try many starts, most of them in vain).
+    if (iteration + 1 >= options.abandon_after &&
+        explanationScore(calibration->camera, map_lines, image, image_width, image_height, options.min_image_length_px,
+                         options.explanation_cap_px) > abandon_above)
+      return Error(ErrorCode::kNoSolution, "abandoned: explains the image worse than the current result");
     calibrated = *calibration;
     used = matches;
     used_set = set;
     previous = matches;
     camera = calibration->camera;
-    max_distance = std::max(options.min_distance_px, options.distance_factor * calibration->reprojection.rms_px);
+    // The threshold shrinks towards what the residuals call for, at most halving per iteration: a start far from
+    // the truth moves step by step, with the lines it already explains, instead of locking onto a wrong subset.
+    const double target = std::max(options.min_distance_px, options.distance_factor * calibration->reprojection.rms_px);
+    max_distance = std::max(target, options.distance_shrink * max_distance);
     max_angle = std::max(2.0, std::min(options.max_angle_deg, 10.0 * calibration->reprojection.rms_px / 20.0 + 2.0));
   }
   if (!calibrated)
@@ -489,6 +552,15 @@ Expected<LineMatchResult> refineMatches(const std::vector<Segment3d>& map_lines,
   result.correspondences = used_set;
   return result;
 }
+}  // namespace
+
+namespace
+{
+// Each start refined (match, calibrate, re-match), the best explanation kept, then its influential matches checked.
+Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_lines,
+                                          const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                                          const std::vector<CameraModel>& starts, int image_width, int image_height,
+                                          const LineMatcherOptions& options, double initial_max_distance_px, bool hop);
 }  // namespace
 
 Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_lines,
@@ -509,21 +581,137 @@ Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_li
                  "horizontal field of view between 0 and 180 degrees");
 
   const std::vector<ImageChord> image = summarize(image_lines);
-  const std::vector<CameraModel> starts =
-      searchPrior(map_lines, image, prior, image_width, image_height, options.search_steps, options.search_starts);
+  std::vector<CameraModel> starts =
+      searchPrior(map_lines, image, prior, image_width, image_height, options.search_steps, options.search_starts,
+                  options.search_min_cap_px, options.search_cap_shrink);
+  return matchFromStarts(map_lines, image_lines, starts, image_width, image_height, options,
+                         options.initial_max_distance_px, true);
+}
+
+Expected<LineMatchResult> matchAndCalibrateFrom(const std::vector<Segment3d>& map_lines,
+                                                const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                                                const CameraModel& start, int image_width, int image_height,
+                                                const LineMatcherOptions& options)
+{
+  if (map_lines.empty())
+    return Error(ErrorCode::kNotEnoughData, "the line map is empty: survey the area the camera sees first");
+  if (image_lines.empty())
+    return Error(ErrorCode::kNotEnoughData, "no lines were found in the camera's image");
+  if (image_width <= 0 || image_height <= 0)
+    return Error(ErrorCode::kInvalidInput, "the image size is not positive");
+  return matchFromStarts(map_lines, image_lines, {start}, image_width, image_height, options,
+                         options.known_camera_max_distance_px, false);
+}
+
+namespace
+{
+// Cameras around a result (see the basin hopping in matchFromStarts): along the optical axis by +-step with the
+// focal length scaled to keep the scale at the median depth Z of the matched lines, sideways (x and y of the camera)
+// by +-step turned towards the point at depth Z on the axis, along the world axes by +-step, and the focal length
+// alone by 1 +- focal_relative.
+std::vector<CameraModel> hopCameras(const LineMatchResult& result, const std::vector<Segment3d>& map_lines, double step,
+                                    double focal_relative)
+{
+  const CameraModel& camera = result.calibration.camera;
+  std::vector<double> depths;
+  for (const auto& m : result.matches)
+  {
+    const Segment3d& s = map_lines[m.map_line];
+    depths.push_back((camera.pose().rotation * (0.5 * (s.a + s.b)) + camera.pose().translation).z());
+  }
+  std::vector<CameraModel> out;
+  if (depths.empty())
+    return out;
+  std::nth_element(depths.begin(), depths.begin() + depths.size() / 2, depths.end());
+  const double z = depths[depths.size() / 2];
+  if (!(z > 2.0 * step))
+    return out;
+  const Eigen::Isometry3d world_from_camera = camera.pose().worldFromCamera();
+  const Eigen::Matrix3d r = world_from_camera.linear();
+  const Eigen::Vector3d c = world_from_camera.translation();
+  const Eigen::Vector3d target = c + z * r.col(2);
+  for (double sign : {-1.0, 1.0})
+  {
+    // Along the axis, focal compensated.
+    CameraModel dolly = camera;
+    Eigen::Isometry3d moved = world_from_camera;
+    moved.translation() = c + sign * step * r.col(2);
+    dolly.pose() = CameraPose::fromWorldFromCamera(moved);
+    const double scale = (z - sign * step) / z;
+    dolly.intrinsics().fx *= scale;
+    dolly.intrinsics().fy *= scale;
+    out.push_back(dolly);
+    // Sideways, looking at the same point.
+    for (int axis : {0, 1})
+    {
+      CameraModel side = camera;
+      Eigen::Isometry3d turned = world_from_camera;
+      turned.translation() = c + sign * step * r.col(axis);
+      const Eigen::Vector3d forward = (target - turned.translation()).normalized();
+      turned.linear() = Eigen::Matrix3d(Eigen::Quaterniond::FromTwoVectors(r.col(2), forward)) * r;
+      side.pose() = CameraPose::fromWorldFromCamera(turned);
+      out.push_back(side);
+    }
+    // Pure translations along the world axes: lines parallel to the move keep their images (vertical edges when
+    // the height is wrong), so a camera off along them can match most lines and still be wrong.
+    for (int axis : {0, 1, 2})
+    {
+      CameraModel shifted = camera;
+      Eigen::Isometry3d moved = world_from_camera;
+      moved.translation() = c + sign * step * Eigen::Vector3d::Unit(axis);
+      shifted.pose() = CameraPose::fromWorldFromCamera(moved);
+      out.push_back(shifted);
+    }
+    // Focal length alone.
+    CameraModel zoom = camera;
+    zoom.intrinsics().fx *= 1.0 + sign * focal_relative;
+    zoom.intrinsics().fy *= 1.0 + sign * focal_relative;
+    out.push_back(zoom);
+  }
+  return out;
+}
+
+Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_lines,
+                                          const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                                          const std::vector<CameraModel>& starts, int image_width, int image_height,
+                                          const LineMatcherOptions& options, double initial_max_distance_px, bool hop)
+{
+  const std::vector<ImageChord> image = summarize(image_lines);
+  const bool debug = std::getenv("MATCH_DEBUG") != nullptr;
+  const auto scoreOf = [&](const LineMatchResult& r) {
+    return explanationScore(r.calibration.camera, map_lines, image, image_width, image_height,
+                            options.min_image_length_px, options.explanation_cap_px);
+  };
+  const auto describe = [&](const char* what, const LineMatchResult& r, double score) {
+    if (!debug)
+      return;
+    const auto& c = r.calibration;
+    const Eigen::Vector3d pos = c.camera.pose().center();
+    std::fprintf(stderr, "%s: score %.3f, %zu matches, fx %.1f, rms %.3f, pos %.3f %.3f %.3f, iterations %d\n", what,
+                 score, r.matches.size(), c.camera.intrinsics().fx, c.reprojection.rms_px, pos.x(), pos.y(), pos.z(),
+                 r.iterations);
+  };
   std::optional<LineMatchResult> best;
   double best_score = std::numeric_limits<double>::infinity();
   std::string last_error = "no start camera";
   for (const CameraModel& start : starts)
   {
-    auto candidate = refineMatches(map_lines, image_lines, start, image_width, image_height, options);
+    if (debug)
+    {
+      const Eigen::Vector3d c = start.pose().center();
+      const Eigen::Vector3d f = start.pose().rotation.row(2).transpose();
+      std::fprintf(stderr, "search camera: fx %.1f pos %.3f %.3f %.3f forward %.3f %.3f %.3f\n", start.intrinsics().fx,
+                   c.x(), c.y(), c.z(), f.x(), f.y(), f.z());
+    }
+    auto candidate =
+        refineMatches(map_lines, image_lines, start, image_width, image_height, options, initial_max_distance_px, {});
     if (!candidate)
     {
       last_error = candidate.error().message();
       continue;
     }
-    const double score = explanationScore(candidate->calibration.camera, map_lines, image, image_width, image_height,
-                                          options.min_image_length_px);
+    const double score = scoreOf(*candidate);
+    describe("start", *candidate, score);
     if (score < best_score)
     {
       best_score = score;
@@ -532,7 +720,99 @@ Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_li
   }
   if (!best)
     return Error(ErrorCode::kNoSolution, "no start of the prior search led to a calibration: " + last_error);
+
+  // Two local moves, alternated while either explains the image better (lower score by min_score_gain), at most
+  // max_local_rounds times:
+  // - Basin hopping: the result of a start can be a wrong local optimum next to the right one (a camera a little
+  //   farther with a longer focal length, or shifted along a repeated structure, matches most lines). The camera is
+  //   moved by the typical size of such errors, along the optical axis with the focal length compensated (the scene
+  //   at the matched lines' median depth keeps its scale) and sideways with the view turned to keep that depth's
+  //   centre, and the matching redone from each.
+  // - Influence check: a wrong match with enough leverage pulls the camera onto itself; its own residual is small,
+  //   the others' grow a little. Its influence (how far the camera moves without it) gives it away: the most
+  //   influential matches are each banned in turn and the matching redone from the current camera.
+  PairSet banned;
+  const auto hopRound = [&]() {
+    bool improved = false;
+    std::vector<CameraModel> hops;
+    for (double scale : options.hop_scales)
+    {
+      const auto more =
+          hopCameras(*best, map_lines, scale * options.hop_position_m, scale * options.hop_focal_relative);
+      hops.insert(hops.end(), more.begin(), more.end());
+    }
+    for (const CameraModel& camera : hops)
+    {
+      if (debug)
+      {
+        const Eigen::Vector3d c = camera.pose().center();
+        const Eigen::Vector3d f = camera.pose().rotation.row(2).transpose();
+        std::fprintf(stderr, "hop camera: fx %.1f pos %.3f %.3f %.3f forward %.3f %.3f %.3f\n", camera.intrinsics().fx,
+                     c.x(), c.y(), c.z(), f.x(), f.y(), f.z());
+      }
+      auto candidate = refineMatches(map_lines, image_lines, camera, image_width, image_height, options,
+                                     options.hop_max_distance_px, {}, best_score);
+      if (!candidate)
+        continue;
+      const double score = scoreOf(*candidate);
+      describe("hop", *candidate, score);
+      if (score < best_score - options.min_score_gain)
+      {
+        best_score = score;
+        best = std::move(*candidate);
+        banned.clear();
+        improved = true;
+      }
+    }
+    return improved;
+  };
+  const auto influenceRound = [&]() {
+    const auto& refinement = best->calibration.refinement;
+    if (!refinement || refinement->line_influence.size() != best->matches.size())
+      return false;
+    std::vector<size_t> order(best->matches.size());
+    std::iota(order.begin(), order.end(), 0);
+    const auto influence = [&](size_t k) {
+      const double v = refinement->line_influence[k];
+      return std::isnan(v) ? 0.0 : v;
+    };
+    std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return influence(a) > influence(b); });
+    const double distance =
+        std::max(options.min_distance_px, options.distance_factor * best->calibration.reprojection.rms_px);
+    for (size_t n = 0; n < order.size() && n < static_cast<size_t>(options.influence_candidates); ++n)
+    {
+      const LineMatch& m = best->matches[order[n]];
+      if (influence(order[n]) < options.min_influence)
+        break;
+      PairSet trial = banned;
+      trial.insert({m.image_line, m.map_line});
+      auto candidate = refineMatches(map_lines, image_lines, best->calibration.camera, image_width, image_height,
+                                     options, distance, trial);
+      if (!candidate)
+        continue;
+      const double score = scoreOf(*candidate);
+      if (debug)
+        std::fprintf(stderr, "without %zu-%zu (influence %.3g): ", m.image_line, m.map_line, influence(order[n]));
+      describe("result", *candidate, score);
+      if (score < best_score - options.min_score_gain)
+      {
+        best_score = score;
+        best = std::move(*candidate);
+        banned = std::move(trial);
+        return true;
+      }
+    }
+    return false;
+  };
+  for (int round = 0; round < options.max_local_rounds; ++round)
+  {
+    const bool hopped = hop && options.basin_hopping && hopRound();
+    const bool pruned = influenceRound();
+    if (!hopped && !pruned)
+      break;
+  }
   return *best;
 }
+}  // namespace
 
 }  // namespace insitu_calibration

@@ -3,6 +3,9 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <numeric>
+
+#include <Eigen/Dense>
 
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
@@ -143,6 +146,32 @@ struct PointResidual
       return false;
     residual[0] = m[0] - T(image.x());
     residual[1] = m[1] - T(image.y());
+    return true;
+  }
+};
+
+// (fx - fy) / mean(fx, fy), weighted.
+struct AspectPrior
+{
+  double weight;
+  template <typename T>
+  bool operator()(const T* focal, T* residual) const
+  {
+    residual[0] = T(weight) * (focal[0] - focal[1]) / (T(0.5) * (focal[0] + focal[1]));
+    return true;
+  }
+};
+
+// Principal point minus the image centre, weighted.
+struct PrincipalPointPrior
+{
+  Eigen::Vector2d center;
+  double weight;
+  template <typename T>
+  bool operator()(const T* principal, T* residual) const
+  {
+    residual[0] = T(weight) * (principal[0] - T(center.x()));
+    residual[1] = T(weight) * (principal[1] - T(center.y()));
     return true;
   }
 };
@@ -293,7 +322,14 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
   std::vector<std::vector<size_t>> assignment(data.lines.size());
   ceres::Solver::Summary summary;
   size_t residual_count = 0;
+  // The group of every residual row, in the order the blocks are added: the line index, or lines + k for point k.
+  std::vector<size_t> row_group;
   std::unique_ptr<ceres::Problem> problem;
+  // Image points left out as outliers (a polyline that runs past the end of its edge onto the next one).
+  std::vector<std::vector<bool>> vertex_used(data.lines.size());
+  for (size_t i = 0; i < data.lines.size(); ++i)
+    vertex_used[i].assign(data.lines[i].image.size(), true);
+  bool vertices_changed = false;
   for (int round = 0; round <= options.max_reassignments; ++round)
   {
     // Pair each world point with its nearest part under the current camera.
@@ -313,13 +349,15 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
       changed = changed || parts != assignment[i];
       assignment[i] = parts;
     }
-    if (round > 0 && !changed)
+    // The pairing only matters for world-point residuals: with image-point residuals one solve is enough.
+    if (round > 0 && !vertices_changed && (!changed || options.line_residual == LineResidual::kImagePoints))
       break;
 
     ceres::Problem::Options problem_options;
     problem_options.loss_function_ownership = ceres::TAKE_OWNERSHIP;
     problem = std::make_unique<ceres::Problem>(problem_options);
     residual_count = 0;
+    row_group.clear();
     for (size_t i = 0; i < data.lines.size(); ++i)
     {
       if (!selected(i))
@@ -328,13 +366,16 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
       if (options.line_residual != LineResidual::kWorldPoints && line.world.size() >= 2 &&
           (line.world.back() - line.world.front()).norm() > 0.0)
       {
-        for (const auto& m : line.image)
+        for (size_t v = 0; v < line.image.size(); ++v)
         {
+          if (!vertex_used[i][v])
+            continue;
           auto* cost = new ceres::AutoDiffCostFunction<ImagePointToLineResidual, 1, 2, 2, 1, 1, 3, 3>(
-              new ImagePointToLineResidual{projector, line.world.front(), line.world.back(), m});
+              new ImagePointToLineResidual{projector, line.world.front(), line.world.back(), line.image[v]});
           problem->AddResidualBlock(cost, makeLoss(options.loss, result.loss_scale_px).release(), p.focal, p.principal,
                                     p.skew, p.distortion, p.delta, p.center);
           ++residual_count;
+          row_group.push_back(i);
         }
         if (options.line_residual == LineResidual::kImagePoints)
           continue;
@@ -349,24 +390,49 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
         problem->AddResidualBlock(cost, makeLoss(options.loss, result.loss_scale_px).release(), p.focal, p.principal,
                                   p.skew, p.distortion, p.delta, p.center);
         ++residual_count;
+        row_group.push_back(i);
       }
     }
-    for (const auto& point : data.points)
+    for (size_t k = 0; k < data.points.size(); ++k)
     {
+      const auto& point = data.points[k];
       auto* cost = new ceres::AutoDiffCostFunction<PointResidual, 2, 2, 2, 1, 1, 3, 3>(
           new PointResidual{projector, point.world, point.image});
       problem->AddResidualBlock(cost, makeLoss(options.loss, result.loss_scale_px).release(), p.focal, p.principal,
                                 p.skew, p.distortion, p.delta, p.center);
       residual_count += 2;
+      row_group.push_back(data.lines.size() + k);
+      row_group.push_back(data.lines.size() + k);
     }
     if (residual_count == 0)
       return Error(ErrorCode::kNotEnoughData, "refinement has no residuals (no selected line or point)");
+    // Weak priors, in the residuals' units (scaled by the noise level estimated before the solve, so that the
+    // covariance, which is scaled by the residual variance afterwards, sees them with their own sigma).
+    const double noise = std::max(0.05, result.loss_scale_px / 2.5);
+    if (!options.single_focal && options.aspect_prior_sigma > 0.0)
+    {
+      problem->AddResidualBlock(
+          new ceres::AutoDiffCostFunction<AspectPrior, 1, 2>(new AspectPrior{noise / options.aspect_prior_sigma}),
+          nullptr, p.focal);
+      row_group.push_back(std::numeric_limits<size_t>::max());
+    }
+    if (options.estimate_principal_point && options.principal_point_prior_sigma > 0.0)
+    {
+      problem->AddResidualBlock(
+          new ceres::AutoDiffCostFunction<PrincipalPointPrior, 2, 2>(new PrincipalPointPrior{
+              data.imageCenter(), noise / (options.principal_point_prior_sigma * data.image_width)}),
+          nullptr, p.principal);
+      row_group.push_back(std::numeric_limits<size_t>::max());
+      row_group.push_back(std::numeric_limits<size_t>::max());
+    }
     if (options.single_focal)
       problem->SetManifold(p.focal, new ceres::SubsetManifold(2, {1}));
     if (!options.estimate_skew)
       problem->SetParameterBlockConstant(p.skew);
     if (!options.estimate_distortion)
       problem->SetParameterBlockConstant(p.distortion);
+    if (!options.estimate_principal_point)
+      problem->SetParameterBlockConstant(p.principal);
 
     ceres::Solver::Options solver_options;
     solver_options.linear_solver_type = ceres::DENSE_QR;
@@ -379,6 +445,54 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
     result.iterations += static_cast<int>(summary.iterations.size());
     if (summary.termination_type == ceres::FAILURE)
       return Error(ErrorCode::kNoSolution, "refinement failed: " + summary.message);
+
+    // Image points far beyond the noise level of all image points are left out and the solve repeated; a line keeps
+    // at least two.
+    vertices_changed = false;
+    if (options.vertex_outlier_sigmas > 0.0 && options.line_residual != LineResidual::kWorldPoints)
+    {
+      std::vector<std::vector<double>> distance(data.lines.size());
+      std::vector<double> all;
+      for (size_t i = 0; i < data.lines.size(); ++i)
+      {
+        const auto& line = data.lines[i];
+        if (!selected(i) || line.world.size() < 2 || !((line.world.back() - line.world.front()).norm() > 0.0))
+          continue;
+        const ImagePointToLineResidual functor{projector, line.world.front(), line.world.back(), Eigen::Vector2d()};
+        for (const auto& m : line.image)
+        {
+          ImagePointToLineResidual f = functor;
+          f.image = m;
+          double r = std::numeric_limits<double>::infinity();
+          f(p.focal, p.principal, p.skew, p.distortion, p.delta, p.center, &r);
+          distance[i].push_back(std::abs(r));
+        }
+        for (size_t v = 0; v < distance[i].size(); ++v)
+          if (vertex_used[i][v] && std::isfinite(distance[i][v]))
+            all.push_back(distance[i][v]);
+      }
+      if (!all.empty())
+      {
+        std::nth_element(all.begin(), all.begin() + all.size() / 2, all.end());
+        const double threshold =
+            std::max(options.min_vertex_outlier_px, options.vertex_outlier_sigmas * 1.4826 * all[all.size() / 2]);
+        for (size_t i = 0; i < data.lines.size(); ++i)
+        {
+          if (distance[i].empty())
+            continue;
+          std::vector<bool> used(distance[i].size());
+          for (size_t v = 0; v < used.size(); ++v)
+            used[v] = distance[i][v] <= threshold;
+          if (std::count(used.begin(), used.end(), true) < 2)
+            used.assign(used.size(), true);
+          if (used != vertex_used[i])
+          {
+            vertex_used[i] = used;
+            vertices_changed = true;
+          }
+        }
+      }
+    }
   }
 
   result.camera = toCamera(p, projector);
@@ -394,11 +508,133 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
     result.final_rms_px = rmsOf(r);
   }
 
+  // The Jacobian at the optimum (free parameters only, plain residuals), for the per-line diagnostics and the
+  // jackknife over lines.
+  std::vector<double*> free_blocks = {p.focal};
+  std::vector<int> block_size = {options.single_focal ? 1 : 2};
+  if (options.estimate_principal_point)
+  {
+    free_blocks.push_back(p.principal);
+    block_size.push_back(2);
+  }
+  if (options.estimate_skew)
+  {
+    free_blocks.push_back(p.skew);
+    block_size.push_back(1);
+  }
+  if (options.estimate_distortion)
+  {
+    free_blocks.push_back(p.distortion);
+    block_size.push_back(1);
+  }
+  free_blocks.push_back(p.delta);
+  block_size.push_back(3);
+  free_blocks.push_back(p.center);
+  block_size.push_back(3);
+  const int columns = std::accumulate(block_size.begin(), block_size.end(), 0);
+  const auto column_of = [&](const double* block) {
+    int c = 0;
+    for (size_t b = 0; b < free_blocks.size(); ++b)
+    {
+      if (free_blocks[b] == block)
+        return c;
+      c += block_size[b];
+    }
+    return -1;
+  };
+  const size_t groups = data.lines.size() + data.points.size();
+  result.line_rms_px.assign(data.lines.size(), std::numeric_limits<double>::quiet_NaN());
+  result.line_loo_rms_px.assign(data.lines.size(), std::numeric_limits<double>::quiet_NaN());
+  result.line_influence.assign(data.lines.size(), std::numeric_limits<double>::quiet_NaN());
+  Eigen::MatrixXd jackknife;  // covariance of the parameters from leaving out one line (or point) at a time
+  double reciprocal_condition = 0.0;
+  {
+    ceres::Problem::EvaluateOptions evaluate_options;
+    evaluate_options.apply_loss_function = false;
+    evaluate_options.parameter_blocks = free_blocks;
+    std::vector<double> residuals;
+    ceres::CRSMatrix crs;
+    if (problem->Evaluate(evaluate_options, nullptr, &residuals, nullptr, &crs) &&
+        residuals.size() == row_group.size() && crs.num_cols == columns)
+    {
+      const int rows = crs.num_rows;
+      Eigen::MatrixXd j = Eigen::MatrixXd::Zero(rows, columns);
+      for (int r = 0; r < rows; ++r)
+        for (int k = crs.rows[r]; k < crs.rows[r + 1]; ++k)
+          j(r, crs.cols[k]) = crs.values[k];
+      const Eigen::Map<const Eigen::VectorXd> res(residuals.data(), rows);
+      // Column scaling, then a pseudo-inverse of the normal matrix (directions the data do not constrain get none).
+      Eigen::VectorXd scale(columns);
+      for (int c = 0; c < columns; ++c)
+      {
+        const double n = j.col(c).norm();
+        scale(c) = n > 0.0 ? 1.0 / n : 0.0;
+      }
+      const Eigen::MatrixXd js = j * scale.asDiagonal();
+      const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(js.transpose() * js);
+      const Eigen::VectorXd values = eig.eigenvalues();
+      const double largest = values.maxCoeff();
+      reciprocal_condition = largest > 0.0 ? std::max(0.0, values.minCoeff()) / largest : 0.0;
+      Eigen::VectorXd inverse_values = Eigen::VectorXd::Zero(columns);
+      for (int c = 0; c < columns; ++c)
+        if (values(c) > 1e-12 * largest)
+          inverse_values(c) = 1.0 / values(c);
+      const Eigen::MatrixXd h_inverse = scale.asDiagonal() * eig.eigenvectors() * inverse_values.asDiagonal() *
+                                        eig.eigenvectors().transpose() * scale.asDiagonal();
+      std::vector<std::vector<int>> rows_of(groups);
+      for (int r = 0; r < rows; ++r)
+        if (row_group[r] < groups)
+          rows_of[row_group[r]].push_back(r);
+      jackknife = Eigen::MatrixXd::Zero(columns, columns);
+      size_t used_groups = 0;
+      const double variance = rows > columns ? res.squaredNorm() / (rows - columns) : 0.0;
+      for (size_t g = 0; g < groups; ++g)
+      {
+        const std::vector<int>& own = rows_of[g];
+        if (own.empty())
+          continue;
+        ++used_groups;
+        Eigen::MatrixXd jg(own.size(), columns);
+        Eigen::VectorXd rg(own.size());
+        for (size_t k = 0; k < own.size(); ++k)
+        {
+          jg.row(k) = j.row(own[k]);
+          rg(k) = res(own[k]);
+        }
+        // Linearised leave-one-out: r_(-g) = (I - J_g H^-1 J_g^T)^-1 r_g, and the parameters move by
+        // H^-1 J_g^T r_(-g) when the group is left out.
+        const Eigen::MatrixXd m = Eigen::MatrixXd::Identity(own.size(), own.size()) - jg * h_inverse * jg.transpose();
+        const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> meig(m);
+        const double smallest = meig.eigenvalues().minCoeff();
+        double loo_rms = std::numeric_limits<double>::infinity();
+        double influence = std::numeric_limits<double>::infinity();
+        if (smallest > 1e-6)
+        {
+          const Eigen::VectorXd loo = meig.eigenvectors() * (meig.eigenvalues().cwiseInverse().asDiagonal() *
+                                                             (meig.eigenvectors().transpose() * rg));
+          loo_rms = std::sqrt(loo.squaredNorm() / own.size());
+          const Eigen::VectorXd shift = h_inverse * jg.transpose() * loo;
+          jackknife += shift * shift.transpose();
+          influence = variance > 0.0 ? (j * shift).squaredNorm() / (columns * variance) : 0.0;
+        }
+        if (g < data.lines.size())
+        {
+          result.line_rms_px[g] = std::sqrt(rg.squaredNorm() / own.size());
+          result.line_loo_rms_px[g] = loo_rms;
+          result.line_influence[g] = influence;
+        }
+      }
+      if (used_groups > 1)
+        jackknife *= static_cast<double>(used_groups - 1) / used_groups;
+    }
+  }
+
   if (options.compute_uncertainty)
   {
     CameraUncertainty& u = result.uncertainty;
-    const size_t free_parameters = (options.single_focal ? 1 : 2) + 2 + (options.estimate_skew ? 1 : 0) +
-                                   (options.estimate_distortion ? 1 : 0) + 6;
+    u.reciprocal_condition = reciprocal_condition;
+    const size_t free_parameters = (options.single_focal ? 1 : 2) + (options.estimate_principal_point ? 2 : 0) +
+                                   (options.estimate_skew ? 1 : 0) + (options.estimate_distortion ? 1 : 0) + 6;
     if (residual_count <= free_parameters)
     {
       u.reason = "as many parameters as residuals: no redundancy to estimate uncertainty from";
@@ -445,6 +681,32 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
         u.lambda = std::sqrt(sigma2 * distortion[0]) / projector.r_ref2;
         u.rotation_deg = std::sqrt(sigma2 * (delta[0] + delta[4] + delta[8])) * 180.0 / M_PI;
         u.position_m = std::sqrt(sigma2 * (center[0] + center[4] + center[8]));
+        if (options.per_line_uncertainty && jackknife.rows() == columns)
+        {
+          // The larger of the two, per parameter.
+          const auto widen = [&](double* sigma, double variance) {
+            const double jack = std::sqrt(std::max(0.0, variance));
+            if (*sigma > 0.0)
+              u.line_correlation_factor = std::max(u.line_correlation_factor, jack / *sigma);
+            *sigma = std::max(*sigma, jack);
+          };
+          const int f = column_of(p.focal), c = column_of(p.principal), d = column_of(p.delta), x = column_of(p.center),
+                    k = column_of(p.distortion);
+          widen(&u.fx, jackknife(f, f));
+          if (options.single_focal)
+            u.fy = u.fx;
+          else
+            widen(&u.fy, jackknife(f + 1, f + 1));
+          if (c >= 0)
+          {
+            widen(&u.cx, jackknife(c, c));
+            widen(&u.cy, jackknife(c + 1, c + 1));
+          }
+          if (k >= 0)
+            widen(&u.lambda, jackknife(k, k) / (projector.r_ref2 * projector.r_ref2));
+          widen(&u.rotation_deg, jackknife.block(d, d, 3, 3).trace() * std::pow(180.0 / M_PI, 2));
+          widen(&u.position_m, jackknife.block(x, x, 3, 3).trace());
+        }
       }
     }
   }

@@ -185,8 +185,11 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
     std::vector<std::vector<Eigen::Vector2d>> polylines;
     for (const auto& l : *lines)
       polylines.push_back(l.points);
-    auto matched = matchAndCalibrate(map_lines, polylines, *config_.prior, config_.image_width, config_.image_height,
-                                     options_.matcher);
+    // The prior search once; the later loops start from the camera found.
+    auto matched = best ? matchAndCalibrateFrom(map_lines, polylines, best->calibration.camera, config_.image_width,
+                                                config_.image_height, options_.matcher)
+                        : matchAndCalibrate(map_lines, polylines, *config_.prior, config_.image_width,
+                                            config_.image_height, options_.matcher);
     if (!matched)
     {
       if (best)

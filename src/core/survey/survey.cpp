@@ -45,10 +45,19 @@ Expected<bool> Survey::addFixedImage(const std::string& camera, const cv::Mat& i
   return true;
 }
 
+std::vector<MapLine> Survey::usedMapLines() const
+{
+  std::vector<MapLine> out;
+  for (const auto& line : map_.lines(options_.min_map_support))
+    if (line.spread() <= options_.max_map_spread_m)
+      out.push_back(line);
+  return out;
+}
+
 std::vector<Segment3d> Survey::mapSegments() const
 {
   std::vector<Segment3d> out;
-  for (const auto& line : map_.lines(options_.min_map_support))
+  for (const auto& line : usedMapLines())
     out.push_back({line.a(), line.b()});
   return out;
 }
