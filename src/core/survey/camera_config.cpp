@@ -1,5 +1,6 @@
 #include "insitu_calibration/survey/camera_config.h"
 
+#include <map>
 #include <set>
 
 #include "../io/yaml_util.h"
@@ -47,6 +48,7 @@ Expected<std::vector<CameraConfigEntry>> parseCameraConfig(const std::string& ya
     return Error(ErrorCode::kParseError, "camera configuration: expected a non-empty list `cameras:`");
   std::vector<CameraConfigEntry> out;
   std::set<std::string> names;
+  std::map<std::string, std::string> info_topics;  // topic -> camera
   for (size_t i = 0; i < list.size(); ++i)
   {
     const YAML::Node c = list[i];
@@ -102,6 +104,11 @@ Expected<std::vector<CameraConfigEntry>> parseCameraConfig(const std::string& ya
       return Error(ErrorCode::kInvalidInput, where + ": the name '" + config.name + "' is used twice");
     entry.calibrated_info_topic = c["calibrated_info_topic"] ? c["calibrated_info_topic"].as<std::string>("")
                                                              : calibratedInfoTopic(config.image_topic);
+    // Two latched publishers on one topic would hand subscribers either camera's calibration.
+    if (const auto [it, inserted] = info_topics.emplace(entry.calibrated_info_topic, config.name); !inserted)
+      return Error(ErrorCode::kInvalidInput, where + ": cameras '" + it->second + "' and '" + config.name +
+                                                 "' would both publish their CameraInfo on " +
+                                                 entry.calibrated_info_topic + "; set calibrated_info_topic for one");
     out.push_back(std::move(entry));
   }
   return out;
