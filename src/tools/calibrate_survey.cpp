@@ -186,6 +186,17 @@ void oracleCalibration(const std::string& truth_dir, const std::string& name, co
         m2 = *back;
     }
   }
+  if (std::getenv("ORACLE_PLUMB"))
+  {
+    std::vector<bool> matched(polylines.size(), false);
+    for (const auto& m : matches)
+      matched[m.image_line] = true;
+    for (size_t i = 0; i < polylines.size(); ++i)
+      if (!matched[i] && polylines[i].size() >= 3 && (polylines[i].back() - polylines[i].front()).norm() >= 100.0)
+        for (auto* s2 : {&set, &true_world, &true_image, &true_both})
+          s2->straight_lines.push_back(polylines[i]);
+    std::printf("    %zu plumb lines\n", set.straight_lines.size());
+  }
   for (size_t i = 0; i < set.lines.size(); ++i)
   {
     true_both.lines[i].world = true_world.lines[i].world;
@@ -245,9 +256,17 @@ void oracleCalibration(const std::string& truth_dir, const std::string& name, co
       const Eigen::Matrix3d cov = ml.sum_wxx / ml.weight - mean * mean.transpose();
       const Eigen::Matrix3d perp = Eigen::Matrix3d::Identity() - ml.direction * ml.direction.transpose();
       const double spread = std::sqrt(std::max(0.0, (perp * cov * perp).trace()));
+      Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+      if (err.edge >= 0)
+      {
+        const ic::Segment3d& e = segments[err.edge];
+        const Eigen::Vector3d d = (e.b - e.a).normalized();
+        const Eigen::Vector3d mid = 0.5 * (m.a + m.b);
+        offset = (mid - e.a) - d * d.dot(mid - e.a);
+      }
       std::printf(
           "    match image %zu map %zu: support %d, length %.2f m (visible %.0f %%), weight %.3g, edge %d off %.1f "
-          "mm, %.2f deg, range %.2f m, image line %zu pts, spread %.1f mm\n",
+          "mm, %.2f deg, range %.2f m, image line %zu pts, spread %.1f mm, offset %+.1f %+.1f %+.1f mm\n",
           matches[i].image_line, matches[i].map_line, ml.support, ml.length(),
           vis ? 100.0 * (vis->second - vis->first) : 0.0, ml.weight, err.edge, 1000.0 * err.distance_m, err.angle_deg,
           range, set.lines[i].image.size(), 1000.0 * spread);
@@ -500,6 +519,7 @@ int main(int argc, char** argv)
 
   int status = 0;
   const std::vector<ic::Segment3d> map = survey.mapSegments();
+  const std::vector<double> sigmas = survey.mapLineSigmas();
   if (const char* show = std::getenv("SHOW_MAP_LINES"))
   {
     const auto lines = survey.usedMapLines();
@@ -516,7 +536,7 @@ int main(int argc, char** argv)
       continue;
     const auto calibration_start = std::chrono::steady_clock::now();
     ic::FixedCamera& camera = survey.camera(name);
-    const auto result = camera.calibrate(map, world_frame);
+    const auto result = camera.calibrate(map, world_frame, sigmas);
     if (!result)
     {
       std::printf("%s: FAILED: %s\n", name.c_str(), result.error().describe().c_str());

@@ -83,7 +83,9 @@ public:
 
   // Calibrates from the line map (prior) or the correspondence file, and keeps the result when it passes the
   // sanity checks. Errors say what is missing or wrong.
-  Expected<FixedCameraResult> calibrate(const std::vector<Segment3d>& map_lines, const std::string& world_frame);
+  // map_line_sigmas_m: optional, per map line how far off it may be (Survey::mapLineSigmas).
+  Expected<FixedCameraResult> calibrate(const std::vector<Segment3d>& map_lines, const std::string& world_frame,
+                                        const std::vector<double>& map_line_sigmas_m = {});
   FixedCameraStatus status(const std::vector<Segment3d>& map_lines) const;
 
   const std::optional<CalibrationFile>& calibration() const { return calibration_; }
@@ -97,7 +99,8 @@ public:
 
 private:
   Expected<FixedCameraResult> calibrateFromFile(const std::string& world_frame);
-  Expected<FixedCameraResult> calibrateFromMap(const std::vector<Segment3d>& map_lines, const std::string& world_frame);
+  Expected<FixedCameraResult> calibrateFromMap(const std::vector<Segment3d>& map_lines, const std::string& world_frame,
+                                               const std::vector<double>& map_line_sigmas_m);
   Status check(const CameraCalibration& calibration, size_t matched_lines) const;
 
   FixedCameraConfig config_;

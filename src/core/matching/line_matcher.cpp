@@ -316,9 +316,31 @@ double explanationScore(const CameraModel& camera, const std::vector<Segment3d>&
   return score;
 }
 
+// The image lines left unmatched are straight edges too (plumb lines for the distortion), when long enough (0: none).
+std::vector<std::vector<Eigen::Vector2d>> straightLinesOf(const std::vector<LineMatch>& matches,
+                                                          const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                                                          double min_length_px)
+{
+  std::vector<std::vector<Eigen::Vector2d>> out;
+  if (!(min_length_px > 0.0))
+    return out;
+  std::vector<bool> matched(image_lines.size(), false);
+  for (const auto& m : matches)
+    matched[m.image_line] = true;
+  for (size_t i = 0; i < image_lines.size(); ++i)
+  {
+    const auto& l = image_lines[i];
+    if (!matched[i] && l.size() >= 3 && (l.back() - l.front()).norm() >= min_length_px)
+      out.push_back(l);
+  }
+  return out;
+}
+
 CorrespondenceSet correspondencesOf(const std::vector<LineMatch>& matches, const std::vector<Segment3d>& map_lines,
+                                    const std::vector<double>& map_sigmas,
                                     const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
-                                    const CameraModel& camera, int width, int height, int world_points)
+                                    const CameraModel& camera, int width, int height, int world_points,
+                                    double min_straight_length_px)
 {
   CorrespondenceSet set;
   set.image_width = width;
@@ -331,11 +353,14 @@ CorrespondenceSet correspondencesOf(const std::vector<LineMatch>& matches, const
     const double t1 = interval ? interval->second : 1.0;
     LineCorrespondence line;
     line.image = image_lines[m.image_line];
+    if (m.map_line < map_sigmas.size())
+      line.world_sigma_m = map_sigmas[m.map_line];
     const int n = std::max(2, world_points);
     for (int k = 0; k < n; ++k)
       line.world.push_back(s.pointAt(t0 + (t1 - t0) * k / double(n - 1)));
     set.lines.push_back(std::move(line));
   }
+  set.straight_lines = straightLinesOf(matches, image_lines, min_straight_length_px);
   return set;
 }
 }  // namespace
@@ -475,7 +500,7 @@ std::vector<LineMatch> matchLines(const std::vector<Segment3d>& map_lines,
 namespace
 {
 // From one start camera: match, calibrate, re-match with tightened thresholds until the matches settle.
-Expected<LineMatchResult> refineMatches(const std::vector<Segment3d>& map_lines,
+Expected<LineMatchResult> refineMatches(const std::vector<Segment3d>& map_lines, const std::vector<double>& map_sigmas,
                                         const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                         const CameraModel& start, int image_width, int image_height,
                                         const LineMatcherOptions& options, double initial_max_distance_px,
@@ -507,8 +532,8 @@ Expected<LineMatchResult> refineMatches(const std::vector<Segment3d>& map_lines,
       result.converged = true;
       break;
     }
-    CorrespondenceSet set = correspondencesOf(matches, map_lines, image_lines, camera, image_width, image_height,
-                                              options.world_points_per_line);
+    CorrespondenceSet set = correspondencesOf(matches, map_lines, map_sigmas, image_lines, camera, image_width,
+                                              image_height, options.world_points_per_line, 0.0);
     auto calibration = calibrateCamera(set, options.calibration, camera);
     if (!calibration)
     {
@@ -550,6 +575,7 @@ Expected<LineMatchResult> refineMatches(const std::vector<Segment3d>& map_lines,
     if (k < calibrated->inlier_lines.size() && calibrated->inlier_lines[k])
       result.matches.push_back(used[k]);
   result.correspondences = used_set;
+  result.candidate_matches = used;
   return result;
 }
 }  // namespace
@@ -558,6 +584,7 @@ namespace
 {
 // Each start refined (match, calibrate, re-match), the best explanation kept, then its influential matches checked.
 Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_lines,
+                                          const std::vector<double>& map_sigmas,
                                           const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                           const std::vector<CameraModel>& starts, int image_width, int image_height,
                                           const LineMatcherOptions& options, double initial_max_distance_px, bool hop);
@@ -566,7 +593,8 @@ Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_line
 Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_lines,
                                             const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                             const CameraPrior& prior, int image_width, int image_height,
-                                            const LineMatcherOptions& options)
+                                            const LineMatcherOptions& options,
+                                            const std::vector<double>& map_line_sigmas_m)
 {
   if (map_lines.empty())
     return Error(ErrorCode::kNotEnoughData, "the line map is empty: survey the area the camera sees first");
@@ -584,14 +612,15 @@ Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_li
   std::vector<CameraModel> starts =
       searchPrior(map_lines, image, prior, image_width, image_height, options.search_steps, options.search_starts,
                   options.search_min_cap_px, options.search_cap_shrink);
-  return matchFromStarts(map_lines, image_lines, starts, image_width, image_height, options,
+  return matchFromStarts(map_lines, map_line_sigmas_m, image_lines, starts, image_width, image_height, options,
                          options.initial_max_distance_px, true);
 }
 
 Expected<LineMatchResult> matchAndCalibrateFrom(const std::vector<Segment3d>& map_lines,
                                                 const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                                 const CameraModel& start, int image_width, int image_height,
-                                                const LineMatcherOptions& options)
+                                                const LineMatcherOptions& options,
+                                                const std::vector<double>& map_line_sigmas_m)
 {
   if (map_lines.empty())
     return Error(ErrorCode::kNotEnoughData, "the line map is empty: survey the area the camera sees first");
@@ -599,7 +628,7 @@ Expected<LineMatchResult> matchAndCalibrateFrom(const std::vector<Segment3d>& ma
     return Error(ErrorCode::kNotEnoughData, "no lines were found in the camera's image");
   if (image_width <= 0 || image_height <= 0)
     return Error(ErrorCode::kInvalidInput, "the image size is not positive");
-  return matchFromStarts(map_lines, image_lines, {start}, image_width, image_height, options,
+  return matchFromStarts(map_lines, map_line_sigmas_m, image_lines, {start}, image_width, image_height, options,
                          options.known_camera_max_distance_px, false);
 }
 
@@ -672,6 +701,7 @@ std::vector<CameraModel> hopCameras(const LineMatchResult& result, const std::ve
 }
 
 Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_lines,
+                                          const std::vector<double>& map_sigmas,
                                           const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                           const std::vector<CameraModel>& starts, int image_width, int image_height,
                                           const LineMatcherOptions& options, double initial_max_distance_px, bool hop)
@@ -703,8 +733,8 @@ Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_line
       std::fprintf(stderr, "search camera: fx %.1f pos %.3f %.3f %.3f forward %.3f %.3f %.3f\n", start.intrinsics().fx,
                    c.x(), c.y(), c.z(), f.x(), f.y(), f.z());
     }
-    auto candidate =
-        refineMatches(map_lines, image_lines, start, image_width, image_height, options, initial_max_distance_px, {});
+    auto candidate = refineMatches(map_lines, map_sigmas, image_lines, start, image_width, image_height, options,
+                                   initial_max_distance_px, {});
     if (!candidate)
     {
       last_error = candidate.error().message();
@@ -750,7 +780,7 @@ Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_line
         std::fprintf(stderr, "hop camera: fx %.1f pos %.3f %.3f %.3f forward %.3f %.3f %.3f\n", camera.intrinsics().fx,
                      c.x(), c.y(), c.z(), f.x(), f.y(), f.z());
       }
-      auto candidate = refineMatches(map_lines, image_lines, camera, image_width, image_height, options,
+      auto candidate = refineMatches(map_lines, map_sigmas, image_lines, camera, image_width, image_height, options,
                                      options.hop_max_distance_px, {}, best_score);
       if (!candidate)
         continue;
@@ -786,8 +816,8 @@ Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_line
         break;
       PairSet trial = banned;
       trial.insert({m.image_line, m.map_line});
-      auto candidate = refineMatches(map_lines, image_lines, best->calibration.camera, image_width, image_height,
-                                     options, distance, trial);
+      auto candidate = refineMatches(map_lines, map_sigmas, image_lines, best->calibration.camera, image_width,
+                                     image_height, options, distance, trial);
       if (!candidate)
         continue;
       const double score = scoreOf(*candidate);
@@ -810,6 +840,34 @@ Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_line
     const bool pruned = influenceRound();
     if (!hopped && !pruned)
       break;
+  }
+  // The chosen result calibrated once more with the unmatched image lines as plumb lines (only here: each adds two
+  // parameters, too many for the exploration above).
+  if (options.min_straight_line_px > 0.0)
+  {
+    CorrespondenceSet set = best->correspondences;
+    set.straight_lines = straightLinesOf(best->candidate_matches, image_lines, options.min_straight_line_px);
+    if (!set.straight_lines.empty())
+      if (auto polished = calibrateCamera(set, options.calibration, best->calibration.camera))
+      {
+        if (debug)
+        {
+          const Eigen::Vector3d a = best->calibration.camera.pose().center(), b = polished->camera.pose().center();
+          std::fprintf(
+              stderr,
+              "polish: %zu plumb lines; inliers %zu -> %zu, fx %.2f -> %.2f, lambda %.4g -> %.4g, moved %.2f mm\n",
+              set.straight_lines.size(), best->calibration.inlier_count, polished->inlier_count,
+              best->calibration.camera.intrinsics().fx, polished->camera.intrinsics().fx,
+              best->calibration.camera.distortion().lambda, polished->camera.distortion().lambda,
+              1000.0 * (a - b).norm());
+        }
+        best->calibration = *polished;
+        best->correspondences = set;
+        best->matches.clear();
+        for (size_t k = 0; k < best->candidate_matches.size(); ++k)
+          if (k < polished->inlier_lines.size() && polished->inlier_lines[k])
+            best->matches.push_back(best->candidate_matches[k]);
+      }
   }
   return *best;
 }

@@ -164,7 +164,8 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromFile(const std::string& wo
 }
 
 Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segment3d>& map_lines,
-                                                          const std::string& world_frame)
+                                                          const std::string& world_frame,
+                                                          const std::vector<double>& map_line_sigmas_m)
 {
   if (median_.empty())
     return Error(ErrorCode::kNotEnoughData, "no image has arrived from " + config_.image_topic + " yet");
@@ -187,9 +188,9 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
       polylines.push_back(l.points);
     // The prior search once; the later loops start from the camera found.
     auto matched = best ? matchAndCalibrateFrom(map_lines, polylines, best->calibration.camera, config_.image_width,
-                                                config_.image_height, options_.matcher)
+                                                config_.image_height, options_.matcher, map_line_sigmas_m)
                         : matchAndCalibrate(map_lines, polylines, *config_.prior, config_.image_width,
-                                            config_.image_height, options_.matcher);
+                                            config_.image_height, options_.matcher, map_line_sigmas_m);
     if (!matched)
     {
       if (best)
@@ -220,12 +221,13 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
 }
 
 Expected<FixedCameraResult> FixedCamera::calibrate(const std::vector<Segment3d>& map_lines,
-                                                   const std::string& world_frame)
+                                                   const std::string& world_frame,
+                                                   const std::vector<double>& map_line_sigmas_m)
 {
   if (const Status valid = config_.validate(); !valid)
     return valid.error();
-  auto result =
-      config_.correspondence_file.empty() ? calibrateFromMap(map_lines, world_frame) : calibrateFromFile(world_frame);
+  auto result = config_.correspondence_file.empty() ? calibrateFromMap(map_lines, world_frame, map_line_sigmas_m)
+                                                    : calibrateFromFile(world_frame);
   if (!result)
     return result.error();
   if (const Status ok = check(result->calibration, result->matched_image_lines.size()); !ok)
