@@ -9,6 +9,8 @@
 #ifndef INSITU_CALIBRATION_MATCHING_LINE_MATCHER_H
 #define INSITU_CALIBRATION_MATCHING_LINE_MATCHER_H
 
+#include <functional>
+#include <string>
 #include <vector>
 
 #include "insitu_calibration/calibration.h"
@@ -83,6 +85,8 @@ struct LineMatcherOptions
                           // of matching is abandoned
   int influence_candidates = 3;
   double min_influence = 0.5;
+  // Optional: receives a line per step of the search (starts, matching rounds, local moves), for diagnosis.
+  std::function<void(const std::string&)> trace;
   double min_score_gain = 0.05;  // a result replaces the current one when its score is lower by more than this
   // The survey's calibration: as calibrateCamera's defaults, plus weak priors of square pixels (0.5 %) and a principal
   // point near the image centre (3 % of the width), which only matter for weakly constrained cameras.

@@ -5,7 +5,8 @@
 #include <limits>
 #include <numeric>
 #include <cstdio>
-#include <cstdlib>
+#include <functional>
+#include <string>
 #include <set>
 
 #include <Eigen/Geometry>
@@ -18,6 +19,27 @@ namespace insitu_calibration
 namespace
 {
 constexpr double kDegToRad = M_PI / 180.0;
+
+// printf-style message to the options' trace, when there is one.
+template <typename... Args>
+void trace(const LineMatcherOptions& options, const char* format, Args... args)
+{
+  if (!options.trace)
+    return;
+  char buffer[512];
+  std::snprintf(buffer, sizeof(buffer), format, args...);
+  options.trace(buffer);
+}
+
+std::string describeCamera(const CameraModel& camera)
+{
+  const Eigen::Vector3d c = camera.pose().center();
+  const Eigen::Vector3d f = camera.pose().rotation.row(2).transpose();
+  char buffer[200];
+  std::snprintf(buffer, sizeof(buffer), "fx %.1f, centre %.3f %.3f %.3f, axis %.3f %.3f %.3f", camera.intrinsics().fx,
+                c.x(), c.y(), c.z(), f.x(), f.y(), f.z());
+  return buffer;
+}
 
 bool inside(const Eigen::Vector2d& m, int width, int height)
 {
@@ -272,10 +294,6 @@ std::vector<CameraModel> searchPrior(const std::vector<Segment3d>& map_lines, co
         step *= 0.5;
     }
     cameras.push_back(cameraOf(prior, width, height, best));
-    if (std::getenv("MATCH_DEBUG"))
-      std::fprintf(
-          stderr, "search result score %.2f (prior itself %.2f)\n", best_score,
-          searchScore(cameraFromPrior(prior, width, height), map_lines, image, width, height, tolerance, round_cap));
   }
   return cameras;
 }
@@ -542,15 +560,9 @@ Expected<LineMatchResult> refineMatches(const std::vector<Segment3d>& map_lines,
       return Error(calibration.error().code(), "calibration on " + std::to_string(matches.size()) +
                                                    " matched lines failed: " + calibration.error().message());
     }
-    if (std::getenv("MATCH_DEBUG"))
-    {
-      const Eigen::Vector3d pos = calibration->camera.pose().center();
-      std::fprintf(
-          stderr,
-          "  iteration %d: %zu matches (max %.1f px, %.1f deg), %zu inliers, fx %.1f, rms %.3f, pos %.3f %.3f %.3f\n",
-          iteration, matches.size(), max_distance, max_angle, calibration->inlier_count,
-          calibration->camera.intrinsics().fx, calibration->reprojection.rms_px, pos.x(), pos.y(), pos.z());
-    }
+    trace(options, "  round %d: %zu matches (within %.1f px, %.1f deg), %zu inliers, RMS %.3f px, %s", iteration,
+          matches.size(), max_distance, max_angle, calibration->inlier_count, calibration->reprojection.rms_px,
+          describeCamera(calibration->camera).c_str());
     // A start that still explains the image worse than a known result after a few rounds is abandoned (the local
     // moves try many starts, most of them in vain).
     if (iteration + 1 >= options.abandon_after &&
@@ -707,32 +719,20 @@ Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_line
                                           const LineMatcherOptions& options, double initial_max_distance_px, bool hop)
 {
   const std::vector<ImageChord> image = summarize(image_lines);
-  const bool debug = std::getenv("MATCH_DEBUG") != nullptr;
   const auto scoreOf = [&](const LineMatchResult& r) {
     return explanationScore(r.calibration.camera, map_lines, image, image_width, image_height,
                             options.min_image_length_px, options.explanation_cap_px);
   };
   const auto describe = [&](const char* what, const LineMatchResult& r, double score) {
-    if (!debug)
-      return;
-    const auto& c = r.calibration;
-    const Eigen::Vector3d pos = c.camera.pose().center();
-    std::fprintf(stderr, "%s: score %.3f, %zu matches, fx %.1f, rms %.3f, pos %.3f %.3f %.3f, iterations %d\n", what,
-                 score, r.matches.size(), c.camera.intrinsics().fx, c.reprojection.rms_px, pos.x(), pos.y(), pos.z(),
-                 r.iterations);
+    trace(options, "%s: score %.3f, %zu matches, RMS %.3f px, %s", what, score, r.matches.size(),
+          r.calibration.reprojection.rms_px, describeCamera(r.calibration.camera).c_str());
   };
   std::optional<LineMatchResult> best;
   double best_score = std::numeric_limits<double>::infinity();
   std::string last_error = "no start camera";
   for (const CameraModel& start : starts)
   {
-    if (debug)
-    {
-      const Eigen::Vector3d c = start.pose().center();
-      const Eigen::Vector3d f = start.pose().rotation.row(2).transpose();
-      std::fprintf(stderr, "search camera: fx %.1f pos %.3f %.3f %.3f forward %.3f %.3f %.3f\n", start.intrinsics().fx,
-                   c.x(), c.y(), c.z(), f.x(), f.y(), f.z());
-    }
+    trace(options, "start %s", describeCamera(start).c_str());
     auto candidate = refineMatches(map_lines, map_sigmas, image_lines, start, image_width, image_height, options,
                                    initial_max_distance_px, {});
     if (!candidate)
@@ -773,13 +773,6 @@ Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_line
     }
     for (const CameraModel& camera : hops)
     {
-      if (debug)
-      {
-        const Eigen::Vector3d c = camera.pose().center();
-        const Eigen::Vector3d f = camera.pose().rotation.row(2).transpose();
-        std::fprintf(stderr, "hop camera: fx %.1f pos %.3f %.3f %.3f forward %.3f %.3f %.3f\n", camera.intrinsics().fx,
-                     c.x(), c.y(), c.z(), f.x(), f.y(), f.z());
-      }
       auto candidate = refineMatches(map_lines, map_sigmas, image_lines, camera, image_width, image_height, options,
                                      options.hop_max_distance_px, {}, best_score);
       if (!candidate)
@@ -821,9 +814,9 @@ Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_line
       if (!candidate)
         continue;
       const double score = scoreOf(*candidate);
-      if (debug)
-        std::fprintf(stderr, "without %zu-%zu (influence %.3g): ", m.image_line, m.map_line, influence(order[n]));
-      describe("result", *candidate, score);
+      trace(options, "without image line %zu - map line %zu (influence %.3g):", m.image_line, m.map_line,
+            influence(order[n]));
+      describe("  result", *candidate, score);
       if (score < best_score - options.min_score_gain)
       {
         best_score = score;
@@ -850,17 +843,10 @@ Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_line
     if (!set.straight_lines.empty())
       if (auto polished = calibrateCamera(set, options.calibration, best->calibration.camera))
       {
-        if (debug)
-        {
-          const Eigen::Vector3d a = best->calibration.camera.pose().center(), b = polished->camera.pose().center();
-          std::fprintf(
-              stderr,
-              "polish: %zu plumb lines; inliers %zu -> %zu, fx %.2f -> %.2f, lambda %.4g -> %.4g, moved %.2f mm\n",
+        trace(options, "with %zu plumb lines: %zu -> %zu inlier lines, lambda %.4g -> %.4g, %s",
               set.straight_lines.size(), best->calibration.inlier_count, polished->inlier_count,
-              best->calibration.camera.intrinsics().fx, polished->camera.intrinsics().fx,
               best->calibration.camera.distortion().lambda, polished->camera.distortion().lambda,
-              1000.0 * (a - b).norm());
-        }
+              describeCamera(polished->camera).c_str());
         best->calibration = *polished;
         best->correspondences = set;
         best->matches.clear();
