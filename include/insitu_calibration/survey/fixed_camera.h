@@ -45,6 +45,12 @@ struct FixedCameraOptions
   double max_rms_px = 1.5;
   size_t min_matched_lines = 8;
   double max_prior_distance_sigmas = 6.0;  // the camera must be within this many position sigmas of its prior
+  // A result whose own one-sigma uncertainty exceeds any of these is refused as under-constrained (mostly coplanar
+  // or parallel lines, a small part of the view): better an error than a confident wrong camera. A rank-deficient
+  // result (no uncertainty) is refused too.
+  double max_sigma_focal_relative = 0.03;
+  double max_sigma_position_m = 0.15;
+  double max_sigma_rotation_deg = 1.5;
 };
 
 struct FixedCameraStatus

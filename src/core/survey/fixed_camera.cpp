@@ -131,6 +131,21 @@ Status FixedCamera::check(const CameraCalibration& c, size_t matched_lines) cons
                                                " m from its prior position (more than " + std::to_string(limit) +
                                                " m); the matches are probably wrong, or the prior is");
   }
+  if (c.refinement)
+  {
+    const CameraUncertainty& u = c.uncertainty;
+    if (!u.available)
+      return Error(ErrorCode::kDegenerate, "the matched lines leave the camera under-constrained (" + u.reason +
+                                               "); survey more of the camera's view");
+    char buffer[256];
+    std::snprintf(buffer, sizeof(buffer), "1 sigma: focal length %.2f %%, position %.0f mm, rotation %.2f deg",
+                  100.0 * u.fx / k.fx, 1000.0 * u.position_m, u.rotation_deg);
+    if (u.fx > options_.max_sigma_focal_relative * k.fx || u.position_m > options_.max_sigma_position_m ||
+        u.rotation_deg > options_.max_sigma_rotation_deg)
+      return Error(ErrorCode::kDegenerate, std::string("the matched lines determine the camera too weakly (") + buffer +
+                                               "): mostly coplanar or parallel lines, or too small a part of the "
+                                               "view; survey more of the camera's view");
+  }
   if (!c.camera.pose().rotation.allFinite() || !c.camera.pose().translation.allFinite())
     return Error(ErrorCode::kNoSolution, "the pose is not finite");
   return Success{};
