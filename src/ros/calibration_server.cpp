@@ -312,7 +312,7 @@ bool CalibrationServer::calibrateService(Calibrate::Request& request, Calibrate:
   for (const auto& name : names)
   {
     Camera& camera = cameras_.at(name);
-    const auto result = survey_->camera(name).calibrate(map, world_frame_);
+    const auto result = survey_->camera(name).calibrate(map, world_frame_, survey_->mapLineSigmas());
     if (!result)
     {
       insitu_calibration::CalibrationResult failed;

@@ -54,8 +54,14 @@ Options:
                         roll stays true) and its field of view scaled by 1 +- F
                         (sign random); the sigmas stay as configured. Tests the matching from other priors.
   --prior-sigmas P,D,F  with --prior-from-truth: the priors' position, direction and field-of-view sigmas
-  --oracle              with --truth-dir: instead of the pipeline, calibrate on the matches the TRUE camera makes (the accuracy the
-                        map and image lines allow when matching is perfect), printed with its errors
+  --oracle              with --truth-dir: instead of the pipeline, calibrate on the matches the TRUE camera makes
+                        (with the other long image lines as plumb lines, as the final calibration does): the
+                        accuracy the map and image lines allow when matching is perfect; also with the map lines
+                        replaced by their true edges (true 3D), the image lines by the true edges' images (true 2D)
+                        and both (a check of the model: exact)
+  --oracle-details      with --oracle: per image line its true edge and map lines, per match the map line's
+                        support, spread and error, and the image points' distances to the true edge
+  --trace               print the matcher's steps (starts, matching rounds, local moves) to stderr
   --no-refine           the paper's linear DLT after matching (no Ceres refinement)
   --no-ransac           no RANSAC over the matched lines
   --quiet               print only errors and the result table
@@ -113,7 +119,7 @@ void reportAgainstTruth(const std::string& truth_dir, const std::string& name, c
 // Diagnostic: the image lines matched under the true camera (tight thresholds), calibrated like the pipeline does.
 void oracleCalibration(const std::string& truth_dir, const std::string& name, const ic::FixedCamera& camera,
                        const std::vector<ic::Segment3d>& map, const ic::FixedCameraOptions& options,
-                       const std::vector<ic::MapLine>& map_lines)
+                       const std::vector<ic::MapLine>& map_lines, bool details)
 {
   const auto truth = ic::loadCalibrationFile(truth_dir + "/" + name + ".yaml");
   if (!truth)
@@ -162,7 +168,7 @@ void oracleCalibration(const std::string& truth_dir, const std::string& name, co
     if (!ua || !ub)
       continue;
     const Eigen::Vector2d ud = (*ub - *ua).normalized();
-    if (std::getenv("ORACLE_IMAGE"))
+    if (details)
     {
       std::printf("    line %zu (image %zu, edge %d):", i, matches[i].image_line, err.edge);
       for (const auto& m2 : set.lines[i].image)
@@ -187,30 +193,29 @@ void oracleCalibration(const std::string& truth_dir, const std::string& name, co
         m2 = *back;
     }
   }
+  if (true)
+  {
+    std::vector<bool> matched(polylines.size(), false);
+    for (const auto& m : matches)
+      matched[m.image_line] = true;
+    for (size_t i = 0; i < polylines.size(); ++i)
+      if (!matched[i] && polylines[i].size() >= 3 && (polylines[i].back() - polylines[i].front()).norm() >= 100.0)
+        for (auto* s2 : {&set, &true_world, &true_image, &true_both})
+          s2->straight_lines.push_back(polylines[i]);
+    if (details)
+      std::printf("    %zu plumb lines\n", set.straight_lines.size());
+  }
   for (size_t i = 0; i < set.lines.size(); ++i)
   {
     true_both.lines[i].world = true_world.lines[i].world;
     true_both.lines[i].image = true_image.lines[i].image;
   }
-  if (std::getenv("ORACLE_VERBOSE"))
+  if (details)
   {
     const auto images = ic::projectEdges(t, segments);
     std::vector<int> map_edge(map.size(), -1);
     for (size_t j = 0; j < map.size(); ++j)
       map_edge[j] = ic::measureLine3d(map[j].a, map[j].b, segments, 0.1, 5.0).edge;
-    if (std::getenv("ORACLE_EDGES"))
-      for (size_t e = 0; e < segments.size(); ++e)
-      {
-        const auto vis = ic::visibleInterval(t, segments[e], w, h);
-        if (!vis)
-          continue;
-        int n = 0;
-        for (size_t j = 0; j < map.size(); ++j)
-          n += map_edge[j] == static_cast<int>(e) ? 1 : 0;
-        std::printf("    edge %3zu (%s): %d map lines, visible %.2f m\n", e,
-                    (*edges)[e].surfaces.empty() ? "" : (*edges)[e].surfaces[0].c_str(), n,
-                    (vis->second - vis->first) * (segments[e].b - segments[e].a).norm());
-      }
     for (size_t i = 0; i < polylines.size(); ++i)
     {
       const ic::ImageLineError ie = ic::measureImageLine(polylines[i], t.distortion(), images, 3.0, 1.0, 0.6);
@@ -234,7 +239,7 @@ void oracleCalibration(const std::string& truth_dir, const std::string& name, co
                   polylines[i].size(), length, ie.edge, ie.rms_px, matched.c_str(), maps.c_str());
     }
   }
-  if (std::getenv("ORACLE_MAP"))
+  if (details)
     for (size_t i = 0; i < set.lines.size(); ++i)
     {
       const ic::MapLine& ml = map_lines[matches[i].map_line];
@@ -242,16 +247,12 @@ void oracleCalibration(const std::string& truth_dir, const std::string& name, co
       const ic::Line3dError err = ic::measureLine3d(m.a, m.b, segments, 0.1, 5.0);
       const auto vis = ic::visibleInterval(t, m, w, h);
       const double range = (0.5 * (m.a + m.b) - t.pose().center()).norm();
-      const Eigen::Vector3d mean = ml.sum_wx / ml.weight;
-      const Eigen::Matrix3d cov = ml.sum_wxx / ml.weight - mean * mean.transpose();
-      const Eigen::Matrix3d perp = Eigen::Matrix3d::Identity() - ml.direction * ml.direction.transpose();
-      const double spread = std::sqrt(std::max(0.0, (perp * cov * perp).trace()));
       std::printf(
           "    match image %zu map %zu: support %d, length %.2f m (visible %.0f %%), weight %.3g, edge %d off %.1f "
           "mm, %.2f deg, range %.2f m, image line %zu pts, spread %.1f mm\n",
           matches[i].image_line, matches[i].map_line, ml.support, ml.length(),
           vis ? 100.0 * (vis->second - vis->first) : 0.0, ml.weight, err.edge, 1000.0 * err.distance_m, err.angle_deg,
-          range, set.lines[i].image.size(), 1000.0 * spread);
+          range, set.lines[i].image.size(), 1000.0 * ml.spread());
     }
   const std::vector<std::pair<const char*, const ic::CorrespondenceSet*>> variants = {
       {"oracle", &set}, {"  true 3D", &true_world}, {"  true 2D", &true_image}, {"  both true", &true_both}};
@@ -338,7 +339,7 @@ int main(int argc, char** argv)
   ic::CommandLine cli(argc, argv,
                       {"cameras", "out-dir", "world-frame", "min-support", "camera", "search-starts", "truth-dir",
                        "prior-from-truth", "prior-sigmas", "max-spread"},
-                      {"no-refine", "no-ransac", "quiet", "oracle"});
+                      {"no-refine", "no-ransac", "quiet", "oracle", "oracle-details", "trace"});
   if (cli.help())
   {
     std::cout << kUsage;
@@ -367,6 +368,8 @@ int main(int argc, char** argv)
   options.cameras.matcher.calibration.refine = !cli.flag("no-refine");
   options.cameras.matcher.calibration.ransac = !cli.flag("no-ransac");
   options.cameras.matcher.search_starts = static_cast<int>(cli.number("search-starts", 4));
+  if (cli.flag("trace"))
+    options.cameras.matcher.trace = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
   std::vector<ic::FixedCameraConfig> cameras;
   std::map<std::string, std::string> topic_to_camera;
   std::mt19937 rng(0);
@@ -502,23 +505,14 @@ int main(int argc, char** argv)
 
   int status = 0;
   const std::vector<ic::Segment3d> map = survey.mapSegments();
-  if (const char* show = std::getenv("SHOW_MAP_LINES"))
-  {
-    const auto lines = survey.usedMapLines();
-    for (const double j : numbers(show))
-    {
-      const auto& l = lines.at(static_cast<size_t>(j));
-      std::printf("map line %d: %.3f %.3f %.3f -> %.3f %.3f %.3f, support %d\n", static_cast<int>(j), l.a().x(),
-                  l.a().y(), l.a().z(), l.b().x(), l.b().y(), l.b().z(), l.support);
-    }
-  }
+  const std::vector<double> sigmas = survey.mapLineSigmas();
   for (const auto& name : survey.cameraNames())
   {
     if ((cli.has("camera") && cli.value("camera") != name) || cli.flag("oracle"))
       continue;
     const auto calibration_start = std::chrono::steady_clock::now();
     ic::FixedCamera& camera = survey.camera(name);
-    const auto result = camera.calibrate(map, world_frame);
+    const auto result = camera.calibrate(map, world_frame, sigmas);
     if (!result)
     {
       std::printf("%s: FAILED: %s\n", name.c_str(), result.error().describe().c_str());
@@ -546,7 +540,7 @@ int main(int argc, char** argv)
       {
         std::printf("%s:\n", name.c_str());
         oracleCalibration(cli.value("truth-dir"), name, survey.camera(name), map, options.cameras,
-                          survey.usedMapLines());
+                          survey.usedMapLines(), cli.flag("oracle-details"));
       }
   return status;
 }

@@ -15,7 +15,8 @@ const char* kUsage = R"(Usage: compare_calibrations --truth-dir DIR --result-dir
 
 For every camera with a calibration file <name>.yaml in both directories (or the listed cameras), prints its errors
 against the truth as a markdown table: relative focal error, principal point, lambda, rotation and position errors,
-reprojection RMS and MSE, and the one-sigma uncertainties the calibration reported.
+reprojection RMS and MSE, and the one-sigma uncertainties the calibration reported (lambda's relative to the true
+lambda).
 Exit status: 0 when every listed camera was found, 1 when one is missing or unreadable, 2 on a bad command line.
 )";
 }
@@ -61,7 +62,7 @@ int main(int argc, char** argv)
   }
   std::printf(
       "| camera | focal error | principal point | lambda error | rotation | position | RMS | MSE | "
-      "sigma fx / position / rotation |\n|---|---|---|---|---|---|---|---|---|\n");
+      "sigma fx / position / rotation / lambda |\n|---|---|---|---|---|---|---|---|---|\n");
   int status = 0;
   for (const auto& name : names)
   {
@@ -79,10 +80,13 @@ int main(int argc, char** argv)
     };
     std::printf(
         "| %s | %+.4f %% | %.2f px | %.2f %% | %.4f deg | %.2f mm | %.3f px | %.4f px^2 | %.3f px / %.2f mm / "
-        "%.4f deg |\n",
+        "%.4f deg / %.2f %% |\n",
         name.c_str(), 100.0 * e.focal_relative, e.principal_point_px, 100.0 * e.lambda_relative,
         e.rotation_rad * 180.0 / M_PI, 1000.0 * e.center_m, result->quality ? result->quality->rms_px : 0.0,
-        extra("mse_px2"), extra("sigma_fx_px"), 1000.0 * extra("sigma_position_m"), extra("sigma_rotation_deg"));
+        extra("mse_px2"), extra("sigma_fx_px"), 1000.0 * extra("sigma_position_m"), extra("sigma_rotation_deg"),
+        truth->camera.distortion().lambda != 0.0
+            ? 100.0 * extra("sigma_lambda") / std::abs(truth->camera.distortion().lambda)
+            : 0.0);
   }
   return status;
 }

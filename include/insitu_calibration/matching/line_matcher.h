@@ -9,6 +9,8 @@
 #ifndef INSITU_CALIBRATION_MATCHING_LINE_MATCHER_H
 #define INSITU_CALIBRATION_MATCHING_LINE_MATCHER_H
 
+#include <functional>
+#include <string>
 #include <vector>
 
 #include "insitu_calibration/calibration.h"
@@ -48,6 +50,9 @@ struct LineMatcherOptions
   double min_overlap = 0.3;      // fraction of the image line's length the projected 3D line must cover
   double min_image_length_px = 30.0;  // shorter image lines are not matched
   int world_points_per_line = 6;      // samples along the visible part of a matched 3D line
+  // Unmatched image lines of 3 or more points whose chord is at least this long join the final calibration as plumb
+  // lines (CorrespondenceSet::straight_lines): they constrain the distortion. 0: none.
+  double min_straight_line_px = 100.0;
   // Ambiguity: an image line whose second-best 3D line is not worse by max(50 %, min_separation_px) is not matched,
   // unless both are within near_duplicate_px (the map holding one edge twice).
   double min_separation_px = 1.0;
@@ -80,6 +85,8 @@ struct LineMatcherOptions
                           // of matching is abandoned
   int influence_candidates = 3;
   double min_influence = 0.5;
+  // Optional: receives a line per step of the search (starts, matching rounds, local moves), for diagnosis.
+  std::function<void(const std::string&)> trace;
   double min_score_gain = 0.05;  // a result replaces the current one when its score is lower by more than this
   // The survey's calibration: as calibrateCamera's defaults, plus weak priors of square pixels (0.5 %) and a principal
   // point near the image centre (3 % of the width), which only matter for weakly constrained cameras.
@@ -95,26 +102,30 @@ struct LineMatch
 
 struct LineMatchResult
 {
-  std::vector<LineMatch> matches;     // the final matches (inliers of the final calibration)
-  CorrespondenceSet correspondences;  // built from them
+  std::vector<LineMatch> matches;            // the final matches (inliers of the final calibration)
+  std::vector<LineMatch> candidate_matches;  // all matches of the last round (the lines of correspondences)
+  CorrespondenceSet correspondences;         // built from them
   CameraCalibration calibration;
   CameraModel search_camera;  // the camera the prior search found
   int iterations = 0;
   bool converged = false;  // the match set stopped changing
 };
 
-// map_lines: 3D segments in the world; image_lines: distorted-pixel polylines of the fixed camera.
+// map_lines: 3D segments in the world; image_lines: distorted-pixel polylines of the fixed camera;
+// map_line_sigmas_m: optional, per map line how far off it may be (LineCorrespondence::world_sigma_m).
 Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_lines,
                                             const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                             const CameraPrior& prior, int image_width, int image_height,
-                                            const LineMatcherOptions& options = {});
+                                            const LineMatcherOptions& options = {},
+                                            const std::vector<double>& map_line_sigmas_m = {});
 
 // Steps 2 and 3 from a camera known to be close (an earlier calibration: the paper's loop after re-extracting the
 // image lines with its distortion), without the prior search.
 Expected<LineMatchResult> matchAndCalibrateFrom(const std::vector<Segment3d>& map_lines,
                                                 const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                                 const CameraModel& start, int image_width, int image_height,
-                                                const LineMatcherOptions& options = {});
+                                                const LineMatcherOptions& options = {},
+                                                const std::vector<double>& map_line_sigmas_m = {});
 
 // Step 2 alone: matches under a given camera.
 std::vector<LineMatch> matchLines(const std::vector<Segment3d>& map_lines,

@@ -61,6 +61,14 @@ struct RefinementOptions
   // repeated while it changes, at most this many times.
   int max_reassignments = 3;
   bool compute_uncertainty = true;
+  // Plumb lines (CorrespondenceSet::straight_lines, 3 or more points) join the refinement: each point's distance to
+  // its polyline's own straight line after undistortion, which constrains lambda. A polyline farther than
+  // max_straight_line_px from straight under the initial camera is left out.
+  bool use_straight_lines = true;
+  double max_straight_line_px = 0.5;
+  // Weight each line by its 3D uncertainty (LineCorrespondence::world_sigma_m; lines without one keep weight 1).
+  bool weight_by_world_sigma = true;
+  double world_sigma_image_noise_px = 0.1;  // the image noise the 3D uncertainty is weighed against
   // Image-point residuals: after a solve, image points farther from their projected line than
   // max(min_vertex_outlier_px, vertex_outlier_sigmas x the noise level of all image points (1.4826 x median)) are
   // left out and the solve repeated (within the max_reassignments rounds); a line keeps at least two points.

@@ -19,6 +19,9 @@ struct LineCorrespondence
 {
   std::vector<Eigen::Vector2d> image;  // >= 2 distorted pixels
   std::vector<Eigen::Vector3d> world;  // >= 1 points on the 3D line, world frame, metres
+  // How far the 3D line may be off, m (one sigma, across it; 0: exact). A surveyed line's error moves all its image
+  // residuals together; the refinement weights the line by it (RefinementOptions::weight_by_world_sigma).
+  double world_sigma_m = 0.0;
 
   size_t partCount() const { return image.size() < 2 ? 0 : image.size() - 1; }
   // Point-line pairs this line contributes: world points x parts.
@@ -38,6 +41,9 @@ struct CorrespondenceSet
   int image_height = 0;
   std::vector<LineCorrespondence> lines;
   std::vector<PointCorrespondence> points;
+  // Image polylines of edges known to be straight in the world but without a 3D line (plumb lines): they constrain
+  // only the distortion (and weakly the principal point), through the refinement; the DLT does not use them.
+  std::vector<std::vector<Eigen::Vector2d>> straight_lines;
 
   Eigen::Vector2d imageCenter() const { return {0.5 * (image_width - 1), 0.5 * (image_height - 1)}; }
   size_t lineConstraintCount() const;

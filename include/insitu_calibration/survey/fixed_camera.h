@@ -45,6 +45,12 @@ struct FixedCameraOptions
   double max_rms_px = 1.5;
   size_t min_matched_lines = 8;
   double max_prior_distance_sigmas = 6.0;  // the camera must be within this many position sigmas of its prior
+  // A result whose own one-sigma uncertainty exceeds any of these is refused as under-constrained (mostly coplanar
+  // or parallel lines, a small part of the view): better an error than a confident wrong camera. A rank-deficient
+  // result (no uncertainty) is refused too.
+  double max_sigma_focal_relative = 0.03;
+  double max_sigma_position_m = 0.15;
+  double max_sigma_rotation_deg = 1.5;
 };
 
 struct FixedCameraStatus
@@ -83,7 +89,9 @@ public:
 
   // Calibrates from the line map (prior) or the correspondence file, and keeps the result when it passes the
   // sanity checks. Errors say what is missing or wrong.
-  Expected<FixedCameraResult> calibrate(const std::vector<Segment3d>& map_lines, const std::string& world_frame);
+  // map_line_sigmas_m: optional, per map line how far off it may be (Survey::mapLineSigmas).
+  Expected<FixedCameraResult> calibrate(const std::vector<Segment3d>& map_lines, const std::string& world_frame,
+                                        const std::vector<double>& map_line_sigmas_m = {});
   FixedCameraStatus status(const std::vector<Segment3d>& map_lines) const;
 
   const std::optional<CalibrationFile>& calibration() const { return calibration_; }
@@ -97,7 +105,8 @@ public:
 
 private:
   Expected<FixedCameraResult> calibrateFromFile(const std::string& world_frame);
-  Expected<FixedCameraResult> calibrateFromMap(const std::vector<Segment3d>& map_lines, const std::string& world_frame);
+  Expected<FixedCameraResult> calibrateFromMap(const std::vector<Segment3d>& map_lines, const std::string& world_frame,
+                                               const std::vector<double>& map_line_sigmas_m);
   Status check(const CameraCalibration& calibration, size_t matched_lines) const;
 
   FixedCameraConfig config_;

@@ -22,9 +22,10 @@ struct SurveyOptions
   RgbdLineOptions rgbd;
   LineMapOptions map;
   FixedCameraOptions cameras;
-  int min_map_support = 2;            // map lines seen fewer times are not used for calibration
-  double max_map_spread_m = 0.01;     // nor map lines whose observations disagree more (MapLine::spread)
-  double fixed_image_period_s = 0.5;  // one image per period per camera goes into its median
+  int min_map_support = 2;               // map lines seen fewer times are not used for calibration
+  double max_map_spread_m = 0.01;        // nor map lines whose observations disagree more (MapLine::spread)
+  double min_map_line_sigma_m = 0.0005;  // floor of a map line's uncertainty (mapLineSigmas)
+  double fixed_image_period_s = 0.5;     // one image per period per camera goes into its median
 };
 
 struct SurveyStats
@@ -51,6 +52,8 @@ public:
   std::vector<Segment3d> mapSegments() const;
   // The map lines behind mapSegments() (same order): support and spread within the options' limits.
   std::vector<MapLine> usedMapLines() const;
+  // Per map segment (same order) how far off it may be, m: its spread, at least min_map_line_sigma_m.
+  std::vector<double> mapLineSigmas() const;
   const LineMap& lineMap() const { return map_; }
   const SurveyStats& stats() const { return stats_; }
 

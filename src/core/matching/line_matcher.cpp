@@ -5,7 +5,8 @@
 #include <limits>
 #include <numeric>
 #include <cstdio>
-#include <cstdlib>
+#include <functional>
+#include <string>
 #include <set>
 
 #include <Eigen/Geometry>
@@ -18,6 +19,27 @@ namespace insitu_calibration
 namespace
 {
 constexpr double kDegToRad = M_PI / 180.0;
+
+// printf-style message to the options' trace, when there is one.
+template <typename... Args>
+void trace(const LineMatcherOptions& options, const char* format, Args... args)
+{
+  if (!options.trace)
+    return;
+  char buffer[512];
+  std::snprintf(buffer, sizeof(buffer), format, args...);
+  options.trace(buffer);
+}
+
+std::string describeCamera(const CameraModel& camera)
+{
+  const Eigen::Vector3d c = camera.pose().center();
+  const Eigen::Vector3d f = camera.pose().rotation.row(2).transpose();
+  char buffer[200];
+  std::snprintf(buffer, sizeof(buffer), "fx %.1f, centre %.3f %.3f %.3f, axis %.3f %.3f %.3f", camera.intrinsics().fx,
+                c.x(), c.y(), c.z(), f.x(), f.y(), f.z());
+  return buffer;
+}
 
 bool inside(const Eigen::Vector2d& m, int width, int height)
 {
@@ -272,10 +294,6 @@ std::vector<CameraModel> searchPrior(const std::vector<Segment3d>& map_lines, co
         step *= 0.5;
     }
     cameras.push_back(cameraOf(prior, width, height, best));
-    if (std::getenv("MATCH_DEBUG"))
-      std::fprintf(
-          stderr, "search result score %.2f (prior itself %.2f)\n", best_score,
-          searchScore(cameraFromPrior(prior, width, height), map_lines, image, width, height, tolerance, round_cap));
   }
   return cameras;
 }
@@ -316,9 +334,31 @@ double explanationScore(const CameraModel& camera, const std::vector<Segment3d>&
   return score;
 }
 
+// The image lines left unmatched are straight edges too (plumb lines for the distortion), when long enough (0: none).
+std::vector<std::vector<Eigen::Vector2d>> straightLinesOf(const std::vector<LineMatch>& matches,
+                                                          const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                                                          double min_length_px)
+{
+  std::vector<std::vector<Eigen::Vector2d>> out;
+  if (!(min_length_px > 0.0))
+    return out;
+  std::vector<bool> matched(image_lines.size(), false);
+  for (const auto& m : matches)
+    matched[m.image_line] = true;
+  for (size_t i = 0; i < image_lines.size(); ++i)
+  {
+    const auto& l = image_lines[i];
+    if (!matched[i] && l.size() >= 3 && (l.back() - l.front()).norm() >= min_length_px)
+      out.push_back(l);
+  }
+  return out;
+}
+
 CorrespondenceSet correspondencesOf(const std::vector<LineMatch>& matches, const std::vector<Segment3d>& map_lines,
+                                    const std::vector<double>& map_sigmas,
                                     const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
-                                    const CameraModel& camera, int width, int height, int world_points)
+                                    const CameraModel& camera, int width, int height, int world_points,
+                                    double min_straight_length_px)
 {
   CorrespondenceSet set;
   set.image_width = width;
@@ -331,11 +371,14 @@ CorrespondenceSet correspondencesOf(const std::vector<LineMatch>& matches, const
     const double t1 = interval ? interval->second : 1.0;
     LineCorrespondence line;
     line.image = image_lines[m.image_line];
+    if (m.map_line < map_sigmas.size())
+      line.world_sigma_m = map_sigmas[m.map_line];
     const int n = std::max(2, world_points);
     for (int k = 0; k < n; ++k)
       line.world.push_back(s.pointAt(t0 + (t1 - t0) * k / double(n - 1)));
     set.lines.push_back(std::move(line));
   }
+  set.straight_lines = straightLinesOf(matches, image_lines, min_straight_length_px);
   return set;
 }
 }  // namespace
@@ -475,7 +518,7 @@ std::vector<LineMatch> matchLines(const std::vector<Segment3d>& map_lines,
 namespace
 {
 // From one start camera: match, calibrate, re-match with tightened thresholds until the matches settle.
-Expected<LineMatchResult> refineMatches(const std::vector<Segment3d>& map_lines,
+Expected<LineMatchResult> refineMatches(const std::vector<Segment3d>& map_lines, const std::vector<double>& map_sigmas,
                                         const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                         const CameraModel& start, int image_width, int image_height,
                                         const LineMatcherOptions& options, double initial_max_distance_px,
@@ -507,8 +550,8 @@ Expected<LineMatchResult> refineMatches(const std::vector<Segment3d>& map_lines,
       result.converged = true;
       break;
     }
-    CorrespondenceSet set = correspondencesOf(matches, map_lines, image_lines, camera, image_width, image_height,
-                                              options.world_points_per_line);
+    CorrespondenceSet set = correspondencesOf(matches, map_lines, map_sigmas, image_lines, camera, image_width,
+                                              image_height, options.world_points_per_line, 0.0);
     auto calibration = calibrateCamera(set, options.calibration, camera);
     if (!calibration)
     {
@@ -517,15 +560,9 @@ Expected<LineMatchResult> refineMatches(const std::vector<Segment3d>& map_lines,
       return Error(calibration.error().code(), "calibration on " + std::to_string(matches.size()) +
                                                    " matched lines failed: " + calibration.error().message());
     }
-    if (std::getenv("MATCH_DEBUG"))
-    {
-      const Eigen::Vector3d pos = calibration->camera.pose().center();
-      std::fprintf(
-          stderr,
-          "  iteration %d: %zu matches (max %.1f px, %.1f deg), %zu inliers, fx %.1f, rms %.3f, pos %.3f %.3f %.3f\n",
-          iteration, matches.size(), max_distance, max_angle, calibration->inlier_count,
-          calibration->camera.intrinsics().fx, calibration->reprojection.rms_px, pos.x(), pos.y(), pos.z());
-    }
+    trace(options, "  round %d: %zu matches (within %.1f px, %.1f deg), %zu inliers, RMS %.3f px, %s", iteration,
+          matches.size(), max_distance, max_angle, calibration->inlier_count, calibration->reprojection.rms_px,
+          describeCamera(calibration->camera).c_str());
     // A start that still explains the image worse than a known result after a few rounds is abandoned (the local
     // moves try many starts, most of them in vain).
     if (iteration + 1 >= options.abandon_after &&
@@ -550,6 +587,7 @@ Expected<LineMatchResult> refineMatches(const std::vector<Segment3d>& map_lines,
     if (k < calibrated->inlier_lines.size() && calibrated->inlier_lines[k])
       result.matches.push_back(used[k]);
   result.correspondences = used_set;
+  result.candidate_matches = used;
   return result;
 }
 }  // namespace
@@ -558,6 +596,7 @@ namespace
 {
 // Each start refined (match, calibrate, re-match), the best explanation kept, then its influential matches checked.
 Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_lines,
+                                          const std::vector<double>& map_sigmas,
                                           const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                           const std::vector<CameraModel>& starts, int image_width, int image_height,
                                           const LineMatcherOptions& options, double initial_max_distance_px, bool hop);
@@ -566,7 +605,8 @@ Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_line
 Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_lines,
                                             const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                             const CameraPrior& prior, int image_width, int image_height,
-                                            const LineMatcherOptions& options)
+                                            const LineMatcherOptions& options,
+                                            const std::vector<double>& map_line_sigmas_m)
 {
   if (map_lines.empty())
     return Error(ErrorCode::kNotEnoughData, "the line map is empty: survey the area the camera sees first");
@@ -584,14 +624,15 @@ Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_li
   std::vector<CameraModel> starts =
       searchPrior(map_lines, image, prior, image_width, image_height, options.search_steps, options.search_starts,
                   options.search_min_cap_px, options.search_cap_shrink);
-  return matchFromStarts(map_lines, image_lines, starts, image_width, image_height, options,
+  return matchFromStarts(map_lines, map_line_sigmas_m, image_lines, starts, image_width, image_height, options,
                          options.initial_max_distance_px, true);
 }
 
 Expected<LineMatchResult> matchAndCalibrateFrom(const std::vector<Segment3d>& map_lines,
                                                 const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                                 const CameraModel& start, int image_width, int image_height,
-                                                const LineMatcherOptions& options)
+                                                const LineMatcherOptions& options,
+                                                const std::vector<double>& map_line_sigmas_m)
 {
   if (map_lines.empty())
     return Error(ErrorCode::kNotEnoughData, "the line map is empty: survey the area the camera sees first");
@@ -599,7 +640,7 @@ Expected<LineMatchResult> matchAndCalibrateFrom(const std::vector<Segment3d>& ma
     return Error(ErrorCode::kNotEnoughData, "no lines were found in the camera's image");
   if (image_width <= 0 || image_height <= 0)
     return Error(ErrorCode::kInvalidInput, "the image size is not positive");
-  return matchFromStarts(map_lines, image_lines, {start}, image_width, image_height, options,
+  return matchFromStarts(map_lines, map_line_sigmas_m, image_lines, {start}, image_width, image_height, options,
                          options.known_camera_max_distance_px, false);
 }
 
@@ -672,39 +713,28 @@ std::vector<CameraModel> hopCameras(const LineMatchResult& result, const std::ve
 }
 
 Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_lines,
+                                          const std::vector<double>& map_sigmas,
                                           const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                           const std::vector<CameraModel>& starts, int image_width, int image_height,
                                           const LineMatcherOptions& options, double initial_max_distance_px, bool hop)
 {
   const std::vector<ImageChord> image = summarize(image_lines);
-  const bool debug = std::getenv("MATCH_DEBUG") != nullptr;
   const auto scoreOf = [&](const LineMatchResult& r) {
     return explanationScore(r.calibration.camera, map_lines, image, image_width, image_height,
                             options.min_image_length_px, options.explanation_cap_px);
   };
   const auto describe = [&](const char* what, const LineMatchResult& r, double score) {
-    if (!debug)
-      return;
-    const auto& c = r.calibration;
-    const Eigen::Vector3d pos = c.camera.pose().center();
-    std::fprintf(stderr, "%s: score %.3f, %zu matches, fx %.1f, rms %.3f, pos %.3f %.3f %.3f, iterations %d\n", what,
-                 score, r.matches.size(), c.camera.intrinsics().fx, c.reprojection.rms_px, pos.x(), pos.y(), pos.z(),
-                 r.iterations);
+    trace(options, "%s: score %.3f, %zu matches, RMS %.3f px, %s", what, score, r.matches.size(),
+          r.calibration.reprojection.rms_px, describeCamera(r.calibration.camera).c_str());
   };
   std::optional<LineMatchResult> best;
   double best_score = std::numeric_limits<double>::infinity();
   std::string last_error = "no start camera";
   for (const CameraModel& start : starts)
   {
-    if (debug)
-    {
-      const Eigen::Vector3d c = start.pose().center();
-      const Eigen::Vector3d f = start.pose().rotation.row(2).transpose();
-      std::fprintf(stderr, "search camera: fx %.1f pos %.3f %.3f %.3f forward %.3f %.3f %.3f\n", start.intrinsics().fx,
-                   c.x(), c.y(), c.z(), f.x(), f.y(), f.z());
-    }
-    auto candidate =
-        refineMatches(map_lines, image_lines, start, image_width, image_height, options, initial_max_distance_px, {});
+    trace(options, "start %s", describeCamera(start).c_str());
+    auto candidate = refineMatches(map_lines, map_sigmas, image_lines, start, image_width, image_height, options,
+                                   initial_max_distance_px, {});
     if (!candidate)
     {
       last_error = candidate.error().message();
@@ -743,14 +773,7 @@ Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_line
     }
     for (const CameraModel& camera : hops)
     {
-      if (debug)
-      {
-        const Eigen::Vector3d c = camera.pose().center();
-        const Eigen::Vector3d f = camera.pose().rotation.row(2).transpose();
-        std::fprintf(stderr, "hop camera: fx %.1f pos %.3f %.3f %.3f forward %.3f %.3f %.3f\n", camera.intrinsics().fx,
-                     c.x(), c.y(), c.z(), f.x(), f.y(), f.z());
-      }
-      auto candidate = refineMatches(map_lines, image_lines, camera, image_width, image_height, options,
+      auto candidate = refineMatches(map_lines, map_sigmas, image_lines, camera, image_width, image_height, options,
                                      options.hop_max_distance_px, {}, best_score);
       if (!candidate)
         continue;
@@ -786,14 +809,14 @@ Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_line
         break;
       PairSet trial = banned;
       trial.insert({m.image_line, m.map_line});
-      auto candidate = refineMatches(map_lines, image_lines, best->calibration.camera, image_width, image_height,
-                                     options, distance, trial);
+      auto candidate = refineMatches(map_lines, map_sigmas, image_lines, best->calibration.camera, image_width,
+                                     image_height, options, distance, trial);
       if (!candidate)
         continue;
       const double score = scoreOf(*candidate);
-      if (debug)
-        std::fprintf(stderr, "without %zu-%zu (influence %.3g): ", m.image_line, m.map_line, influence(order[n]));
-      describe("result", *candidate, score);
+      trace(options, "without image line %zu - map line %zu (influence %.3g):", m.image_line, m.map_line,
+            influence(order[n]));
+      describe("  result", *candidate, score);
       if (score < best_score - options.min_score_gain)
       {
         best_score = score;
@@ -810,6 +833,27 @@ Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_line
     const bool pruned = influenceRound();
     if (!hopped && !pruned)
       break;
+  }
+  // The chosen result calibrated once more with the unmatched image lines as plumb lines (only here: each adds two
+  // parameters, too many for the exploration above).
+  if (options.min_straight_line_px > 0.0)
+  {
+    CorrespondenceSet set = best->correspondences;
+    set.straight_lines = straightLinesOf(best->candidate_matches, image_lines, options.min_straight_line_px);
+    if (!set.straight_lines.empty())
+      if (auto polished = calibrateCamera(set, options.calibration, best->calibration.camera))
+      {
+        trace(options, "with %zu plumb lines: %zu -> %zu inlier lines, lambda %.4g -> %.4g, %s",
+              set.straight_lines.size(), best->calibration.inlier_count, polished->inlier_count,
+              best->calibration.camera.distortion().lambda, polished->camera.distortion().lambda,
+              describeCamera(polished->camera).c_str());
+        best->calibration = *polished;
+        best->correspondences = set;
+        best->matches.clear();
+        for (size_t k = 0; k < best->candidate_matches.size(); ++k)
+          if (k < polished->inlier_lines.size() && polished->inlier_lines[k])
+            best->matches.push_back(best->candidate_matches[k]);
+      }
   }
   return *best;
 }

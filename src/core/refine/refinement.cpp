@@ -1,5 +1,7 @@
 #include "insitu_calibration/refine/refinement.h"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -83,6 +85,7 @@ struct PointToPartResidual
   Eigen::Vector3d world;
   Eigen::Vector2d a;
   Eigen::Vector2d normal;
+  double weight = 1.0;
 
   template <typename T>
   bool operator()(const T* focal, const T* principal, const T* skew, const T* distortion, const T* delta,
@@ -91,7 +94,7 @@ struct PointToPartResidual
     T m[2];
     if (!projector(focal, principal, skew, distortion, delta, center, world, m))
       return false;
-    residual[0] = T(normal.x()) * (m[0] - T(a.x())) + T(normal.y()) * (m[1] - T(a.y()));
+    residual[0] = T(weight) * (T(normal.x()) * (m[0] - T(a.x())) + T(normal.y()) * (m[1] - T(a.y())));
     return true;
   }
 };
@@ -105,6 +108,7 @@ struct ImagePointToLineResidual
   Eigen::Vector3d world_a;
   Eigen::Vector3d world_b;
   Eigen::Vector2d image;
+  double weight = 1.0;
 
   template <typename T>
   bool operator()(const T* focal, const T* principal, const T* skew, const T* distortion, const T* delta,
@@ -126,7 +130,27 @@ struct ImagePointToLineResidual
     const T scale = T(1.0) + distortion[0] / T(projector.r_ref2) * (dx * dx + dy * dy);
     if (!(scale > T(0.0)))
       return false;
-    residual[0] = (l0 * (dx / scale) + l1 * (dy / scale) + l2) / norm * scale;
+    residual[0] = T(weight) * (l0 * (dx / scale) + l1 * (dy / scale) + l2) / norm * scale;
+    return true;
+  }
+};
+
+// A plumb line: an image point, undistorted about the principal point, to the straight line (normal angle theta,
+// offset rho, undistorted px about the principal point) that its polyline must be; scaled back by the local scale.
+struct StraightLineResidual
+{
+  double r_ref2;
+  Eigen::Vector2d image;
+
+  template <typename T>
+  bool operator()(const T* principal, const T* distortion, const T* line, T* residual) const
+  {
+    const T dx = T(image.x()) - principal[0];
+    const T dy = T(image.y()) - principal[1];
+    const T scale = T(1.0) + distortion[0] / T(r_ref2) * (dx * dx + dy * dy);
+    if (!(scale > T(0.0)))
+      return false;
+    residual[0] = (cos(line[0]) * dx / scale + sin(line[0]) * dy / scale - line[1]) * scale;
     return true;
   }
 };
@@ -319,6 +343,69 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
     }
   }
 
+  // Lines whose 3D position is uncertain (LineCorrespondence::world_sigma_m) count less: the error of a 3D line moves
+  // all its n residuals together, so each residual gets the weight sqrt(s0^2 / (s0^2 + n s^2)), s the 3D sigma seen
+  // from the initial camera in px (f sigma / depth) and s0 the image noise (an option, not an estimate: the weights
+  // must not depend on the start, whose optima are compared).
+  std::vector<double> line_weight(data.lines.size(), 1.0);
+  if (options.weight_by_world_sigma)
+  {
+    const CameraModel current = toCamera(p, projector);
+    const double s0 = options.world_sigma_image_noise_px;
+    for (size_t i = 0; i < data.lines.size(); ++i)
+    {
+      const auto& line = data.lines[i];
+      if (!(line.world_sigma_m > 0.0) || line.world.empty())
+        continue;
+      const Eigen::Vector3d mid = 0.5 * (line.world.front() + line.world.back());
+      const double depth = (current.pose().rotation * mid + current.pose().translation).z();
+      if (!(depth > 0.0))
+        continue;
+      const double s = current.intrinsics().fx * line.world_sigma_m / depth;
+      const double n = static_cast<double>(options.line_residual == LineResidual::kWorldPoints ? line.world.size()
+                                                                                               : line.image.size());
+      line_weight[i] = std::sqrt(s0 * s0 / (s0 * s0 + n * s * s));
+    }
+  }
+
+  // Plumb lines: each gets its straight line (theta, rho), fitted to its points undistorted with the initial camera.
+  std::vector<std::array<double, 2>> straight(options.use_straight_lines ? data.straight_lines.size() : 0);
+  for (size_t k = 0; k < straight.size(); ++k)
+  {
+    const auto& polyline = data.straight_lines[k];
+    const DivisionModel d{p.distortion[0] / projector.r_ref2, Eigen::Vector2d(p.principal[0], p.principal[1])};
+    std::vector<Eigen::Vector2d> u;
+    for (const auto& m : polyline)
+    {
+      const Eigen::Vector2d rel = m - d.center;
+      u.push_back(rel / (1.0 + d.lambda * rel.squaredNorm()));
+    }
+    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+    for (const auto& x : u)
+      mean += x / static_cast<double>(u.size());
+    Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+    for (const auto& x : u)
+      cov += (x - mean) * (x - mean).transpose();
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(cov);
+    const Eigen::Vector2d normal = eig.eigenvectors().col(0);
+    straight[k] = {std::atan2(normal.y(), normal.x()), normal.dot(mean)};
+  }
+  // Polylines that are not straight under the initial camera (a curved edge, two edges merged) are left out.
+  std::vector<bool> straight_used(straight.size(), true);
+  for (size_t k = 0; k < straight.size(); ++k)
+  {
+    const auto& polyline = data.straight_lines[k];
+    if (polyline.size() < 3)
+      straight_used[k] = false;
+    for (const auto& m : polyline)
+    {
+      const StraightLineResidual f{projector.r_ref2, m};
+      double r = 0.0;
+      if (!f(p.principal, p.distortion, straight[k].data(), &r) || std::abs(r) > options.max_straight_line_px)
+        straight_used[k] = false;
+    }
+  }
+
   std::vector<std::vector<size_t>> assignment(data.lines.size());
   ceres::Solver::Summary summary;
   size_t residual_count = 0;
@@ -371,7 +458,8 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
           if (!vertex_used[i][v])
             continue;
           auto* cost = new ceres::AutoDiffCostFunction<ImagePointToLineResidual, 1, 2, 2, 1, 1, 3, 3>(
-              new ImagePointToLineResidual{projector, line.world.front(), line.world.back(), line.image[v]});
+              new ImagePointToLineResidual{projector, line.world.front(), line.world.back(), line.image[v],
+                                           line_weight[i]});
           problem->AddResidualBlock(cost, makeLoss(options.loss, result.loss_scale_px).release(), p.focal, p.principal,
                                     p.skew, p.distortion, p.delta, p.center);
           ++residual_count;
@@ -386,7 +474,7 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
         const Eigen::Vector2d b = line.image[assignment[i][k] + 1];
         const Eigen::Vector2d dir = (b - a).normalized();
         auto* cost = new ceres::AutoDiffCostFunction<PointToPartResidual, 1, 2, 2, 1, 1, 3, 3>(
-            new PointToPartResidual{projector, line.world[k], a, Eigen::Vector2d(-dir.y(), dir.x())});
+            new PointToPartResidual{projector, line.world[k], a, Eigen::Vector2d(-dir.y(), dir.x()), line_weight[i]});
         problem->AddResidualBlock(cost, makeLoss(options.loss, result.loss_scale_px).release(), p.focal, p.principal,
                                   p.skew, p.distortion, p.delta, p.center);
         ++residual_count;
@@ -404,6 +492,16 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
       row_group.push_back(data.lines.size() + k);
       row_group.push_back(data.lines.size() + k);
     }
+    for (size_t k = 0; k < straight.size(); ++k)
+      for (const auto& m : straight_used[k] ? data.straight_lines[k] : std::vector<Eigen::Vector2d>{})
+      {
+        problem->AddResidualBlock(new ceres::AutoDiffCostFunction<StraightLineResidual, 1, 2, 1, 2>(
+                                      new StraightLineResidual{projector.r_ref2, m}),
+                                  makeLoss(options.loss, result.loss_scale_px).release(), p.principal, p.distortion,
+                                  straight[k].data());
+        ++residual_count;
+        row_group.push_back(data.lines.size() + data.points.size() + k);
+      }
     if (residual_count == 0)
       return Error(ErrorCode::kNotEnoughData, "refinement has no residuals (no selected line or point)");
     // Weak priors, in the residuals' units (scaled by the noise level estimated before the solve, so that the
@@ -531,6 +629,15 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
   block_size.push_back(3);
   free_blocks.push_back(p.center);
   block_size.push_back(3);
+  const int camera_columns = std::accumulate(block_size.begin(), block_size.end(), 0);
+  // The plumb lines' own parameters are nuisance parameters: in the normal equations (so that the camera's
+  // uncertainty accounts for them), not in the reported covariance.
+  for (size_t k = 0; k < straight.size(); ++k)
+    if (straight_used[k])
+    {
+      free_blocks.push_back(straight[k].data());
+      block_size.push_back(2);
+    }
   const int columns = std::accumulate(block_size.begin(), block_size.end(), 0);
   const auto column_of = [&](const double* block) {
     int c = 0;
@@ -542,7 +649,7 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
     }
     return -1;
   };
-  const size_t groups = data.lines.size() + data.points.size();
+  const size_t groups = data.lines.size() + data.points.size() + straight.size();
   result.line_rms_px.assign(data.lines.size(), std::numeric_limits<double>::quiet_NaN());
   result.line_loo_rms_px.assign(data.lines.size(), std::numeric_limits<double>::quiet_NaN());
   result.line_influence.assign(data.lines.size(), std::numeric_limits<double>::quiet_NaN());
@@ -633,7 +740,8 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
   {
     CameraUncertainty& u = result.uncertainty;
     u.reciprocal_condition = reciprocal_condition;
-    const size_t free_parameters = (options.single_focal ? 1 : 2) + (options.estimate_principal_point ? 2 : 0) +
+    const size_t free_parameters = 2 * std::count(straight_used.begin(), straight_used.end(), true) +
+                                   (options.single_focal ? 1 : 2) + (options.estimate_principal_point ? 2 : 0) +
                                    (options.estimate_skew ? 1 : 0) + (options.estimate_distortion ? 1 : 0) + 6;
     if (residual_count <= free_parameters)
     {

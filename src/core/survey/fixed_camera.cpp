@@ -131,6 +131,21 @@ Status FixedCamera::check(const CameraCalibration& c, size_t matched_lines) cons
                                                " m from its prior position (more than " + std::to_string(limit) +
                                                " m); the matches are probably wrong, or the prior is");
   }
+  if (c.refinement)
+  {
+    const CameraUncertainty& u = c.uncertainty;
+    if (!u.available)
+      return Error(ErrorCode::kDegenerate, "the matched lines leave the camera under-constrained (" + u.reason +
+                                               "); survey more of the camera's view");
+    char buffer[256];
+    std::snprintf(buffer, sizeof(buffer), "1 sigma: focal length %.2f %%, position %.0f mm, rotation %.2f deg",
+                  100.0 * u.fx / k.fx, 1000.0 * u.position_m, u.rotation_deg);
+    if (u.fx > options_.max_sigma_focal_relative * k.fx || u.position_m > options_.max_sigma_position_m ||
+        u.rotation_deg > options_.max_sigma_rotation_deg)
+      return Error(ErrorCode::kDegenerate, std::string("the matched lines determine the camera too weakly (") + buffer +
+                                               "): mostly coplanar or parallel lines, or too small a part of the "
+                                               "view; survey more of the camera's view");
+  }
   if (!c.camera.pose().rotation.allFinite() || !c.camera.pose().translation.allFinite())
     return Error(ErrorCode::kNoSolution, "the pose is not finite");
   return Success{};
@@ -164,7 +179,8 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromFile(const std::string& wo
 }
 
 Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segment3d>& map_lines,
-                                                          const std::string& world_frame)
+                                                          const std::string& world_frame,
+                                                          const std::vector<double>& map_line_sigmas_m)
 {
   if (median_.empty())
     return Error(ErrorCode::kNotEnoughData, "no image has arrived from " + config_.image_topic + " yet");
@@ -187,9 +203,9 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
       polylines.push_back(l.points);
     // The prior search once; the later loops start from the camera found.
     auto matched = best ? matchAndCalibrateFrom(map_lines, polylines, best->calibration.camera, config_.image_width,
-                                                config_.image_height, options_.matcher)
+                                                config_.image_height, options_.matcher, map_line_sigmas_m)
                         : matchAndCalibrate(map_lines, polylines, *config_.prior, config_.image_width,
-                                            config_.image_height, options_.matcher);
+                                            config_.image_height, options_.matcher, map_line_sigmas_m);
     if (!matched)
     {
       if (best)
@@ -220,12 +236,13 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
 }
 
 Expected<FixedCameraResult> FixedCamera::calibrate(const std::vector<Segment3d>& map_lines,
-                                                   const std::string& world_frame)
+                                                   const std::string& world_frame,
+                                                   const std::vector<double>& map_line_sigmas_m)
 {
   if (const Status valid = config_.validate(); !valid)
     return valid.error();
-  auto result =
-      config_.correspondence_file.empty() ? calibrateFromMap(map_lines, world_frame) : calibrateFromFile(world_frame);
+  auto result = config_.correspondence_file.empty() ? calibrateFromMap(map_lines, world_frame, map_line_sigmas_m)
+                                                    : calibrateFromFile(world_frame);
   if (!result)
     return result.error();
   if (const Status ok = check(result->calibration, result->matched_image_lines.size()); !ok)

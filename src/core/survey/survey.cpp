@@ -1,5 +1,7 @@
 #include "insitu_calibration/survey/survey.h"
 
+#include <algorithm>
+
 namespace insitu_calibration
 {
 Survey::Survey(const std::vector<FixedCameraConfig>& cameras, const SurveyOptions& options)
@@ -51,6 +53,14 @@ std::vector<MapLine> Survey::usedMapLines() const
   for (const auto& line : map_.lines(options_.min_map_support))
     if (line.spread() <= options_.max_map_spread_m)
       out.push_back(line);
+  return out;
+}
+
+std::vector<double> Survey::mapLineSigmas() const
+{
+  std::vector<double> out;
+  for (const auto& line : usedMapLines())
+    out.push_back(std::max(options_.min_map_line_sigma_m, line.spread()));
   return out;
 }
 

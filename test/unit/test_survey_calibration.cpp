@@ -1,0 +1,104 @@
+// End to end without ROS: the simulator's default world surveyed (the robot's RGB-D frames with their true poses,
+// the fixed cameras' images), the line map built and every fixed camera calibrated from the priors of
+// config/cameras.yaml (off by 0.5 m, 10 degrees and 20 %), exactly as the node and calibrate_survey do. Asserts the
+// node's test thresholds (1 % focal length, 0.5 degrees, 3 cm, 10 % lambda) and a reprojection MSE under 0.1 px^2
+// against the truth, and that the reported standard deviations are honest (the error within 3 sigma). The seed is
+// one not used while tuning the matcher (1-7 were).
+#include <gtest/gtest.h>
+
+#include <cstdio>
+
+#include <opencv2/imgproc.hpp>
+
+#include "insitu_calibration/metrics.h"
+#include "insitu_calibration/simulation/survey.h"
+#include "insitu_calibration/simulation/world.h"
+#include "insitu_calibration/survey/camera_config.h"
+#include "insitu_calibration/survey/survey.h"
+
+namespace ic = insitu_calibration;
+namespace sim = insitu_calibration::simulation;
+
+namespace
+{
+const std::string kSource = INSITU_SOURCE_DIR;
+constexpr uint64_t kSeed = 11;
+}  // namespace
+
+TEST(SurveyCalibration, DefaultWorldEveryCameraWithinTheThresholds)
+{
+  auto world = sim::loadWorldFile(kSource + "/config/worlds/waiting_room.yaml");
+  ASSERT_TRUE(world) << world.error().describe();
+  const auto configs = ic::loadCameraConfig(kSource + "/config/cameras.yaml");
+  ASSERT_TRUE(configs) << configs.error().describe();
+
+  sim::SurveyOptions sim_options;
+  sim_options.seed = kSeed;
+  auto simulator = sim::SurveySimulator::create(*world, sim_options);
+  ASSERT_TRUE(simulator) << simulator.error().describe();
+
+  std::vector<ic::FixedCameraConfig> cameras;
+  for (const auto& entry : *configs)
+    cameras.push_back(entry.camera);
+  ic::Survey survey(cameras);
+
+  int xtion = 0;
+  for (const sim::SurveyEvent& event : simulator->events())
+  {
+    const double stamp = 1e-9 * static_cast<double>(event.stamp_ns);
+    if (event.kind == sim::SurveyEventKind::kXtion)
+    {
+      const sim::XtionFrame x = simulator->xtionFrame(event.index);
+      const sim::ViewCamera view = simulator->xtionCamera(x.stamp_ns);
+      ic::RgbdFrame frame;
+      cv::cvtColor(x.rgb, frame.rgb, cv::COLOR_RGB2BGR);
+      frame.depth = x.depth_mm;
+      frame.camera.width = view.width;
+      frame.camera.height = view.height;
+      frame.camera.intrinsics = view.intrinsics;
+      frame.T_map_camera = x.map_from_optical;
+      frame.stamp = stamp;
+      survey.addRgbdFrame(frame);
+      ++xtion;
+    }
+    else if (event.kind == sim::SurveyEventKind::kFixed)
+    {
+      const sim::FixedFrame f = simulator->fixedFrame(event.camera, event.index);
+      cv::Mat grey;
+      cv::cvtColor(f.image, grey, cv::COLOR_RGB2GRAY);
+      survey.addFixedImage(simulator->world().fixed_cameras[event.camera].name, grey, stamp);
+    }
+  }
+  std::printf("seed %llu: %d RGB-D frames, %zu keyframes, %zu map lines used\n", static_cast<unsigned long long>(kSeed),
+              xtion, survey.stats().keyframes, survey.mapSegments().size());
+
+  const auto map = survey.mapSegments();
+  const auto sigmas = survey.mapLineSigmas();
+  for (size_t c = 0; c < simulator->world().fixed_cameras.size(); ++c)
+  {
+    const std::string& name = simulator->world().fixed_cameras[c].name;
+    if (!survey.hasCamera(name))
+      continue;
+    const auto result = survey.camera(name).calibrate(map, "map", sigmas);
+    ASSERT_TRUE(result) << name << ": " << result.error().describe();
+    const ic::CalibrationFile truth = simulator->groundTruth(static_cast<int>(c));
+    const ic::CameraErrors e = ic::compareCameras(truth.camera, result->calibration.camera);
+    const ic::CameraUncertainty& u = result->calibration.uncertainty;
+    const double rotation_deg = e.rotation_rad * 180.0 / M_PI;
+    std::printf(
+        "%s: focal %+.3f %% (sigma %.3f %%), rotation %.4f deg (sigma %.4f), position %.2f mm (sigma %.2f), lambda "
+        "%.2f %%, MSE %.4f px^2, %zu lines\n",
+        name.c_str(), 100.0 * e.focal_relative, 100.0 * u.fx / truth.camera.intrinsics().fx, rotation_deg,
+        u.rotation_deg, 1000.0 * e.center_m, 1000.0 * u.position_m, 100.0 * e.lambda_relative,
+        result->calibration.reprojection.mse_px2, result->matched_image_lines.size());
+    EXPECT_LT(std::abs(e.focal_relative), 0.01) << name;
+    EXPECT_LT(rotation_deg, 0.5) << name;
+    EXPECT_LT(e.center_m, 0.03) << name;
+    EXPECT_LT(e.lambda_relative, 0.10) << name;
+    EXPECT_LT(result->calibration.reprojection.mse_px2, 0.1) << name;
+    ASSERT_TRUE(u.available) << name << ": " << u.reason;
+    EXPECT_LT(std::abs(e.focal_relative) * truth.camera.intrinsics().fx, 3.0 * u.fx) << name;
+    EXPECT_LT(rotation_deg, 3.0 * u.rotation_deg) << name;
+    EXPECT_LT(e.center_m, 3.0 * u.position_m) << name;
+  }
+}
