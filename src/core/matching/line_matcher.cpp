@@ -600,6 +600,19 @@ Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_line
                                           const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                           const std::vector<CameraModel>& starts, int image_width, int image_height,
                                           const LineMatcherOptions& options, double initial_max_distance_px, bool hop);
+
+Status checkMatchInputs(const std::vector<Segment3d>& map_lines,
+                        const std::vector<std::vector<Eigen::Vector2d>>& image_lines, int image_width,
+                        int image_height)
+{
+  if (map_lines.empty())
+    return Error(ErrorCode::kNotEnoughData, "the line map is empty: survey the area the camera sees first");
+  if (image_lines.empty())
+    return Error(ErrorCode::kNotEnoughData, "no lines were found in the camera's image");
+  if (image_width <= 0 || image_height <= 0)
+    return Error(ErrorCode::kInvalidInput, "the image size is not positive");
+  return Success{};
+}
 }  // namespace
 
 Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_lines,
@@ -608,12 +621,8 @@ Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_li
                                             const LineMatcherOptions& options,
                                             const std::vector<double>& map_line_sigmas_m)
 {
-  if (map_lines.empty())
-    return Error(ErrorCode::kNotEnoughData, "the line map is empty: survey the area the camera sees first");
-  if (image_lines.empty())
-    return Error(ErrorCode::kNotEnoughData, "no lines were found in the camera's image");
-  if (image_width <= 0 || image_height <= 0)
-    return Error(ErrorCode::kInvalidInput, "the image size is not positive");
+  if (const Status valid = checkMatchInputs(map_lines, image_lines, image_width, image_height); !valid)
+    return valid.error();
   if (!prior.position.allFinite() || !prior.direction.allFinite() || !(prior.direction.norm() > 0.0) ||
       !(prior.horizontal_fov_deg > 0.0 && prior.horizontal_fov_deg < 180.0))
     return Error(ErrorCode::kInvalidInput,
@@ -634,12 +643,8 @@ Expected<LineMatchResult> matchAndCalibrateFrom(const std::vector<Segment3d>& ma
                                                 const LineMatcherOptions& options,
                                                 const std::vector<double>& map_line_sigmas_m)
 {
-  if (map_lines.empty())
-    return Error(ErrorCode::kNotEnoughData, "the line map is empty: survey the area the camera sees first");
-  if (image_lines.empty())
-    return Error(ErrorCode::kNotEnoughData, "no lines were found in the camera's image");
-  if (image_width <= 0 || image_height <= 0)
-    return Error(ErrorCode::kInvalidInput, "the image size is not positive");
+  if (const Status valid = checkMatchInputs(map_lines, image_lines, image_width, image_height); !valid)
+    return valid.error();
   return matchFromStarts(map_lines, map_line_sigmas_m, image_lines, {start}, image_width, image_height, options,
                          options.known_camera_max_distance_px, false);
 }
