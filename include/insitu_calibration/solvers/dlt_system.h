@@ -47,11 +47,18 @@ public:
 private:
   void unpack() const;
 
-  // Only the distinct products are accumulated: the 10 entries of the symmetric 4x4 scatter times the 9 entries of
-  // l l^T, the 6 non-zero ones of l e^T and the 3 distinct ones of e e^T. The 12x12 matrices are built on demand.
-  double packed11_[10][9];
-  double packed12_[10][6];
-  double packed22_[10][3];
+  void flush() const;
+
+  // Only the distinct products are accumulated: the 10 entries of the symmetric 4x4 scatter times the 18 image
+  // entries (9 of l l^T, the 6 non-zero ones of l e^T, the 3 distinct ones of e e^T), as packed_ = sum s g^T. Groups
+  // are batched and added as one small matrix product, which vectorises (one outer product per group does not: with
+  // 2 constraints per line it was most of the time). The 12x12 matrices are built on demand.
+  static constexpr int kPackedImage = 18;
+  static constexpr int kBatch = 64;
+  mutable Eigen::Matrix<double, 10, kPackedImage> packed_;
+  mutable Eigen::Matrix<double, 10, kBatch> batch_scatter_;
+  mutable Eigen::Matrix<double, kPackedImage, kBatch> batch_image_;
+  mutable int batched_ = 0;
   size_t constraints_ = 0;
   mutable bool unpacked_ = false;
   mutable Matrix12d c11_;

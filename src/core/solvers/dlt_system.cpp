@@ -1,6 +1,6 @@
 #include "insitu_calibration/solvers/dlt_system.h"
 
-#include <cstring>
+#include <algorithm>
 
 namespace insitu_calibration
 {
@@ -13,9 +13,8 @@ constexpr int kScatterCol[10] = {0, 1, 2, 3, 1, 2, 3, 2, 3, 3};
 
 void DltSystem::clear()
 {
-  std::memset(packed11_, 0, sizeof(packed11_));
-  std::memset(packed12_, 0, sizeof(packed12_));
-  std::memset(packed22_, 0, sizeof(packed22_));
+  packed_.setZero();
+  batched_ = 0;
   constraints_ = 0;
   unpacked_ = false;
 }
@@ -35,37 +34,44 @@ void DltSystem::addGroup(const Eigen::Matrix4d& world_scatter, const Eigen::Matr
 void DltSystem::addPackedGroup(const double s[10], const double l11[9], const double l12[6], const double l22[3],
                                size_t constraints)
 {
-  for (int b = 0; b < 10; ++b)
-  {
-    for (int q = 0; q < 9; ++q)
-      packed11_[b][q] += s[b] * l11[q];
-    for (int q = 0; q < 6; ++q)
-      packed12_[b][q] += s[b] * l12[q];
-    for (int q = 0; q < 3; ++q)
-      packed22_[b][q] += s[b] * l22[q];
-  }
+  std::copy(s, s + 10, batch_scatter_.col(batched_).data());
+  double* g = batch_image_.col(batched_).data();
+  std::copy(l11, l11 + 9, g);
+  std::copy(l12, l12 + 6, g + 9);
+  std::copy(l22, l22 + 3, g + 15);
+  if (++batched_ == kBatch)
+    flush();
   constraints_ += constraints;
   unpacked_ = false;
+}
+
+void DltSystem::flush() const
+{
+  if (batched_ == kBatch)
+    packed_.noalias() += batch_scatter_ * batch_image_.transpose();
+  else if (batched_ > 0)  // a few groups (RANSAC's minimal sets): no GEMM set-up
+    packed_.noalias() += batch_scatter_.leftCols(batched_).lazyProduct(batch_image_.leftCols(batched_).transpose());
+  batched_ = 0;
 }
 
 void DltSystem::unpack() const
 {
   if (unpacked_)
     return;
+  flush();
   c11_.setZero();
   c12_.setZero();
   c22_.setZero();
   // Kronecker product S (x) L, block (j, k) = S(j, k) L; S is symmetric, so block (k, j) equals block (j, k).
   for (int b = 0; b < 10; ++b)
   {
+    const auto p = packed_.row(b);
     Eigen::Matrix3d b11;
-    b11 << packed11_[b][0], packed11_[b][1], packed11_[b][2], packed11_[b][3], packed11_[b][4], packed11_[b][5],
-        packed11_[b][6], packed11_[b][7], packed11_[b][8];
+    b11 << p(0), p(1), p(2), p(3), p(4), p(5), p(6), p(7), p(8);
     Eigen::Matrix3d b12 = Eigen::Matrix3d::Zero();
-    b12.leftCols<2>() << packed12_[b][0], packed12_[b][1], packed12_[b][2], packed12_[b][3], packed12_[b][4],
-        packed12_[b][5];
+    b12.leftCols<2>() << p(9), p(10), p(11), p(12), p(13), p(14);
     Eigen::Matrix3d b22 = Eigen::Matrix3d::Zero();
-    b22.topLeftCorner<2, 2>() << packed22_[b][0], packed22_[b][1], packed22_[b][1], packed22_[b][2];
+    b22.topLeftCorner<2, 2>() << p(15), p(16), p(16), p(17);
     const int j = kScatterRow[b];
     const int k = kScatterCol[b];
     c11_.block<3, 3>(3 * j, 3 * k) = b11;
