@@ -25,6 +25,7 @@
 #include "insitu_calibration/survey/camera_config.h"
 #include "insitu_calibration/survey/overlay.h"
 #include "insitu_calibration/survey/survey.h"
+#include "insitu_calibration/geometry/optical_frame.h"
 
 namespace ic = insitu_calibration;
 
@@ -310,11 +311,9 @@ std::optional<ic::CameraPrior> priorFromTruth(const std::string& truth_dir, cons
   Eigen::Vector3d axis = randomUnit();
   axis = (axis - axis.dot(forward) * forward).normalized();
   prior.direction = Eigen::AngleAxisd(offsets[1] * M_PI / 180.0, axis) * forward;
-  {
-    Eigen::Vector3d right = forward.cross(Eigen::Vector3d::UnitZ()).normalized();
-    const Eigen::Vector3d down = forward.cross(right).normalized();
-    prior.roll_deg = std::atan2(truth_rotation.col(0).dot(down), truth_rotation.col(0).dot(right)) * 180.0 / M_PI;
-  }
+  if (const auto level = ic::opticalRotationLookingAlong(forward))
+    prior.roll_deg =
+        std::atan2(truth_rotation.col(0).dot(level->col(1)), truth_rotation.col(0).dot(level->col(0))) * 180.0 / M_PI;
   const double fx = truth->camera.intrinsics().fx;
   const double sign = std::uniform_int_distribution<int>(0, 1)(rng) ? 1.0 : -1.0;
   prior.horizontal_fov_deg = 2.0 * std::atan(0.5 * truth->image_width / fx) * 180.0 / M_PI * (1.0 + sign * offsets[2]);

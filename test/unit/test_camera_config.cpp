@@ -20,8 +20,9 @@ TEST(CameraConfig, LoadsTheShippedConfiguration)
 
 TEST(CameraConfig, DefaultsTheTopicsFromTheName)
 {
-  const auto config = ic::parseCameraConfig("cameras:\n  - {name: lobby_cam, image_width: 640, image_height: 480,\n"
-                                            "     correspondence_file: /tmp/lobby.yaml}\n");
+  const auto config = ic::parseCameraConfig(
+      "cameras:\n  - {name: lobby_cam, image_width: 640, image_height: 480,\n"
+      "     correspondence_file: /tmp/lobby.yaml}\n");
   ASSERT_TRUE(config) << config.error().describe();
   ASSERT_EQ(config->size(), 1u);
   EXPECT_EQ((*config)[0].camera.image_topic, "/fixed/lobby_cam/image_raw");
@@ -32,11 +33,12 @@ TEST(CameraConfig, RejectsTwoCamerasPublishingOnOneTopic)
 {
   // Two cameras on one image stream (the hand-picked workflow next to the automatic one) share the default
   // CameraInfo topic: refused with both names, accepted once one of them names its own topic.
-  const std::string shared = "cameras:\n"
-                             "  - {name: a, image_topic: /fixed/a/image_raw, image_width: 640, image_height: 480,\n"
-                             "     correspondence_file: /tmp/a.yaml}\n"
-                             "  - {name: b, image_topic: /fixed/a/image_raw, image_width: 640, image_height: 480,\n"
-                             "     correspondence_file: /tmp/b.yaml";
+  const std::string shared =
+      "cameras:\n"
+      "  - {name: a, image_topic: /fixed/a/image_raw, image_width: 640, image_height: 480,\n"
+      "     correspondence_file: /tmp/a.yaml}\n"
+      "  - {name: b, image_topic: /fixed/a/image_raw, image_width: 640, image_height: 480,\n"
+      "     correspondence_file: /tmp/b.yaml";
   const auto clash = ic::parseCameraConfig(shared + "}\n");
   ASSERT_FALSE(clash);
   EXPECT_NE(clash.error().message().find("'a' and 'b'"), std::string::npos) << clash.error().message();
@@ -49,20 +51,21 @@ TEST(CameraConfig, RejectsTwoCamerasPublishingOnOneTopic)
 
 TEST(CameraConfig, ErrorsNameTheEntryAndTheKey)
 {
-  const auto duplicate = ic::parseCameraConfig("cameras:\n  - {name: a, image_width: 640, image_height: 480,"
-                                               " correspondence_file: x}\n  - {name: a, image_width: 640,"
-                                               " image_height: 480, correspondence_file: y}\n");
+  const auto duplicate = ic::parseCameraConfig(
+      "cameras:\n  - {name: a, image_width: 640, image_height: 480,"
+      " correspondence_file: x}\n  - {name: a, image_width: 640,"
+      " image_height: 480, correspondence_file: y}\n");
   ASSERT_FALSE(duplicate);
   EXPECT_NE(duplicate.error().message().find("used twice"), std::string::npos) << duplicate.error().message();
 
   const auto no_width = ic::parseCameraConfig("cameras:\n  - {name: a, image_height: 480, correspondence_file: x}\n");
   ASSERT_FALSE(no_width);
-  EXPECT_NE(no_width.error().message().find("cameras[0].image_width"), std::string::npos)
-      << no_width.error().message();
+  EXPECT_NE(no_width.error().message().find("cameras[0].image_width"), std::string::npos) << no_width.error().message();
 
-  const auto bad_prior = ic::parseCameraConfig("cameras:\n  - {name: a, image_width: 640, image_height: 480,\n"
-                                               "     prior: {position: [0, 0, 2], direction: [0, 0, 0],"
-                                               " horizontal_fov_deg: 60}}\n");
+  const auto bad_prior = ic::parseCameraConfig(
+      "cameras:\n  - {name: a, image_width: 640, image_height: 480,\n"
+      "     prior: {position: [0, 0, 2], direction: [0, 0, 0],"
+      " horizontal_fov_deg: 60}}\n");
   ASSERT_FALSE(bad_prior);
   EXPECT_NE(bad_prior.error().message().find("cameras[0].prior"), std::string::npos) << bad_prior.error().message();
 }

@@ -12,6 +12,7 @@
 #include "insitu_calibration/lines/line_evaluation.h"
 #include "insitu_calibration/lines/rgbd_lines.h"
 #include "insitu_calibration/synthetic/line_scene.h"
+#include "insitu_calibration/geometry/optical_frame.h"
 
 namespace ic = insitu_calibration;
 
@@ -53,13 +54,8 @@ ic::RgbdCamera xtionCamera()
 // The optical frame at position, looking at target (z forward, x right, y down; world z up).
 Eigen::Isometry3d lookAt(const Eigen::Vector3d& position, const Eigen::Vector3d& target)
 {
-  const Eigen::Vector3d z = (target - position).normalized();
-  const Eigen::Vector3d x = z.cross(Eigen::Vector3d::UnitZ()).normalized();
-  const Eigen::Vector3d y = z.cross(x);
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-  t.linear().col(0) = x;
-  t.linear().col(1) = y;
-  t.linear().col(2) = z;
+  t.linear() = *ic::opticalRotationLookingAlong(target - position);
   t.translation() = position;
   return t;
 }

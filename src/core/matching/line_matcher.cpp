@@ -602,8 +602,7 @@ Expected<LineMatchResult> matchFromStarts(const std::vector<Segment3d>& map_line
                                           const LineMatcherOptions& options, double initial_max_distance_px, bool hop);
 
 Status checkMatchInputs(const std::vector<Segment3d>& map_lines,
-                        const std::vector<std::vector<Eigen::Vector2d>>& image_lines, int image_width,
-                        int image_height)
+                        const std::vector<std::vector<Eigen::Vector2d>>& image_lines, int image_width, int image_height)
 {
   if (map_lines.empty())
     return Error(ErrorCode::kNotEnoughData, "the line map is empty: survey the area the camera sees first");

@@ -10,6 +10,7 @@
 
 #include "insitu_calibration/io/atomic_file.h"
 #include "insitu_calibration/synthetic/synthetic_lines.h"
+#include "insitu_calibration/geometry/optical_frame.h"
 #include "io/yaml_util.h"
 
 namespace insitu_calibration
@@ -569,16 +570,10 @@ Expected<FixedCameraConfig> parseFixedCamera(const YAML::Node& node, size_t inde
     TRY_ASSIGN(target, n.vector<3>("look_at"));
     double roll = 0.0;
     TRY_ASSIGN(roll, n.number("roll_deg", 0.0));
-    const Eigen::Vector3d forward = (target - position).normalized();
-    const Eigen::Vector3d right0 = forward.cross(Eigen::Vector3d::UnitZ());
-    if (!((target - position).norm() > 1e-6) || right0.norm() < 1e-6)
+    const auto rotation = opticalRotationLookingAlong(target - position, roll * kDegToRad);
+    if (!((target - position).norm() > 1e-6) || !rotation)
       return invalid(n.at("look_at"), "the camera must not look straight up or down (use 'orientation')");
-    const Eigen::Vector3d right = right0.normalized();
-    const Eigen::Vector3d down = forward.cross(right);
-    world_from_camera.col(0) = right;
-    world_from_camera.col(1) = down;
-    world_from_camera.col(2) = forward;
-    world_from_camera = world_from_camera * Eigen::AngleAxisd(roll * kDegToRad, Eigen::Vector3d::UnitZ());
+    world_from_camera = *rotation;
   }
   else
   {

@@ -1,6 +1,7 @@
 #include <Eigen/Geometry>
 
 #include "insitu_calibration/synthetic/synthetic_lines.h"
+#include "insitu_calibration/geometry/optical_frame.h"
 
 #include <cmath>
 
@@ -60,12 +61,8 @@ CameraModel randomCamera(const SyntheticCameraOptions& options, std::mt19937& rn
   const double tilt = uniform(options.tilt_min_deg, options.tilt_max_deg) * kDegToRad;
   const Eigen::Vector3d position(uniform(0.2, 0.6), uniform(0.2, 0.6), options.height_m);
   const Eigen::Vector3d forward(std::cos(tilt) * std::cos(yaw), std::cos(tilt) * std::sin(yaw), -std::sin(tilt));
-  const Eigen::Vector3d right = forward.cross(Eigen::Vector3d::UnitZ()).normalized();
-  const Eigen::Vector3d down = forward.cross(right);
   Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
-  world_from_camera.linear().col(0) = right;
-  world_from_camera.linear().col(1) = down;
-  world_from_camera.linear().col(2) = forward;
+  world_from_camera.linear() = *opticalRotationLookingAlong(forward);  // tilted down, never vertical
   world_from_camera.translation() = position;
   return CameraModel(in, distortion, CameraPose::fromWorldFromCamera(world_from_camera));
 }
