@@ -4,6 +4,7 @@
 
 #include <csignal>
 #include <filesystem>
+#include <mutex>
 #include <random>
 
 #include <ros/ros.h>
@@ -108,6 +109,43 @@ TEST(CalibrationNode, ErrorsBeforeTheData)
   std::printf("before the data: %s\n", early.message.c_str());
 }
 
+// tf2's own timeout runs on ROS time, which stops with the bag's /clock: wait on the wall clock instead.
+bool waitForTransform(const tf2_ros::Buffer& tf, const std::string& target, const std::string& source, double seconds)
+{
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(seconds);
+  while (ros::ok() && ros::WallTime::now() < deadline)
+  {
+    if (tf.canTransform(target, source, ros::Time(0)))
+      return true;
+    ros::WallDuration(0.05).sleep();
+  }
+  return false;
+}
+
+// ros::topic::waitForMessage's timeout runs on ROS time too.
+sensor_msgs::CameraInfoConstPtr waitForLatchedCameraInfo(const std::string& topic, double seconds)
+{
+  sensor_msgs::CameraInfoConstPtr received;
+  std::mutex mutex;
+  ros::NodeHandle nh;
+  const ros::Subscriber sub = nh.subscribe<sensor_msgs::CameraInfo>(
+      topic, 1, [&](const sensor_msgs::CameraInfoConstPtr& msg) {
+        std::lock_guard<std::mutex> lock(mutex);
+        received = msg;
+      });
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(seconds);
+  while (ros::ok() && ros::WallTime::now() < deadline)
+  {
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (received)
+        return received;
+    }
+    ros::WallDuration(0.05).sleep();
+  }
+  return nullptr;
+}
+
 TEST(CalibrationNode, CalibratesEveryCameraFromTheSurvey)
 {
   // Wait for the whole survey (simulated time from the bag's /clock).
@@ -147,8 +185,10 @@ TEST(CalibrationNode, CalibratesEveryCameraFromTheSurvey)
 
     // tf: map -> <camera>_link -> <camera>_optical_frame is the calibrated pose.
     geometry_msgs::TransformStamped pose;
-    ASSERT_NO_THROW(pose = tf.lookupTransform("map", camera + "_optical_frame", ros::Time(0), ros::Duration(10.0)))
-        << camera;
+    ASSERT_TRUE(waitForTransform(tf, "map", camera + "_optical_frame", 20.0))
+        << camera << ": no transform from map; tf has:\n"
+        << tf.allFramesAsString();
+    ASSERT_NO_THROW(pose = tf.lookupTransform("map", camera + "_optical_frame", ros::Time(0))) << camera;
     const Eigen::Isometry3d world_from_optical = tf2::transformToEigen(pose);
     EXPECT_LT((world_from_optical.translation() - t.camera.pose().center()).norm(), 0.03) << camera;
     EXPECT_LT(ic::rotationDistance(world_from_optical.linear().transpose(), t.camera.pose().rotation) * 180 / M_PI,
@@ -156,8 +196,7 @@ TEST(CalibrationNode, CalibratesEveryCameraFromTheSurvey)
         << camera;
 
     // The latched CameraInfo.
-    const auto info = ros::topic::waitForMessage<sensor_msgs::CameraInfo>(
-        "/fixed/" + camera + "/camera_info_calibrated", ros::Duration(10.0));
+    const auto info = waitForLatchedCameraInfo("/fixed/" + camera + "/camera_info_calibrated", 20.0);
     ASSERT_TRUE(info) << camera;
     EXPECT_EQ(info->header.frame_id, camera + "_optical_frame");
     EXPECT_EQ(info->width, static_cast<uint32_t>(t.image_width));

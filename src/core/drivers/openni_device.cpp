@@ -554,14 +554,22 @@ Status OpenniDevice::record(const std::string& path, double seconds,
     if (recorder.start() != openni::STATUS_OK)
       return Error(ErrorCode::kIoError, "cannot start the recorder (" + extendedError() + ")");
     const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
-    while (std::chrono::steady_clock::now() < end)
-    {
-      const Expected<bool> read = readFrame(200, on_frame);
-      if (!read)
-        return read.error();
-    }
+    Status recorded = Success{};
+    while (recorded && std::chrono::steady_clock::now() < end)
+      if (const Expected<bool> read = readFrame(200, on_frame); !read)
+        recorded = read.error();
+    // OpenNI2 deadlocks when the recorder stops while a stream's frame thread is handing it a frame (seen under
+    // load: each waits for the other's lock), so the streams stop first; DummyDevice's frame threads only notice on
+    // their next 33 ms tick. Then the recorder, and the streams again for whoever reads next.
+    d.color.stop();
+    d.depth.stop();
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
     recorder.stop();
     recorder.destroy();  // waits until the file is complete
+    if (d.color.start() != openni::STATUS_OK || d.depth.start() != openni::STATUS_OK)
+      return Error(ErrorCode::kIoError, "cannot restart the streams after recording (" + extendedError() + ")");
+    if (!recorded)
+      return recorded;
   }
   const Expected<int> fixed = addCroppingToOniRecording(path);
   if (!fixed)
