@@ -34,6 +34,7 @@ namespace
 {
 const char* kUsage = R"(Usage: bench_lines [--world FILE] [--duration S] [--rate HZ] [--frames N] [--fixed-frames N]
                    [--rgb-noise SIGMA] [--min-support N] [--detector fld|lsd|both] [--seed S] [--repeat R] [--verbose]
+                   [--end-tolerance PX] [--split-kink PX] [--min-break PX]
        bench_lines --room [--frames N] [--fixed N] [--detector fld|lsd|both] [--seed S] [--repeat R] [--save DIR]
 
 Times line extraction on one core (cv::setNumThreads(1); CPU time of the thread, so other load on the machine
@@ -55,6 +56,9 @@ Simulator frames (default): the survey simulator (docs/simulator.md) on a world 
   --min-support N     map lines used for calibration (the survey's min_map_support), default 2
   --detector          default fld
   --seed S            simulator noise seed, default 1
+  --end-tolerance PX  fixed cameras: RefinerOptions::end_tolerance_px (0: ends not trimmed, no part broken), default 0.3
+  --split-kink PX     fixed cameras: ImageLineOptions::split_kink_px (0: no split at kinks), default 0.5
+  --min-break PX      fixed cameras: RefinerOptions::min_break_px (0: parts not tested for a break), default 8
 --room: the synthetic room of synthetic/line_scene.h (the benchmark before the simulator existed; 1920x1080 fixed
 images f = 1100 px with the corner moved 20 px; --frames default 30, --fixed default 2, --detector default both,
 --save DIR writes the rendered images).
@@ -636,6 +640,9 @@ int runWorld(ic::CommandLine& cl, const std::vector<ic::SegmentDetectorKind>& ki
   {
     ic::ImageLineOptions image_options;
     image_options.detector.kind = kind;
+    image_options.refiner.end_tolerance_px = cl.number("end-tolerance", image_options.refiner.end_tolerance_px);
+    image_options.split_kink_px = cl.number("split-kink", image_options.split_kink_px);
+    image_options.refiner.min_break_px = cl.number("min-break", image_options.refiner.min_break_px);
     std::printf(
         "\nfixed cameras, detector %s (%d noisy frames each; first pass: lambda = 0 at the image centre; "
         "then with the true lambda and centre)\n",
@@ -707,7 +714,7 @@ int main(int argc, char** argv)
 {
   ic::CommandLine cl(argc, argv,
                      {"frames", "fixed", "detector", "seed", "repeat", "save", "world", "duration", "rate",
-                      "fixed-frames", "rgb-noise", "min-support"},
+                      "fixed-frames", "rgb-noise", "min-support", "end-tolerance", "split-kink", "min-break"},
                      {"verbose", "room"});
   if (cl.help())
   {

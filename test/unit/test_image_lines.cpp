@@ -310,6 +310,7 @@ TEST(ImageLines, PolylineAlongTwoNearlyCollinearEdgesIsSplit)
   {
     ic::ImageLineOptions options;
     options.split_gap_px = split;
+    options.split_kink_px = split > 0.0 ? options.split_kink_px : 0.0;  // the kink test splits this line too
     ic::ImageLineStats stats;
     const auto lines = ic::extractImageLines(image, none, options, &stats);
     ASSERT_TRUE(lines.ok()) << lines.error().describe();
@@ -329,5 +330,112 @@ TEST(ImageLines, PolylineAlongTwoNearlyCollinearEdgesIsSplit)
     {
       EXPECT_GT(max_error, 0.3);  // the first version: one line across both edges
     }
+  }
+}
+
+// An edge that ends where a nearly collinear edge takes over 1 px aside (a door frame's top running on as the wall's
+// edge behind it): a part straddling the junction is fine-tuned onto the longer edge, and the samples beyond the
+// junction lie off the line. The part reports that run (off_b_px) and the line ends at the junction instead of running
+// on beside the other edge.
+TEST(ImageLines, LineEndsWhereANearlyCollinearEdgeTakesOver)
+{
+  std::mt19937 rng(kSeed);
+  constexpr double kJunction = 420.0, kEnd = 440.0;
+  auto edge_y = [&](double x) { return x < kJunction ? 100.3 + 0.01 * x : 101.3 + 0.01 * x; };
+  const cv::Mat image = renderFunction(
+      520, 200, [&](double x, double y) { return y < edge_y(x) || x >= kEnd ? 190.0 : 70.0; }, 2.0, rng, 6);
+
+  // The part alone: 400 px on the first edge, 20 px on the second.
+  auto refiner = ic::LineRefiner::create(image);
+  ASSERT_TRUE(refiner.ok());
+  const Eigen::Vector2d a(20.0, edge_y(20.0) + 0.3), b(kEnd, edge_y(kEnd) - 0.5);
+  const auto part = refiner->refineSegment(a, b);
+  ASSERT_TRUE(part.ok()) << part.error().describe();
+  std::cout << "straddling part: off the line " << part->off_a_px << " px at a, " << part->off_b_px << " px at b"
+            << std::endl;
+  EXPECT_EQ(part->off_a_px, 0.0);
+  EXPECT_NEAR(part->off_b_px, kEnd - kJunction, 3.0);
+  // On one edge only: nothing off.
+  const auto clean = refiner->refineSegment(a, Eigen::Vector2d(kJunction - 20.0, edge_y(kJunction - 20.0)));
+  ASSERT_TRUE(clean.ok()) << clean.error().describe();
+  EXPECT_EQ(clean->off_a_px, 0.0);
+  EXPECT_EQ(clean->off_b_px, 0.0);
+
+  // The whole extraction: every line within 0.1 px of the edge under it.
+  auto worst = [&](const ic::ImageLine& line) {
+    double w = 0.0;
+    for (size_t k = 0; k + 1 < line.points.size(); ++k)
+      for (double t = 0.0; t <= 1.0; t += 0.05)
+      {
+        const Eigen::Vector2d p = line.points[k] + t * (line.points[k + 1] - line.points[k]);
+        if (std::abs(p.x() - kJunction) > 2.0 && p.x() < kEnd - 2.0)
+          w = std::max(w, std::abs(p.y() - edge_y(p.x())) / std::sqrt(1.0001));
+      }
+    return w;
+  };
+  ic::DivisionModel none;
+  none.center = Eigen::Vector2d(259.5, 99.5);
+  for (const double tolerance : {0.3, 0.0})
+  {
+    ic::ImageLineOptions options;
+    options.refiner.end_tolerance_px = tolerance;
+    ic::ImageLineStats stats;
+    const auto lines = ic::extractImageLines(image, none, options, &stats);
+    ASSERT_TRUE(lines.ok()) << lines.error().describe();
+    double max_error = 0.0;
+    for (const auto& line : *lines)
+      if (std::abs(line.points.front().y() - line.points.back().y()) < 20.0)  // the horizontal edges
+        max_error = std::max(max_error, worst(line));
+    std::cout << "end_tolerance_px " << tolerance << ": " << stats.segments.size() << " segments, " << stats.polylines
+              << " polylines, " << lines->size() << " lines, " << stats.trimmed
+              << " trimmed; largest distance to the edge " << max_error << " px" << std::endl;
+    ASSERT_GE(lines->size(), 1u);
+    if (tolerance > 0.0)
+      EXPECT_LT(max_error, 0.1);
+  }
+}
+
+// An edge running into another one at 2 degrees (a sloping shadow line meeting a wall's edge): the part of the
+// polyline across the junction (20 px on one edge, 50 px on the other) is fine-tuned between the two; its centroids
+// are fitted much better by two lines broken at the junction, so it is fine-tuned again on its longer side and the
+// line is split and trimmed at the junction.
+TEST(ImageLines, PartAcrossTwoEdgesMeetingAtAnAngleIsBroken)
+{
+  std::mt19937 rng(kSeed);
+  constexpr double kJunction = 300.0;
+  auto edge_y = [&](double x) { return x < kJunction ? 100.3 + 0.01 * x : 103.3 + 0.045 * (x - kJunction); };
+  const cv::Mat image = renderFunction(
+      600, 200, [&](double x, double y) { return y < edge_y(x) ? 190.0 : 70.0; }, 2.0, rng, 6);
+  auto worst = [&](const ic::ImageLine& line) {
+    double w = 0.0;
+    for (size_t k = 0; k + 1 < line.points.size(); ++k)
+      for (double t = 0.0; t <= 1.0; t += 0.05)
+      {
+        const Eigen::Vector2d p = line.points[k] + t * (line.points[k + 1] - line.points[k]);
+        if (std::abs(p.x() - kJunction) > 3.0)
+          w = std::max(w, std::abs(p.y() - edge_y(p.x())) / std::sqrt(1.0 + 0.045 * 0.045));
+      }
+    return w;
+  };
+  ic::DivisionModel none;
+  none.center = Eigen::Vector2d(299.5, 99.5);
+  for (const double min_break : {8.0, 0.0})
+  {
+    ic::ImageLineOptions options;
+    options.refiner.min_break_px = min_break;
+    ic::ImageLineStats stats;
+    const auto lines = ic::extractImageLines(image, none, options, &stats);
+    ASSERT_TRUE(lines.ok()) << lines.error().describe();
+    double max_error = 0.0;
+    for (const auto& line : *lines)
+      max_error = std::max(max_error, worst(line));
+    std::cout << "min_break_px " << min_break << ": " << stats.segments.size() << " segments, " << stats.polylines
+              << " polylines, " << lines->size() << " lines, " << stats.splits << " split, " << stats.trimmed
+              << " trimmed; largest distance to the edge " << max_error << " px" << std::endl;
+    ASSERT_GE(lines->size(), 1u);
+    if (min_break > 0.0)
+      EXPECT_LT(max_error, 0.1);
+    else
+      EXPECT_GT(max_error, 0.3);  // the part fitted between the two edges
   }
 }

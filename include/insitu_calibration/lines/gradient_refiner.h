@@ -53,6 +53,18 @@ struct RefinerOptions
   // The grey-level steps of the last window's two flanks (|t| in [w / 2, w]) differ by more than this fraction of
   // the edge's step: another edge inside the window, the part fails (kDegenerate). 0: no test.
   double max_asymmetry = 0.0;
+  // A sample of the last window lies off the fine-tuned line when it sees no edge or its centroid is more than
+  // max(end_tolerance_px, 3 robust sigmas) from the line: at an end of the part, a run of such samples (at least
+  // min_end_run_px long) is where the edge ends or another edge nearly collinear with it takes over
+  // (RefinedSegment::off_a_px, off_b_px). 0: not measured.
+  double end_tolerance_px = 0.3;
+  double min_end_run_px = 3.0;
+  // A part whose centroids two lines, split at one sample, fit much better than one (F statistic of the two extra
+  // parameters above min_break_f, the two lines more than end_tolerance_px apart at the end of the shorter side, each
+  // side at least min_break_px long) spans the junction of two edges: it is fine-tuned again on its longer side, the
+  // shorter side reported off the line. 0: not tested.
+  double min_break_px = 8.0;
+  double min_break_f = 25.0;
 };
 
 // A fine-tuned line part.
@@ -68,6 +80,10 @@ struct RefinedSegment
   int iterations = 0;
   int samples = 0;         // samples used in the final fit
   double asymmetry = 0.0;  // difference of the last window's flank steps relative to the edge's step
+  // Length of the part from a (from b) towards its middle whose samples lie off the fine-tuned line (see
+  // RefinerOptions::end_tolerance_px): the edge does not reach the end point there. 0 when it does.
+  double off_a_px = 0.0;
+  double off_b_px = 0.0;
 };
 
 struct RefinedPolyline
@@ -87,8 +103,10 @@ public:
   // precision), invalid options.
   static Expected<LineRefiner> create(const cv::Mat& image, const RefinerOptions& options = RefinerOptions());
 
-  // One segment (Eq. 8 with extension_px beyond both ends). Errors: coincident or non-finite end points
-  // (kInvalidInput), no edge found under the segment (kNotEnoughData: support below min_support).
+  // One segment (Eq. 8 with extension_px beyond both ends). A segment across the junction of two edges is fine-tuned
+  // on its longer side (min_break_px); the lengths at its ends that are not on the line are off_a_px, off_b_px.
+  // Errors: coincident or non-finite end points (kInvalidInput), no edge found under the segment (kNotEnoughData:
+  // support below min_support).
   Expected<RefinedSegment> refineSegment(const Eigen::Vector2d& a, const Eigen::Vector2d& b) const;
   // Same, with explicit extensions beyond a and beyond b.
   Expected<RefinedSegment> refineSegment(const Eigen::Vector2d& a, const Eigen::Vector2d& b, double extension_a_px,
@@ -105,6 +123,8 @@ public:
   const cv::Mat& image() const { return image_; }  // CV_32FC1, grey levels 0..255
 
 private:
+  Expected<RefinedSegment> refineSegment(const Eigen::Vector2d& a, const Eigen::Vector2d& b, double extension_a_px,
+                                         double extension_b_px, bool find_breaks) const;
   LineRefiner(cv::Mat image, const RefinerOptions& options) : image_(std::move(image)), options_(options) {}
   cv::Mat image_;
   RefinerOptions options_;

@@ -28,6 +28,10 @@ struct ImageLineOptions
   // lie on different edges (a polyline across a junction, or along two nearly collinear edges): the line is split
   // there. 0: never split.
   double split_gap_px = 0.3;
+  // Two adjacent fine-tuned parts whose lines are more than this apart at the far end of either part (beyond the
+  // bend of the detected polyline) meet at an angle: they lie on different edges, the line is split between them.
+  // 0: never.
+  double split_kink_px = 0.5;
 };
 
 struct ImageLine
@@ -47,6 +51,7 @@ struct ImageLineStats
   int lines = 0;                    // after fine-tuning
   int rejected = 0;                 // polylines whose fine-tuning found no edge
   int splits = 0;                   // polylines split where their fine-tuned parts disagree
+  int trimmed = 0;                  // lines whose ends were moved in where the edge does not reach them
   double detect_ms = 0.0;           // times: CPU time of the calling thread (the cost on one core)
   double merge_ms = 0.0;
   double refine_ms = 0.0;  // includes building the LineRefiner

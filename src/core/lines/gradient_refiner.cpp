@@ -1,7 +1,9 @@
 #include "insitu_calibration/lines/gradient_refiner.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
 
 #include <opencv2/imgproc.hpp>
 
@@ -155,6 +157,13 @@ Expected<RefinedSegment> LineRefiner::refineSegment(const Eigen::Vector2d& a, co
 Expected<RefinedSegment> LineRefiner::refineSegment(const Eigen::Vector2d& a, const Eigen::Vector2d& b,
                                                     double extension_a_px, double extension_b_px) const
 {
+  return refineSegment(a, b, extension_a_px, extension_b_px, true);
+}
+
+Expected<RefinedSegment> LineRefiner::refineSegment(const Eigen::Vector2d& a, const Eigen::Vector2d& b,
+                                                    double extension_a_px, double extension_b_px,
+                                                    bool find_breaks) const
+{
   const RefinerOptions& o = options_;
   if (!a.allFinite() || !b.allFinite() || !std::isfinite(extension_a_px) || !std::isfinite(extension_b_px))
     return Error(ErrorCode::kInvalidInput, "segment end points must be finite");
@@ -267,6 +276,7 @@ Expected<RefinedSegment> LineRefiner::refineSegment(const Eigen::Vector2d& a, co
   std::vector<double> raw_weight(s.size()), centroid(s.size()), weight(s.size()), flank(s.size());
   std::vector<char> valid(s.size()), use(s.size());
   std::vector<double> robust_weight(s.size(), 0.0);
+  std::vector<double> final_residual(s.size(), 0.0);  // centroid - fitted line, last iteration
   double polarity = 0.0;
   RefinedSegment result;
   double support = 0.0;
@@ -410,6 +420,8 @@ Expected<RefinedSegment> LineRefiner::refineSegment(const Eigen::Vector2d& a, co
       }
       residual_rms = std::sqrt(r2 / wsum);
       asymmetry = flank_sum / wsum;
+      for (size_t i = 0; i < s.size(); ++i)
+        final_residual[i] = centroid[i] - fit.offset - fit.slope * s[i];
 
       p0 += fit.offset * n;
       d = (d + fit.slope * n).normalized();
@@ -429,6 +441,145 @@ Expected<RefinedSegment> LineRefiner::refineSegment(const Eigen::Vector2d& a, co
   if (o.max_asymmetry > 0.0 && std::abs(asymmetry) > o.max_asymmetry)
     return Error(ErrorCode::kDegenerate, "another edge lies within " + std::to_string(windows.back()) +
                                              " px of the line (flank asymmetry " + std::to_string(asymmetry) + ")");
+
+  // A part across the junction of two edges meeting at a small angle or offset (a kink or step along the part) is
+  // fitted between them. The centroids tell: two lines, one on each side of some sample, fit them much better than
+  // one (F statistic of the 2 extra parameters), and the two differ by more than end_tolerance_px at the end of the
+  // shorter side. Then the part is fine-tuned again on the longer side only, and the shorter side is reported off the
+  // line (off_a_px / off_b_px), for the caller to split or trim there.
+  if (find_breaks && o.end_tolerance_px > 0.0 && o.min_break_px > 0.0)
+  {
+    std::vector<size_t> idx;
+    for (size_t i = 0; i < s.size(); ++i)
+      if (valid[i])
+        idx.push_back(i);
+    const size_t m = idx.size();
+    const size_t min_side = static_cast<size_t>(std::ceil(o.min_break_px / o.sample_step_px));
+    if (m >= 2 * min_side + 4)
+    {
+      // Prefix sums of 1, s, c, s^2, s c, c^2 (c: centroid about the final line).
+      std::vector<std::array<double, 6>> sums(m + 1, std::array<double, 6>{});
+      for (size_t k = 0; k < m; ++k)
+      {
+        const double x = s[idx[k]], y = final_residual[idx[k]];
+        const std::array<double, 6> v = {1.0, x, y, x * x, x * y, y * y};
+        for (int j = 0; j < 6; ++j)
+          sums[k + 1][j] = sums[k][j] + v[j];
+      }
+      // Least-squares line y = p + q x of samples [from, to): residual sum of squares, p, q.
+      auto fitRange = [&](size_t from, size_t to, double* p, double* q) {
+        std::array<double, 6> t;
+        for (int j = 0; j < 6; ++j)
+          t[j] = sums[to][j] - sums[from][j];
+        const double n = t[0], mx = t[1] / n, my = t[2] / n;
+        const double sxx = t[3] - n * mx * mx, sxy = t[4] - n * mx * my, syy = t[5] - n * my * my;
+        *q = sxx > 1e-12 ? sxy / sxx : 0.0;
+        *p = my - *q * mx;
+        return std::max(0.0, syy - *q * sxy);
+      };
+      double p_all, q_all;
+      const double ssr_one = fitRange(0, m, &p_all, &q_all);
+      double best_ssr = ssr_one;
+      size_t best_k = 0;
+      for (size_t k = min_side; k + min_side <= m; ++k)
+      {
+        double p1, q1, p2, q2;
+        const double ssr = fitRange(0, k, &p1, &q1) + fitRange(k, m, &p2, &q2);
+        if (ssr < best_ssr)
+        {
+          best_ssr = ssr;
+          best_k = k;
+        }
+      }
+      if (best_k > 0)
+      {
+        double p1, q1, p2, q2;
+        fitRange(0, best_k, &p1, &q1);
+        fitRange(best_k, m, &p2, &q2);
+        const double sigma2 = std::max(best_ssr / static_cast<double>(m - 4), 1e-6);
+        const double f = 0.5 * (ssr_one - best_ssr) / sigma2;
+        // The two sides' lines at the outer end of the shorter side.
+        const bool a_shorter = best_k < m - best_k;
+        const double x_end = a_shorter ? s[idx.front()] : s[idx.back()];
+        const double apart = std::abs((p1 + q1 * x_end) - (p2 + q2 * x_end));
+        if (f > o.min_break_f && apart > o.end_tolerance_px)
+        {
+          const double s_break = 0.5 * (s[idx[best_k - 1]] + s[idx[best_k]]);
+          const Eigen::Vector2d cut = p0 + s_break * d;
+          if (a_shorter && s_break < h - 2.0)
+          {
+            // Keep [break, b]: a lies off the line.
+            auto kept = refineSegment(cut, b, 0.0, extension_b_px, false);
+            if (kept)
+            {
+              RefinedSegment r = *kept;
+              const Eigen::Vector2d dk = (r.b - r.a).normalized();
+              r.a = r.a + (a - r.a).dot(dk) * dk;
+              r.off_a_px = std::max(r.off_a_px, s_break + h);
+              r.shift_px = std::max((r.a - a).norm(), (r.b - b).norm());
+              return r;
+            }
+          }
+          else if (!a_shorter && s_break > -h + 2.0)
+          {
+            auto kept = refineSegment(a, cut, extension_a_px, 0.0, false);
+            if (kept)
+            {
+              RefinedSegment r = *kept;
+              const Eigen::Vector2d dk = (r.b - r.a).normalized();
+              r.b = r.a + (b - r.a).dot(dk) * dk;
+              r.off_b_px = std::max(r.off_b_px, h - s_break);
+              r.shift_px = std::max((r.a - a).norm(), (r.b - b).norm());
+              return r;
+            }
+          }
+        }
+      }
+    }
+  }
+
+  // Where the edge does not reach an end point (it ends, or a nearly collinear edge 0.5-2 px aside takes over: the
+  // robust fit follows the longer one), the samples there lie off the line or see no edge: the length of such a run
+  // at each end, up to the first few consecutive samples on the line.
+  if (o.end_tolerance_px > 0.0)
+  {
+    std::vector<double> abs_residuals;
+    for (size_t i = 0; i < s.size(); ++i)
+      if (use[i])
+        abs_residuals.push_back(std::abs(final_residual[i]));
+    const double tolerance = std::max(o.end_tolerance_px, 3.0 * 1.4826 * medianOf(abs_residuals));
+    const int on_run = std::max(1, static_cast<int>(std::ceil(o.min_end_run_px / o.sample_step_px)));
+    auto offRun = [&](bool from_a) {
+      const int first = from_a ? 0 : static_cast<int>(s.size()) - 1;
+      const int dir = from_a ? 1 : -1;
+      int on = 0;
+      double last_off = std::numeric_limits<double>::quiet_NaN(), first_on = last_off;
+      for (int i = first; i >= 0 && i < static_cast<int>(s.size()); i += dir)
+      {
+        if (!inside[i])
+          continue;
+        if (valid[i] && std::abs(final_residual[i]) <= tolerance)
+        {
+          if (on++ == 0)
+            first_on = s[i];
+          if (on >= on_run)
+            break;
+        }
+        else
+        {
+          on = 0;
+          last_off = s[i];
+        }
+      }
+      if (std::isnan(last_off))
+        return 0.0;
+      const double cut = std::isnan(first_on) || on < on_run ? (from_a ? h : -h) : 0.5 * (last_off + first_on);
+      const double off = from_a ? cut + h : h - cut;
+      return off >= o.min_end_run_px ? off : 0.0;
+    };
+    result.off_a_px = offRun(true);
+    result.off_b_px = offRun(false);
+  }
 
   result.line = Eigen::Vector3d(n.x(), n.y(), -n.dot(p0));
   result.a = p0 + (a - p0).dot(d) * d;

@@ -33,6 +33,93 @@ void trimFailedEnds(ImageLine& line)
   }
 }
 
+// Moves the two end points of a line inwards past the samples of its end parts that lie off the fine-tuned line
+// (RefinedSegment::off_a_px, off_b_px): there the edge ends, or a nearly collinear one continues 0.5-2 px aside and
+// the line, fitted to the longer edge, would run beside it. Each end part keeps at least 2 px.
+void trimOffEnds(ImageLine& line)
+{
+  if (line.parts.empty())
+    return;
+  auto move = [](Eigen::Vector2d& end, const Eigen::Vector2d& other, double off) {
+    const Eigen::Vector2d d = other - end;
+    const double length = d.norm();
+    if (off > 0.0 && length > 2.0)
+      end += std::min(off, length - 2.0) / length * d;
+  };
+  const size_t last = line.points.size() - 1;
+  if (line.parts.size() == 1)
+  {
+    // Both ends on one part: the part keeps at least 2 px between them.
+    const double length = (line.points[1] - line.points[0]).norm();
+    const double off_a = line.parts[0].off_a_px, off_b = line.parts[0].off_b_px;
+    const double scale = off_a + off_b > length - 2.0 ? std::max(0.0, length - 2.0) / (off_a + off_b) : 1.0;
+    const Eigen::Vector2d d = (line.points[1] - line.points[0]) / std::max(length, 1e-9);
+    line.points[0] += scale * off_a * d;
+    line.points[1] -= scale * off_b * d;
+    line.parts[0].a = line.points[0];
+    line.parts[0].b = line.points[1];
+    return;
+  }
+  move(line.points[0], line.points[1], line.parts.front().off_a_px);
+  move(line.points[last], line.points[last - 1], line.parts.back().off_b_px);
+  line.parts.front().a = line.points.front();
+  line.parts.back().b = line.points.back();
+}
+
+// Where two fine-tuned parts of a polyline lie on different edges: the parts [cuts[c], cuts[c + 1]) of each piece.
+// Two successive parts that found the edge (possibly with failed parts between them) disagree when
+//  - their lines are more than split_gap_px apart at the vertex they share (or, across failed parts, in the middle
+//    of the failed span), beyond what the detected polyline's own bend explains there; or
+//  - (adjacent parts) more than split_kink_px apart at the far end of either part, beyond the detected bend: they
+//    meet at an angle, e.g. where an edge runs into another one at a few degrees (0.5 px over a 75 px part: 0.4°;
+//    the fine-tuned direction of such a part is good to ~0.05°).
+std::vector<size_t> findCuts(const std::vector<Eigen::Vector2d>& detected, const std::vector<RefinedSegment>& parts,
+                             const ImageLineOptions& options)
+{
+  std::vector<size_t> cuts = {0};
+  // Signed distance of p from the fine-tuned line of part i and from the detected part i, normals oriented alike.
+  auto fine = [&](size_t i, const Eigen::Vector2d& p) { return parts[i].line.dot(Eigen::Vector3d(p.x(), p.y(), 1.0)); };
+  auto coarse = [&](size_t i, const Eigen::Vector2d& p) {
+    const Eigen::Vector2d d = (detected[i + 1] - detected[i]).normalized();
+    Eigen::Vector2d n(-d.y(), d.x());
+    if (n.dot(parts[i].line.head<2>()) < 0.0)
+      n = -n;
+    return n.dot(p - detected[i]);
+  };
+  // How far apart parts i and j are at p, beyond the detected polyline's bend there.
+  auto apart = [&](size_t i, size_t j, const Eigen::Vector2d& p) {
+    const double sign = parts[i].line.head<2>().dot(parts[j].line.head<2>()) < 0.0 ? -1.0 : 1.0;
+    return std::abs((fine(i, p) - sign * fine(j, p)) - (coarse(i, p) - sign * coarse(j, p)));
+  };
+  size_t previous = parts.size();  // last part that found the edge
+  for (size_t k = 0; k < parts.size(); ++k)
+  {
+    if (parts[k].samples == 0)
+      continue;
+    if (previous < parts.size())
+    {
+      const Eigen::Vector2d middle = 0.5 * (detected[previous + 1] + detected[k]);
+      bool cut = options.split_gap_px > 0.0 && apart(previous, k, middle) > options.split_gap_px;
+      if (!cut && previous + 1 == k && options.split_kink_px > 0.0)
+        cut = std::max(apart(previous, k, detected[previous]), apart(previous, k, detected[k + 1])) >
+              options.split_kink_px;
+      if (cut)
+        cuts.push_back(previous + 1);
+    }
+    previous = k;
+  }
+  cuts.push_back(parts.size());
+  return cuts;
+}
+
+double polylineLength(const std::vector<Eigen::Vector2d>& points)
+{
+  double length = 0.0;
+  for (size_t k = 0; k + 1 < points.size(); ++k)
+    length += (points[k + 1] - points[k]).norm();
+  return length;
+}
+
 }  // namespace
 
 Expected<std::vector<ImageLine>> extractImageLines(const cv::Mat& image, const DivisionModel& distortion,
@@ -81,16 +168,7 @@ Expected<std::vector<ImageLine>> extractImageLines(const cv::Mat& image, const D
         continue;
       }
       // Pieces between the vertices where two fine-tuned parts disagree.
-      std::vector<size_t> cuts = {0};
-      for (size_t k = 1; k < refined->parts.size(); ++k)
-      {
-        const RefinedSegment& before = refined->parts[k - 1];
-        const RefinedSegment& after = refined->parts[k];
-        if (options.split_gap_px > 0.0 && before.samples > 0 && after.samples > 0 &&
-            (before.b - after.a).norm() > options.split_gap_px)
-          cuts.push_back(k);
-      }
-      cuts.push_back(refined->parts.size());
+      const std::vector<size_t> cuts = findCuts(polyline.points, refined->parts, options);
       st.splits += cuts.size() > 2;
       for (size_t c = 0; c + 1 < cuts.size(); ++c)
       {
@@ -111,14 +189,11 @@ Expected<std::vector<ImageLine>> extractImageLines(const cv::Mat& image, const D
           ++st.rejected;
           continue;
         }
-        line.length_px = polyline.length_px;
-        if (cuts.size() > 2)
-        {
-          line.length_px = 0.0;
-          for (size_t k = 0; k + 1 < line.points.size(); ++k)
-            line.length_px += (line.points[k + 1] - line.points[k]).norm();
-        }
-        if (cuts.size() > 2 && line.length_px < options.merge.min_length_px)
+        const bool trimmed = line.parts.front().off_a_px > 0.0 || line.parts.back().off_b_px > 0.0;
+        trimOffEnds(line);
+        st.trimmed += trimmed;
+        line.length_px = cuts.size() > 2 || trimmed ? polylineLength(line.points) : polyline.length_px;
+        if ((cuts.size() > 2 || trimmed) && line.length_px < options.merge.min_length_px)
         {
           ++st.rejected;
           continue;

@@ -24,6 +24,9 @@ RgbdLineOptions::RgbdLineOptions()
   detector.min_length_px = 25.0;
   refiner.extension_px = 0.0;
   refiner.search_px = 1.5;
+  // No break test or off-line ends: the segments are not split or trimmed here, and the break test's re-fits left the
+  // 3D lines the same or slightly worse on the simulator (within 3 m median 1.07 vs 1.06 mm, 0.189 vs 0.188 deg).
+  refiner.end_tolerance_px = 0.0;
 }
 
 RgbdLineExtractor::RgbdLineExtractor(const RgbdLineOptions& options) : options_(options), detector_(options.detector) {}
