@@ -14,12 +14,15 @@
 // predicted to be worse than max_sigma_m are not inserted at all.
 //
 // Refit: each map line keeps the weighted first and second moments of its observations (each a uniform
-// distribution along its segment, weight inliers / max(rms, min_rms_m)^2), so the refitted line is their total
-// least squares (PCA). Extent: the two extreme end points along the refitted direction. Memory per map line is
-// constant, so the map grows with the number of distinct edges, not with the number of frames.
+// distribution along its segment, weight inliers / max(rms, min_rms_m)^2), whose total least squares (PCA) starts a
+// robust least-squares fit to its most precise observations (at most max_observations), each precise normal to its
+// interpretation plane and uncertain by its sigma_m in it. Extent: the two extreme end points along the refitted
+// direction. Memory per map line is bounded, so the map grows with the number of distinct edges, not with the
+// number of frames. MapLine::sigma is the line's standard error predicted from its observations' sigma_m.
 #ifndef INSITU_CALIBRATION_LINES_LINE_MAP_H
 #define INSITU_CALIBRATION_LINES_LINE_MAP_H
 
+#include <cmath>
 #include <vector>
 
 #include <Eigen/Core>
@@ -48,6 +51,27 @@ struct LineMapOptions
   // ... and whose direction is predicted to be off by more (sqrt(2) sigma_m / length: short lines). 0: no limit.
   double max_sigma_angle_deg = 1.0;
   double min_rms_m = 0.002;  // floor of an observation's rms in its weight
+  // Refit from the observations themselves: an RGB-D line lies in the plane through its sensor and its sub-pixel 2D
+  // edge, so its offset normal to that plane is as small as the 2D edge's error (lateral_sigma_rad times the range,
+  // at least lateral_floor_m; on the simulator the median is 0.02-0.16 mm, with a few observations mm off), while in
+  // the plane its depth error is sigma_m (depth_floor_fit_m added in quadrature). Observations from different
+  // viewpoints intersect their planes; those of the survey differ by a few degrees only, so the fit is mostly the
+  // observations' depths weighted by 1 / sigma^2. 0 observations kept: the moments' fit only.
+  int max_observations = 64;  // per map line (the most precise are kept)
+  double lateral_sigma_rad = 2e-4;
+  double lateral_floor_m = 0.0002;
+  double depth_floor_fit_m = 0.0005;  // survey benchmark: 0.5 mm better than 0, 0.25, 1 and 2 mm
+  double robust_k = 3.0;              // graduated Cauchy loss, its final scale in sigmas (0: least squares)
+};
+
+// What the refit keeps of one observation.
+struct MapObservation
+{
+  Eigen::Vector3d a = Eigen::Vector3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();  // of the interpretation plane (zero: unknown sensor)
+  double sigma_lateral = 0.0;                        // normal to the plane, m
+  double sigma_depth = 0.0;                          // in the plane, across the line, m
 };
 
 struct MapLine
@@ -69,6 +93,10 @@ struct MapLine
   // How far the observations lie from the fitted line: the RMS perpendicular distance (weighted, m). A few mm for a
   // clean edge; much more when the map line mixes nearby parallel edges (stripes, a frame's two sides).
   double spread() const;
+  // The standard error of the line's position predicted from its observations' errors (in their interpretation
+  // planes, where depth puts them): 1 / sqrt(sum 1 / sigma_i^2). 0 when unknown.
+  double sigma() const { return information > 0.0 ? 1.0 / std::sqrt(information) : 0.0; }
+  double information = 0.0;  // sum over the observations of 1 / sigma_i^2 (MapObservation::sigma_depth)
 
   // Sufficient statistics (constant size), about reference (the first observation's midpoint, for precision).
   Eigen::Vector3d reference = Eigen::Vector3d::Zero();
@@ -76,6 +104,7 @@ struct MapLine
   Eigen::Matrix3d sum_wxx = Eigen::Matrix3d::Zero();
   Eigen::Vector3d extreme_lo = Eigen::Vector3d::Zero();  // end points of the extent
   Eigen::Vector3d extreme_hi = Eigen::Vector3d::Zero();
+  std::vector<MapObservation> observations;  // at most LineMapOptions::max_observations
 };
 
 class LineMap

@@ -24,7 +24,7 @@ struct SurveyOptions
   FixedCameraOptions cameras;
   int min_map_support = 2;               // map lines seen fewer times are not used for calibration
   double max_map_spread_m = 0.01;        // nor map lines whose observations disagree more (MapLine::spread)
-  double min_map_line_sigma_m = 0.0005;  // floor of a map line's uncertainty (mapLineSigmas)
+  double min_map_line_sigma_m = 0.0005;  // added (in quadrature) to a map line's predicted error (mapLineSigmas)
   double fixed_image_period_s = 0.5;     // one image per period per camera goes into its median
 };
 
@@ -52,7 +52,8 @@ public:
   std::vector<Segment3d> mapSegments() const;
   // The map lines behind mapSegments() (same order): support and spread within the options' limits.
   std::vector<MapLine> usedMapLines() const;
-  // Per map segment (same order) how far off it may be, m: its spread, at least min_map_line_sigma_m.
+  // Per map segment (same order) how far off it may be, m: its predicted standard error (MapLine::sigma) and
+  // min_map_line_sigma_m in quadrature (its spread, at least min_map_line_sigma_m, when nothing is predicted).
   std::vector<double> mapLineSigmas() const;
   const LineMap& lineMap() const { return map_; }
   const SurveyStats& stats() const { return stats_; }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <Eigen/Dense>
 
@@ -48,6 +49,86 @@ void refit(MapLine* line, const std::vector<Eigen::Vector3d>& extremes)
   }
   line->s_min = lo;
   line->s_max = hi;
+}
+
+// Gauss-Newton on the line from the observations' end points, each constrained normal to its interpretation plane
+// (sigma_lateral) and in it across the line (sigma_depth), starting from the moments' fit. A few iterations: the
+// start is within millimetres.
+void refitFromObservations(MapLine* line, double robust_k)
+{
+  if (line->observations.empty())
+    return;
+  Eigen::Vector3d c = line->point, d = line->direction;
+  // Graduated Cauchy loss: a few observations are far off across their plane (their 2D edge on another edge).
+  const double scales[] = {64.0, 16.0, 8.0, 4.0, 2.0, 1.0, 1.0};
+  for (const double scale : scales)
+  {
+    const double c2 = robust_k * robust_k * scale * scale;
+    const Eigen::Vector3d e1 = d.unitOrthogonal(), e2 = d.cross(e1);
+    Eigen::Matrix4d h = Eigen::Matrix4d::Zero();
+    Eigen::Vector4d g = Eigen::Vector4d::Zero();
+    auto add = [&](const Eigen::Vector3d& m, double sigma, double s, const Eigen::Vector3d& q) {
+      const double a1 = m.dot(e1) / sigma, a2 = m.dot(e2) / sigma;
+      const Eigen::Vector4d j(a1, s * a1, a2, s * a2);
+      const double r = m.dot(q) / sigma;
+      const double w = robust_k > 0.0 ? 1.0 / (1.0 + r * r / c2) : 1.0;
+      h += w * j * j.transpose();
+      g += w * j * r;
+    };
+    for (const auto& o : line->observations)
+    {
+      const Eigen::Vector3d dir = (o.b - o.a).normalized();
+      Eigen::Vector3d m1 = o.normal, m2;
+      double sigma1 = o.sigma_lateral;
+      if (m1.squaredNorm() > 0.0)
+        m2 = m1.cross(dir).normalized();
+      else
+      {
+        m1 = dir.unitOrthogonal();
+        m2 = dir.cross(m1);
+        sigma1 = o.sigma_depth;
+      }
+      for (const Eigen::Vector3d& p : {o.a, o.b})
+      {
+        const double s = (p - c).dot(d);
+        const Eigen::Vector3d q = c + s * d - p;
+        add(m1, sigma1, s, q);
+        add(m2, o.sigma_depth, s, q);
+      }
+    }
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d> eig(h);
+    if (!(eig.eigenvalues()(0) > 1e-9 * eig.eigenvalues()(3)))
+      return;
+    const Eigen::Vector4d delta = -h.ldlt().solve(g);
+    if (!delta.allFinite())
+      return;
+    c += delta(0) * e1 + delta(2) * e2;
+    d = (d + delta(1) * e1 + delta(3) * e2).normalized();
+  }
+  // The point nearest the moments' centroid, so that the extent keeps its meaning.
+  const Eigen::Vector3d mean = line->point;
+  line->point = c + (mean - c).dot(d) * d;
+  line->direction = d;
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (const auto& p : {line->extreme_lo, line->extreme_hi})
+  {
+    const double s = (p - line->point).dot(d);
+    lo = std::min(lo, s);
+    hi = std::max(hi, s);
+  }
+  line->s_min = lo;
+  line->s_max = hi;
+}
+
+// Keeps at most max observations, the most precise (smallest sigma_depth).
+void trimObservations(int max, MapLine* line)
+{
+  auto& obs = line->observations;
+  if (static_cast<int>(obs.size()) <= max)
+    return;
+  std::sort(obs.begin(), obs.end(),
+            [](const MapObservation& x, const MapObservation& y) { return x.sigma_depth < y.sigma_depth; });
+  obs.resize(std::max(0, max));
 }
 
 double observationWeight(const Line3d& o, double min_rms)
@@ -146,24 +227,41 @@ int LineMap::insert(const Line3d& o)
     }
   }
   const double w = observationWeight(o, options_.min_rms_m);
+  MapObservation kept;
+  kept.a = o.a;
+  kept.b = o.b;
+  kept.normal = normal;
+  kept.sigma_lateral = std::max(options_.lateral_floor_m, options_.lateral_sigma_rad * range);
+  kept.sigma_depth = std::hypot(o.sigma_m > 0.0 ? o.sigma_m : limit / 3.0, options_.depth_floor_fit_m);
   if (best < 0)
   {
     MapLine line;
     line.reference = 0.5 * (o.a + o.b);
     line.direction = (o.b - o.a).normalized();
     addSegmentMoments(o.a, o.b, w, &line);
+    line.information = 1.0 / (kept.sigma_depth * kept.sigma_depth);
     line.support = 1;
     line.first_stamp = line.last_stamp = o.stamp;
     refit(&line, {o.a, o.b});
+    if (options_.max_observations > 0)
+      line.observations.push_back(kept);
+    refitFromObservations(&line, options_.robust_k);
     lines_.push_back(line);
     return static_cast<int>(lines_.size()) - 1;
   }
   MapLine& line = lines_[best];
   addSegmentMoments(o.a, o.b, w, &line);
+  line.information += 1.0 / (kept.sigma_depth * kept.sigma_depth);
   ++line.support;
   line.first_stamp = std::min(line.first_stamp, o.stamp);
   line.last_stamp = std::max(line.last_stamp, o.stamp);
   refit(&line, {line.extreme_lo, line.extreme_hi, o.a, o.b});
+  if (options_.max_observations > 0)
+  {
+    line.observations.push_back(kept);
+    trimObservations(options_.max_observations, &line);
+  }
+  refitFromObservations(&line, options_.robust_k);
   return fuseWithOthers(best);
 }
 
@@ -200,9 +298,13 @@ int LineMap::fuseWithOthers(int index)
                       other.weight * delta * delta.transpose();
       line.weight += other.weight;
       line.support += other.support;
+      line.information += other.information;
       line.first_stamp = std::min(line.first_stamp, other.first_stamp);
       line.last_stamp = std::max(line.last_stamp, other.last_stamp);
       refit(&line, {line.extreme_lo, line.extreme_hi, other.extreme_lo, other.extreme_hi});
+      line.observations.insert(line.observations.end(), other.observations.begin(), other.observations.end());
+      trimObservations(options_.max_observations, &line);
+      refitFromObservations(&line, options_.robust_k);
       // Remove j (swap with the last) and keep track of index.
       const int last = static_cast<int>(lines_.size()) - 1;
       if (static_cast<int>(j) != last)

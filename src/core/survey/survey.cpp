@@ -1,6 +1,7 @@
 #include "insitu_calibration/survey/survey.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace insitu_calibration
 {
@@ -59,8 +60,12 @@ std::vector<MapLine> Survey::usedMapLines() const
 std::vector<double> Survey::mapLineSigmas() const
 {
   std::vector<double> out;
+  // The map line's standard error predicted from its observations (it falls with their number, where the spread
+  // does not: a line seen 20 times counted as much as one seen twice), with the floor for the errors the
+  // observations share (an edge's depth bias seen from similar viewpoints); the spread when nothing is predicted.
   for (const auto& line : usedMapLines())
-    out.push_back(std::max(options_.min_map_line_sigma_m, line.spread()));
+    out.push_back(line.sigma() > 0.0 ? std::hypot(options_.min_map_line_sigma_m, line.sigma())
+                                     : std::max(options_.min_map_line_sigma_m, line.spread()));
   return out;
 }
 
