@@ -278,7 +278,6 @@ std::string CalibrationServer::calibrationPath(const std::string& name) const
 
 Status CalibrationServer::saveCalibration(const std::string& name)
 {
-  Camera& camera = cameras_.at(name);
   if (!survey_->camera(name).calibration())
     return Error(ErrorCode::kNotEnoughData, "camera '" + name + "' is not calibrated");
   if (const Status saved = saveCalibrationFile(calibrationPath(name), *survey_->camera(name).calibration()); !saved)
@@ -311,7 +310,6 @@ bool CalibrationServer::calibrateService(Calibrate::Request& request, Calibrate:
   response.success = true;
   for (const auto& name : names)
   {
-    Camera& camera = cameras_.at(name);
     const auto result = survey_->camera(name).calibrate(map, world_frame_, survey_->mapLineSigmas());
     if (!result)
     {

@@ -38,8 +38,8 @@ struct DltOptions
 
 struct DltResult
 {
-  CameraModel camera;    // K, division model (lambda, centre) and pose
-  Matrix34d projection;  // K [R | t], world metres to undistorted pixels
+  CameraModel camera;                        // K, division model (lambda, centre) and pose
+  Matrix34d projection = Matrix34d::Zero();  // K [R | t], world metres to undistorted pixels
   double algebraic_residual = 0.0;
   double null_space_gap = 0.0;
   size_t constraints = 0;  // point-line pairs plus two per point correspondence

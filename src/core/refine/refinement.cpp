@@ -629,7 +629,6 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
   block_size.push_back(3);
   free_blocks.push_back(p.center);
   block_size.push_back(3);
-  const int camera_columns = std::accumulate(block_size.begin(), block_size.end(), 0);
   // The plumb lines' own parameters are nuisance parameters: in the normal equations (so that the camera's
   // uncertainty accounts for them), not in the reported covariance.
   for (size_t k = 0; k < straight.size(); ++k)
