@@ -128,8 +128,8 @@ sensor_msgs::CameraInfoConstPtr waitForLatchedCameraInfo(const std::string& topi
   sensor_msgs::CameraInfoConstPtr received;
   std::mutex mutex;
   ros::NodeHandle nh;
-  const ros::Subscriber sub = nh.subscribe<sensor_msgs::CameraInfo>(
-      topic, 1, [&](const sensor_msgs::CameraInfoConstPtr& msg) {
+  const ros::Subscriber sub =
+      nh.subscribe<sensor_msgs::CameraInfo>(topic, 1, [&](const sensor_msgs::CameraInfoConstPtr& msg) {
         std::lock_guard<std::mutex> lock(mutex);
         received = msg;
       });
@@ -191,8 +191,7 @@ TEST(CalibrationNode, CalibratesEveryCameraFromTheSurvey)
     ASSERT_NO_THROW(pose = tf.lookupTransform("map", camera + "_optical_frame", ros::Time(0))) << camera;
     const Eigen::Isometry3d world_from_optical = tf2::transformToEigen(pose);
     EXPECT_LT((world_from_optical.translation() - t.camera.pose().center()).norm(), 0.03) << camera;
-    EXPECT_LT(ic::rotationDistance(world_from_optical.linear().transpose(), t.camera.pose().rotation) * 180 / M_PI,
-              0.5)
+    EXPECT_LT(ic::rotationDistance(world_from_optical.linear().transpose(), t.camera.pose().rotation) * 180 / M_PI, 0.5)
         << camera;
 
     // The latched CameraInfo.
