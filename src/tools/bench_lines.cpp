@@ -2,7 +2,6 @@
 // (detection, 2D fine-tuning, depth sampling, RANSAC, line-map merge) and 1920x1080 fixed-camera images (detection,
 // merging, fine-tuning), for the FLD and LSD detectors. Single-threaded.
 #include <algorithm>
-#include <ctime>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -27,6 +26,7 @@
 #include "insitu_calibration/synthetic/synthetic_lines.h"
 #include "insitu_calibration/geometry/optical_frame.h"
 
+#include "insitu_calibration/cpu_time.h"
 namespace ic = insitu_calibration;
 namespace sim = insitu_calibration::simulation;
 
@@ -65,19 +65,6 @@ images f = 1100 px with the corner moved 20 px; --frames default 30, --fixed def
 --verbose: every 2D line worse than 0.15 px (0.1 px with --room) after fine-tuning or on no true edge, every 3D line
 worse than 1 cm or 0.5 deg or on no true edge, and every map line more than 5 mm off its edge.
 )";
-
-// CPU time of this thread, ms (as the library's stage times): the cost on one core, robust to other load.
-double threadCpuMs()
-{
-  timespec t{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return 1e3 * static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_nsec);
-}
-
-double msSince(double t)
-{
-  return threadCpuMs() - t;
-}
 
 struct Series
 {
@@ -188,9 +175,9 @@ int runRoom(ic::CommandLine& cl, const std::vector<ic::SegmentDetectorKind>& kin
       for (int r = 0; r < repeat; ++r)
       {
         ic::RgbdLineStats stats;
-        const double t = threadCpuMs();
+        const double t = ic::threadCpuMs();
         auto result = extractor.extract(f, &stats);
-        const double ms = msSince(t);
+        const double ms = ic::cpuMsSince(t);
         if (!result)
         {
           std::cerr << "bench_lines: " << result.error().describe() << "\n";
@@ -203,9 +190,9 @@ int runRoom(ic::CommandLine& cl, const std::vector<ic::SegmentDetectorKind>& kin
           lines = *result;
         }
       }
-      const double t = threadCpuMs();
+      const double t = ic::threadCpuMs();
       map.insert(lines);
-      const double merge_ms = msSince(t);
+      const double merge_ms = ic::cpuMsSince(t);
       detect.add(best.detect_ms);
       refine.add(best.refine_ms);
       depth.add(best.depth_ms);
@@ -324,9 +311,9 @@ int runRoom(ic::CommandLine& cl, const std::vector<ic::SegmentDetectorKind>& kin
       for (int r = 0; r < repeat; ++r)
       {
         ic::ImageLineStats stats;
-        const double t = threadCpuMs();
+        const double t = ic::threadCpuMs();
         auto result = ic::extractImageLines(fi.image, first, options, &stats);
-        const double ms = msSince(t);
+        const double ms = ic::cpuMsSince(t);
         if (!result)
         {
           std::cerr << "bench_lines: " << result.error().describe() << "\n";
@@ -509,9 +496,9 @@ int runWorld(ic::CommandLine& cl, const std::vector<ic::SegmentDetectorKind>& ki
       for (int r = 0; r < repeat; ++r)
       {
         ic::RgbdLineStats stats;
-        const double t = threadCpuMs();
+        const double t = ic::threadCpuMs();
         auto result = run.extractor->extract(frame, &stats);
-        const double ms = msSince(t);
+        const double ms = ic::cpuMsSince(t);
         if (!result)
         {
           std::cerr << "bench_lines: frame " << i << ": " << result.error().describe() << "\n";
@@ -524,9 +511,9 @@ int runWorld(ic::CommandLine& cl, const std::vector<ic::SegmentDetectorKind>& ki
           lines = std::move(*result);
         }
       }
-      const double t = threadCpuMs();
+      const double t = ic::threadCpuMs();
       run.map.insert(lines);
-      const double merge_ms = msSince(t);
+      const double merge_ms = ic::cpuMsSince(t);
       run.detect.add(best.detect_ms);
       run.refine.add(best.refine_ms);
       run.depth.add(best.depth_ms);
@@ -673,9 +660,9 @@ int runWorld(ic::CommandLine& cl, const std::vector<ic::SegmentDetectorKind>& ki
           for (int r = 0; r < repeat; ++r)
           {
             ic::ImageLineStats stats;
-            const double t = threadCpuMs();
+            const double t = ic::threadCpuMs();
             auto result = ic::extractImageLines(image, distortion, image_options, &stats);
-            const double ms = msSince(t);
+            const double ms = ic::cpuMsSince(t);
             if (!result)
             {
               std::cerr << "bench_lines: " << fc.name << ": " << result.error().describe() << "\n";

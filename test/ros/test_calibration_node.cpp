@@ -160,8 +160,12 @@ TEST(CalibrationNode, CalibratesEveryCameraFromTheSurvey)
   ASSERT_TRUE(status.response.success) << status.response.message;
   std::printf("status: %s\n", status.response.message.c_str());
   for (const auto& c : status.response.cameras)
+  {
     if (c.camera_name == "cam_east" || c.camera_name == "cam_wide")
+    {
       EXPECT_TRUE(c.ready) << c.camera_name << ": " << c.message;
+    }
+  }
 
   tf2_ros::Buffer tf;
   tf2_ros::TransformListener listener(tf);

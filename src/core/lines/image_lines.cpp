@@ -1,22 +1,11 @@
 #include "insitu_calibration/lines/image_lines.h"
 
-#include <ctime>
+#include "insitu_calibration/cpu_time.h"
 
 namespace insitu_calibration
 {
 namespace
 {
-// CPU time of the calling thread, ms: what the work costs on one core, whatever else runs on the machine.
-double threadCpuMs()
-{
-  timespec t{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return 1e3 * static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_nsec);
-}
-double msSince(double t)
-{
-  return threadCpuMs() - t;
-}
 
 // Drops failed parts at the two ends of a refined polyline (the edge is shorter than the detection there).
 void trimFailedEnds(ImageLine& line)
@@ -139,12 +128,12 @@ Expected<std::vector<ImageLine>> extractImageLines(const cv::Mat& image, const D
   if (!segments)
     return segments.error();
   st.segments = std::move(*segments);
-  st.detect_ms = msSince(t);
+  st.detect_ms = cpuMsSince(t);
 
   t = threadCpuMs();
   const std::vector<ImagePolyline> polylines = mergeSegments(st.segments, distortion, options.merge);
   st.polylines = static_cast<int>(polylines.size());
-  st.merge_ms = msSince(t);
+  st.merge_ms = cpuMsSince(t);
 
   t = threadCpuMs();
   std::vector<ImageLine> lines;
@@ -211,7 +200,7 @@ Expected<std::vector<ImageLine>> extractImageLines(const cv::Mat& image, const D
       }
     }
   }
-  st.refine_ms = msSince(t);
+  st.refine_ms = cpuMsSince(t);
   st.lines = static_cast<int>(lines.size());
   if (lines.empty())
   {

@@ -1,24 +1,9 @@
 #include "insitu_calibration/lines/rgbd_lines.h"
 
-#include <ctime>
+#include "insitu_calibration/cpu_time.h"
 
 namespace insitu_calibration
 {
-namespace
-{
-// CPU time of the calling thread, ms: what the work costs on one core, whatever else runs on the machine.
-double threadCpuMs()
-{
-  timespec t{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return 1e3 * static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_nsec);
-}
-double msSince(double t)
-{
-  return threadCpuMs() - t;
-}
-}  // namespace
-
 RgbdLineOptions::RgbdLineOptions()
 {
   detector.min_length_px = 25.0;
@@ -43,14 +28,14 @@ Expected<std::vector<Line3d>> RgbdLineExtractor::extract(const RgbdFrame& frame,
   auto depth = depthToMeters(frame.depth, options_.min_range_m, options_.max_range_m);
   if (!depth)
     return depth.error();
-  st.depth_ms += msSince(t);
+  st.depth_ms += cpuMsSince(t);
 
   t = threadCpuMs();
   auto segments = detector_.detect(frame.rgb);
   if (!segments)
     return segments.error();
   st.segments = static_cast<int>(segments->size());
-  st.detect_ms = msSince(t);
+  st.detect_ms = cpuMsSince(t);
 
   if (options_.refine_segments && !segments->empty())
   {
@@ -67,7 +52,7 @@ Expected<std::vector<Line3d>> RgbdLineExtractor::extract(const RgbdFrame& frame,
         s.b = refined->b;
       }
     }
-    st.refine_ms = msSince(t);
+    st.refine_ms = cpuMsSince(t);
   }
 
   std::vector<Line3d> lines;
@@ -77,7 +62,7 @@ Expected<std::vector<Line3d>> RgbdLineExtractor::extract(const RgbdFrame& frame,
     const Segment2d& segment = (*segments)[i];
     t = threadCpuMs();
     const std::vector<DepthSample> samples = sampleDepthAlongSegment(*depth, segment, options_.sampler);
-    st.depth_ms += msSince(t);
+    st.depth_ms += cpuMsSince(t);
     if (samples.size() < static_cast<size_t>(std::max(2, fit.min_inliers)))
     {
       ++st.no_depth;
@@ -86,7 +71,7 @@ Expected<std::vector<Line3d>> RgbdLineExtractor::extract(const RgbdFrame& frame,
     t = threadCpuMs();
     fit.seed = options_.fit.seed + static_cast<uint32_t>(i);
     auto line = fitLine3dToDepthSamples(segment, samples, frame.camera, fit);
-    st.fit_ms += msSince(t);
+    st.fit_ms += cpuMsSince(t);
     if (!line)
     {
       if (line.error().code() == ErrorCode::kDegenerate)
