@@ -110,27 +110,47 @@ void printRow(const char* name, const Series& s, const char* unit = "ms")
               s.quantile(0.9), s.max(), unit);
 }
 
-// The synthetic room (synthetic/line_scene.h), the benchmark before the survey simulator existed.
-int runRoom(ic::CommandLine& cl, const std::vector<ic::SegmentDetectorKind>& kinds)
+// The fastest of `repeat` runs of an extraction (CPU time of the thread), with its stage times and its result.
+template <typename Stats, typename Value>
+struct Timed
 {
-  const bool verbose = cl.flag("verbose");
-  const int frames = static_cast<int>(cl.number("frames", 30));
-  const int fixed = static_cast<int>(cl.number("fixed", 2));
-  const unsigned seed = static_cast<unsigned>(cl.number("seed", 1));
-  const int repeat = std::max(1, static_cast<int>(cl.number("repeat", 3)));
-  std::printf("bench_lines --room: seed %u, %d RGB-D frames, %d fixed images, best of %d runs, OpenCV threads %d\n",
-              seed, frames, fixed, repeat, cv::getNumThreads());
+  Value value;
+  Stats stats;
+  double ms = std::numeric_limits<double>::infinity();
+};
 
-  std::mt19937 rng(seed);
-  const ic::LineScene scene = ic::makeRoomScene(rng);
-  const std::vector<ic::Segment3d> truth = scene.edges();
+// `extract(Stats*)` returns an Expected<Value>; its first error ends the runs.
+template <typename Stats, typename Extract>
+auto bestOf(int repeat, Extract&& extract)
+{
+  using Value = std::decay_t<decltype(*extract(static_cast<Stats*>(nullptr)))>;
+  Timed<Stats, Value> best;
+  for (int r = 0; r < repeat; ++r)
+  {
+    Stats stats;
+    const double t = ic::threadCpuMs();
+    auto result = extract(&stats);
+    const double ms = ic::cpuMsSince(t);
+    if (!result)
+      return ic::Expected<Timed<Stats, Value>>(result.error());
+    if (ms < best.ms)
+    {
+      best.ms = ms;
+      best.stats = stats;
+      best.value = std::move(*result);
+    }
+  }
+  return ic::Expected<Timed<Stats, Value>>(std::move(best));
+}
 
-  // ---------------------------------------------------------------------------------------------------- RGB-D
-  std::printf("\nrendering %d RGB-D frames (640x480) ...\n", frames);
+// ------------------------------------------------------------------------------------------ --room (synthetic)
+// The robot circles the room's centre; the camera (0.9 m high) looks outwards at the walls, slightly down.
+std::vector<ic::RgbdFrame> renderRoomSurvey(const ic::LineScene& scene, int frames, ic::CommandLine& cl,
+                                            std::mt19937& rng)
+{
   std::vector<ic::RgbdFrame> survey;
   for (int i = 0; i < frames; ++i)
   {
-    // The robot circles the room's centre; the camera (0.9 m high) looks outwards at the walls, slightly down.
     const double phi = 2.0 * M_PI * i / std::max(1, frames);
     const Eigen::Vector3d position(3.0 + 1.2 * std::cos(phi), 2.5 + 0.9 * std::sin(phi), 0.9);
     const double yaw = phi + 0.6 * std::sin(3.0 * phi);
@@ -156,118 +176,138 @@ int runRoom(ic::CommandLine& cl, const std::vector<ic::SegmentDetectorKind>& kin
       cv::imwrite(cl.value("save") + "/rgbd_" + std::to_string(i) + ".png", f.rgb);
     survey.push_back(f);
   }
+  return survey;
+}
 
-  for (const auto kind : kinds)
+// The room's RGB-D statistics for one detector: stage times, 3D line error by range, the line map's error.
+struct RoomRgbdRun
+{
+  ic::LineMap map;
+  Series detect, refine, depth, fit, merge, total, lines_per_frame;
+  std::map<int, Series> bucket_distance, bucket_angle;
+  std::map<int, int> bucket_total, bucket_matched;
+};
+
+const double kBucketEdges[] = {0.0, 1.0, 2.0, 3.0, 4.0, 6.0};
+constexpr int kBuckets = 5;
+
+int rangeBucket(double range_m)
+{
+  int bucket = 0;
+  while (bucket + 1 < kBuckets && range_m >= kBucketEdges[bucket + 1])
+    ++bucket;
+  return bucket;
+}
+
+void measureRoomRgbdLines(const std::vector<ic::Line3d>& lines, const Eigen::Vector3d& sensor,
+                          const std::vector<ic::Segment3d>& truth, bool verbose, RoomRgbdRun* run)
+{
+  for (const auto& line : lines)
   {
-    ic::RgbdLineOptions options;
-    options.detector.kind = kind;
-    ic::RgbdLineExtractor extractor(options);
-    ic::LineMap map;
-    Series detect, refine, depth, fit, merge, total, lines_per_frame;
-    const double bucket_edges[] = {0.0, 1.0, 2.0, 3.0, 4.0, 6.0};
-    std::map<int, Series> bucket_distance, bucket_angle;
-    std::map<int, int> bucket_total, bucket_matched;
-    for (const auto& f : survey)
-    {
-      ic::RgbdLineStats best;
-      double best_total = std::numeric_limits<double>::infinity();
-      std::vector<ic::Line3d> lines;
-      for (int r = 0; r < repeat; ++r)
-      {
-        ic::RgbdLineStats stats;
-        const double t = ic::threadCpuMs();
-        auto result = extractor.extract(f, &stats);
-        const double ms = ic::cpuMsSince(t);
-        if (!result)
-        {
-          std::cerr << "bench_lines: " << result.error().describe() << "\n";
-          return 1;
-        }
-        if (ms < best_total)
-        {
-          best_total = ms;
-          best = stats;
-          lines = *result;
-        }
-      }
-      const double t = ic::threadCpuMs();
-      map.insert(lines);
-      const double merge_ms = ic::cpuMsSince(t);
-      detect.add(best.detect_ms);
-      refine.add(best.refine_ms);
-      depth.add(best.depth_ms);
-      fit.add(best.fit_ms);
-      merge.add(merge_ms);
-      total.add(best_total + merge_ms);
-      lines_per_frame.add(lines.size());
-      const Eigen::Vector3d sensor = f.T_map_camera.translation();
-      for (const auto& line : lines)
-      {
-        const double range = (0.5 * (line.a + line.b) - sensor).norm();
-        int bucket = 0;
-        while (bucket + 1 < 5 && range >= bucket_edges[bucket + 1])
-          ++bucket;
-        ++bucket_total[bucket];
-        const ic::Line3dError e = ic::measureLine3d(line.a, line.b, truth, 0.1, 5.0);
-        if (e.edge < 0)
-          continue;
-        ++bucket_matched[bucket];
-        bucket_distance[bucket].add(e.distance_m * 1000.0);
-        bucket_angle[bucket].add(e.angle_deg);
-        if (verbose && (e.distance_m > 0.01 || e.angle_deg > 0.5))
-          std::printf(
-              "    3D line at %.2f m, edge %d: %.1f mm %.3f deg, %d of %d inliers, rms %.1f mm, image (%.1f %.1f)-"
-              "(%.1f %.1f), map (%.3f %.3f %.3f)-(%.3f %.3f %.3f)\n",
-              range, e.edge, e.distance_m * 1000.0, e.angle_deg, line.inliers, line.samples, line.rms_m * 1000.0,
-              line.image.a.x(), line.image.a.y(), line.image.b.x(), line.image.b.y(), line.a.x(), line.a.y(),
-              line.a.z(), line.b.x(), line.b.y(), line.b.z());
-      }
-    }
-    std::printf("\nRGB-D frame 640x480, detector %s (%.1f lines per frame, %zu map lines after %d frames)\n",
-                ic::toString(kind), lines_per_frame.mean(), map.size(), frames);
-    printRow("detection", detect);
-    printRow("2D fine-tuning", refine);
-    printRow("depth sampling", depth);
-    printRow("RANSAC + refinement", fit);
-    printRow("line-map merge", merge);
-    printRow("total per frame", total);
-    std::printf(
-        "  3D line error against distance from the sensor (lines matched to a true edge within 10 cm, 5 deg):\n");
-    for (int b = 0; b < 5; ++b)
-    {
-      if (!bucket_total[b])
-        continue;
-      std::printf("    %.0f-%.0f m: %4d of %4d lines matched, median %6.2f mm  %5.3f deg, p90 %6.2f mm  %5.3f deg\n",
-                  bucket_edges[b], bucket_edges[b + 1], bucket_matched[b], bucket_total[b], bucket_distance[b].median(),
-                  bucket_angle[b].median(), bucket_distance[b].quantile(0.9), bucket_angle[b].quantile(0.9));
-    }
-    Series map_distance, map_angle;
-    int map_matched = 0;
-    const auto supported = map.lines(3);
-    for (const auto& line : supported)
-    {
-      const ic::Line3dError e = ic::measureLine3d(line.a(), line.b(), truth, 0.1, 5.0);
-      if (e.edge < 0)
-        continue;
-      ++map_matched;
-      map_distance.add(e.distance_m * 1000.0);
-      map_angle.add(e.angle_deg);
-    }
-    std::printf(
-        "  line map: %zu lines seen >= 3 times, %d on a true edge: median %.2f mm  %.3f deg, p90 %.2f mm  "
-        "%.3f deg\n",
-        supported.size(), map_matched, map_distance.median(), map_angle.median(), map_distance.quantile(0.9),
-        map_angle.quantile(0.9));
+    const double range = (0.5 * (line.a + line.b) - sensor).norm();
+    const int bucket = rangeBucket(range);
+    ++run->bucket_total[bucket];
+    const ic::Line3dError e = ic::measureLine3d(line.a, line.b, truth, 0.1, 5.0);
+    if (e.edge < 0)
+      continue;
+    ++run->bucket_matched[bucket];
+    run->bucket_distance[bucket].add(e.distance_m * 1000.0);
+    run->bucket_angle[bucket].add(e.angle_deg);
+    if (verbose && (e.distance_m > 0.01 || e.angle_deg > 0.5))
+      std::printf(
+          "    3D line at %.2f m, edge %d: %.1f mm %.3f deg, %d of %d inliers, rms %.1f mm, image (%.1f %.1f)-"
+          "(%.1f %.1f), map (%.3f %.3f %.3f)-(%.3f %.3f %.3f)\n",
+          range, e.edge, e.distance_m * 1000.0, e.angle_deg, line.inliers, line.samples, line.rms_m * 1000.0,
+          line.image.a.x(), line.image.a.y(), line.image.b.x(), line.image.b.y(), line.a.x(), line.a.y(), line.a.z(),
+          line.b.x(), line.b.y(), line.b.z());
   }
+}
 
-  // --------------------------------------------------------------------------------------------- fixed cameras
-  const int width = 1920, height = 1080;
-  std::printf("\nrendering %d fixed-camera images (%dx%d) ...\n", fixed, width, height);
-  struct FixedImage
+void printRoomRgbdRun(const RoomRgbdRun& run, ic::SegmentDetectorKind kind, int frames,
+                      const std::vector<ic::Segment3d>& truth)
+{
+  std::printf("\nRGB-D frame 640x480, detector %s (%.1f lines per frame, %zu map lines after %d frames)\n",
+              ic::toString(kind), run.lines_per_frame.mean(), run.map.size(), frames);
+  printRow("detection", run.detect);
+  printRow("2D fine-tuning", run.refine);
+  printRow("depth sampling", run.depth);
+  printRow("RANSAC + refinement", run.fit);
+  printRow("line-map merge", run.merge);
+  printRow("total per frame", run.total);
+  std::printf("  3D line error against distance from the sensor (lines matched to a true edge within 10 cm, 5 deg):\n");
+  for (int b = 0; b < kBuckets; ++b)
   {
-    ic::CameraModel camera;
-    cv::Mat image;
-  };
+    if (!run.bucket_total.count(b) || !run.bucket_total.at(b))
+      continue;
+    const Series& d = run.bucket_distance.count(b) ? run.bucket_distance.at(b) : Series{};
+    const Series& a = run.bucket_angle.count(b) ? run.bucket_angle.at(b) : Series{};
+    std::printf("    %.0f-%.0f m: %4d of %4d lines matched, median %6.2f mm  %5.3f deg, p90 %6.2f mm  %5.3f deg\n",
+                kBucketEdges[b], kBucketEdges[b + 1], run.bucket_matched.count(b) ? run.bucket_matched.at(b) : 0,
+                run.bucket_total.at(b), d.median(), a.median(), d.quantile(0.9), a.quantile(0.9));
+  }
+  Series map_distance, map_angle;
+  int map_matched = 0;
+  const auto supported = run.map.lines(3);
+  for (const auto& line : supported)
+  {
+    const ic::Line3dError e = ic::measureLine3d(line.a(), line.b(), truth, 0.1, 5.0);
+    if (e.edge < 0)
+      continue;
+    ++map_matched;
+    map_distance.add(e.distance_m * 1000.0);
+    map_angle.add(e.angle_deg);
+  }
+  std::printf(
+      "  line map: %zu lines seen >= 3 times, %d on a true edge: median %.2f mm  %.3f deg, p90 %.2f mm  "
+      "%.3f deg\n",
+      supported.size(), map_matched, map_distance.median(), map_angle.median(), map_distance.quantile(0.9),
+      map_angle.quantile(0.9));
+}
+
+bool benchRoomRgbd(const std::vector<ic::RgbdFrame>& survey, const std::vector<ic::Segment3d>& truth,
+                   ic::SegmentDetectorKind kind, int repeat, bool verbose)
+{
+  ic::RgbdLineOptions options;
+  options.detector.kind = kind;
+  ic::RgbdLineExtractor extractor(options);
+  RoomRgbdRun run;
+  for (const auto& f : survey)
+  {
+    auto best =
+        bestOf<ic::RgbdLineStats>(repeat, [&](ic::RgbdLineStats* stats) { return extractor.extract(f, stats); });
+    if (!best)
+    {
+      std::cerr << "bench_lines: " << best.error().describe() << "\n";
+      return false;
+    }
+    const double t = ic::threadCpuMs();
+    run.map.insert(best->value);
+    const double merge_ms = ic::cpuMsSince(t);
+    run.detect.add(best->stats.detect_ms);
+    run.refine.add(best->stats.refine_ms);
+    run.depth.add(best->stats.depth_ms);
+    run.fit.add(best->stats.fit_ms);
+    run.merge.add(merge_ms);
+    run.total.add(best->ms + merge_ms);
+    run.lines_per_frame.add(best->value.size());
+    measureRoomRgbdLines(best->value, f.T_map_camera.translation(), truth, verbose, &run);
+  }
+  printRoomRgbdRun(run, kind, static_cast<int>(survey.size()), truth);
+  return true;
+}
+
+struct FixedImage
+{
+  ic::CameraModel camera;
+  cv::Mat image;
+};
+
+constexpr int kRoomFixedWidth = 1920, kRoomFixedHeight = 1080;
+
+std::vector<FixedImage> renderRoomFixedImages(const ic::LineScene& scene, int fixed, ic::CommandLine& cl,
+                                              std::mt19937& rng)
+{
+  const int width = kRoomFixedWidth, height = kRoomFixedHeight;
   std::vector<FixedImage> images;
   const std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> mounts = {{{0.3, 0.3, 2.5}, {3.6, 3.4, 0.6}},
                                                                            {{5.7, 4.7, 2.5}, {2.2, 1.2, 0.7}},
@@ -294,84 +334,106 @@ int runRoom(ic::CommandLine& cl, const std::vector<ic::SegmentDetectorKind>& kin
       cv::imwrite(cl.value("save") + "/fixed_" + std::to_string(i) + ".png", fi.image);
     images.push_back(fi);
   }
-  for (const auto kind : kinds)
+  return images;
+}
+
+void printRoomFixedLine(const ic::ImageLine& line, const ic::ImageLineError& before, const ic::ImageLineError& after)
+{
+  std::printf(
+      "    2D line edge %d: %zu points, %zu fragments, %.0f px, rms before %.3f after %.3f max %.3f px; parts"
+      " (contrast/support/residual/samples):",
+      after.edge, line.points.size(), line.fragments.size(), line.length_px, before.rms_px, after.rms_px, after.max_px);
+  for (const auto& p : line.parts)
+    std::printf(" %.0f/%.2f/%.2f/%d", p.contrast, p.support, p.residual_px, p.samples);
+  std::printf("\n      from (%.1f %.1f) to (%.1f %.1f)\n", line.points.front().x(), line.points.front().y(),
+              line.points.back().x(), line.points.back().y());
+}
+
+bool benchRoomFixed(const std::vector<FixedImage>& images, const std::vector<ic::Segment3d>& truth,
+                    ic::SegmentDetectorKind kind, int repeat, bool verbose)
+{
+  const int width = kRoomFixedWidth, height = kRoomFixedHeight;
+  ic::ImageLineOptions options;
+  options.detector.kind = kind;
+  Series detect, merge, refine, total, before, after, lines_per_image;
+  int matched = 0, extracted = 0;
+  for (const auto& fi : images)
   {
-    ic::ImageLineOptions options;
-    options.detector.kind = kind;
-    Series detect, merge, refine, total, before, after, lines_per_image;
-    int matched = 0, extracted = 0;
-    for (const auto& fi : images)
+    // The first pass of a calibration: no distortion known, centred on the image.
+    ic::DivisionModel first;
+    first.center = Eigen::Vector2d(0.5 * (width - 1), 0.5 * (height - 1));
+    auto best = bestOf<ic::ImageLineStats>(
+        repeat, [&](ic::ImageLineStats* stats) { return ic::extractImageLines(fi.image, first, options, stats); });
+    if (!best)
     {
-      // The first pass of a calibration: no distortion known, centred on the image.
-      ic::DivisionModel first;
-      first.center = Eigen::Vector2d(0.5 * (width - 1), 0.5 * (height - 1));
-      ic::ImageLineStats best;
-      double best_total = std::numeric_limits<double>::infinity();
-      std::vector<ic::ImageLine> lines;
-      for (int r = 0; r < repeat; ++r)
-      {
-        ic::ImageLineStats stats;
-        const double t = ic::threadCpuMs();
-        auto result = ic::extractImageLines(fi.image, first, options, &stats);
-        const double ms = ic::cpuMsSince(t);
-        if (!result)
-        {
-          std::cerr << "bench_lines: " << result.error().describe() << "\n";
-          return 1;
-        }
-        if (ms < best_total)
-        {
-          best_total = ms;
-          best = stats;
-          lines = *result;
-        }
-      }
-      detect.add(best.detect_ms);
-      merge.add(best.merge_ms);
-      refine.add(best.refine_ms);
-      total.add(best_total);
-      lines_per_image.add(lines.size());
-      const auto edges = ic::projectEdges(fi.camera, truth);
-      for (const auto& line : lines)
-      {
-        ++extracted;
-        const auto e_after = ic::measureImageLine(line.points, fi.camera.distortion(), edges, 2.0);
-        const auto e_before = ic::measureImageLine(line.detected, fi.camera.distortion(), edges, 2.0);
-        if (e_after.edge < 0 || e_before.edge < 0)
-          continue;
-        ++matched;
-        after.add(e_after.rms_px);
-        before.add(e_before.rms_px);
-        if (verbose && e_after.rms_px > 0.1)
-        {
-          std::printf(
-              "    2D line edge %d: %zu points, %zu fragments, %.0f px, rms before %.3f after %.3f max %.3f px; parts"
-              " (contrast/support/residual/samples):",
-              e_after.edge, line.points.size(), line.fragments.size(), line.length_px, e_before.rms_px, e_after.rms_px,
-              e_after.max_px);
-          for (const auto& p : line.parts)
-            std::printf(" %.0f/%.2f/%.2f/%d", p.contrast, p.support, p.residual_px, p.samples);
-          std::printf("\n      from (%.1f %.1f) to (%.1f %.1f)\n", line.points.front().x(), line.points.front().y(),
-                      line.points.back().x(), line.points.back().y());
-        }
-      }
+      std::cerr << "bench_lines: " << best.error().describe() << "\n";
+      return false;
     }
-    std::printf("\nfixed-camera image %dx%d, detector %s (%.1f lines per image)\n", width, height, ic::toString(kind),
-                lines_per_image.mean());
-    printRow("detection", detect);
-    printRow("merging", merge);
-    printRow("fine-tuning (Eq. 8)", refine);
-    printRow("total per image", total);
-    std::printf(
-        "  2D accuracy: %d of %d lines on a true edge (within 2 px); RMS distance to the true curved edge\n"
-        "    before fine-tuning: RMS %.3f px, median %.3f px, p90 %.3f px\n"
-        "    after fine-tuning:  RMS %.3f px, median %.3f px, p90 %.3f px\n",
-        matched, extracted, before.rms(), before.median(), before.quantile(0.9), after.rms(), after.median(),
-        after.quantile(0.9));
+    detect.add(best->stats.detect_ms);
+    merge.add(best->stats.merge_ms);
+    refine.add(best->stats.refine_ms);
+    total.add(best->ms);
+    lines_per_image.add(best->value.size());
+    const auto edges = ic::projectEdges(fi.camera, truth);
+    for (const auto& line : best->value)
+    {
+      ++extracted;
+      const auto e_after = ic::measureImageLine(line.points, fi.camera.distortion(), edges, 2.0);
+      const auto e_before = ic::measureImageLine(line.detected, fi.camera.distortion(), edges, 2.0);
+      if (e_after.edge < 0 || e_before.edge < 0)
+        continue;
+      ++matched;
+      after.add(e_after.rms_px);
+      before.add(e_before.rms_px);
+      if (verbose && e_after.rms_px > 0.1)
+        printRoomFixedLine(line, e_before, e_after);
+    }
   }
+  std::printf("\nfixed-camera image %dx%d, detector %s (%.1f lines per image)\n", width, height, ic::toString(kind),
+              lines_per_image.mean());
+  printRow("detection", detect);
+  printRow("merging", merge);
+  printRow("fine-tuning (Eq. 8)", refine);
+  printRow("total per image", total);
+  std::printf(
+      "  2D accuracy: %d of %d lines on a true edge (within 2 px); RMS distance to the true curved edge\n"
+      "    before fine-tuning: RMS %.3f px, median %.3f px, p90 %.3f px\n"
+      "    after fine-tuning:  RMS %.3f px, median %.3f px, p90 %.3f px\n",
+      matched, extracted, before.rms(), before.median(), before.quantile(0.9), after.rms(), after.median(),
+      after.quantile(0.9));
+  return true;
+}
+
+// The synthetic room (synthetic/line_scene.h), the benchmark before the survey simulator existed.
+int runRoom(ic::CommandLine& cl, const std::vector<ic::SegmentDetectorKind>& kinds)
+{
+  const bool verbose = cl.flag("verbose");
+  const int frames = static_cast<int>(cl.number("frames", 30));
+  const int fixed = static_cast<int>(cl.number("fixed", 2));
+  const unsigned seed = static_cast<unsigned>(cl.number("seed", 1));
+  const int repeat = std::max(1, static_cast<int>(cl.number("repeat", 3)));
+  std::printf("bench_lines --room: seed %u, %d RGB-D frames, %d fixed images, best of %d runs, OpenCV threads %d\n",
+              seed, frames, fixed, repeat, cv::getNumThreads());
+
+  std::mt19937 rng(seed);
+  const ic::LineScene scene = ic::makeRoomScene(rng);
+  const std::vector<ic::Segment3d> truth = scene.edges();
+
+  std::printf("\nrendering %d RGB-D frames (640x480) ...\n", frames);
+  const std::vector<ic::RgbdFrame> survey = renderRoomSurvey(scene, frames, cl, rng);
+  for (const auto kind : kinds)
+    if (!benchRoomRgbd(survey, truth, kind, repeat, verbose))
+      return 1;
+
+  std::printf("\nrendering %d fixed-camera images (%dx%d) ...\n", fixed, kRoomFixedWidth, kRoomFixedHeight);
+  const std::vector<FixedImage> images = renderRoomFixedImages(scene, fixed, cl, rng);
+  for (const auto kind : kinds)
+    if (!benchRoomFixed(images, truth, kind, repeat, verbose))
+      return 1;
   return 0;
 }
 
+// ------------------------------------------------------------------------------------------- the simulator
 // Per-line accuracy and timing of the RGB-D half on the simulator's frames, for one detector.
 struct RgbdRun
 {
@@ -429,6 +491,205 @@ void printTimingTable(const std::vector<std::pair<std::string, const Series*>>& 
                 s->max());
 }
 
+void printRgbdLine(int frame, const ic::Line3d& line, const ic::Line3dError& e)
+{
+  std::printf("    frame %d: 3D line at %.2f m", frame, line.range_m);
+  if (e.edge < 0)
+    std::printf(" on no true edge (within 10 cm, 5 deg):");
+  else
+    std::printf(", edge %d: %.1f mm %.3f deg, %d of %d inliers, rms %.1f mm:", e.edge, e.distance_m * 1000.0,
+                e.angle_deg, line.inliers, line.samples, line.rms_m * 1000.0);
+  std::printf(" image (%.1f %.1f)-(%.1f %.1f), map (%.3f %.3f %.3f)-(%.3f %.3f %.3f)\n", line.image.a.x(),
+              line.image.a.y(), line.image.b.x(), line.image.b.y(), line.a.x(), line.a.y(), line.a.z(), line.b.x(),
+              line.b.y(), line.b.z());
+}
+
+void measureRgbdLines(int frame, const std::vector<ic::Line3d>& lines, const std::vector<ic::Segment3d>& truth,
+                      bool verbose, RgbdRun* run)
+{
+  const double inf = std::numeric_limits<double>::infinity();
+  for (const auto& line : lines)
+  {
+    const int bucket = rangeBucket(line.range_m);
+    ++run->bucket_total[bucket];
+    const ic::Line3dError e = ic::measureLine3d(line.a, line.b, truth, 0.1, 5.0);
+    if (line.range_m < 3.0)
+    {
+      run->near_distance.push_back(e.edge < 0 ? inf : e.distance_m * 1000.0);
+      run->near_angle.push_back(e.edge < 0 ? inf : e.angle_deg);
+    }
+    if (e.edge < 0)
+    {
+      if (verbose)
+        printRgbdLine(frame, line, e);
+      continue;
+    }
+    run->bucket_distance[bucket].add(e.distance_m * 1000.0);
+    run->bucket_angle[bucket].add(e.angle_deg);
+    run->bucket_good[bucket] += e.distance_m <= 0.01 && e.angle_deg <= 0.5;
+    if (verbose && (e.distance_m > 0.01 || e.angle_deg > 0.5))
+      printRgbdLine(frame, line, e);
+  }
+}
+
+bool benchWorldRgbdFrame(int i, const ic::RgbdFrame& frame, const std::vector<ic::Segment3d>& truth, int repeat,
+                         bool verbose, RgbdRun* run)
+{
+  auto best = bestOf<ic::RgbdLineStats>(
+      repeat, [&](ic::RgbdLineStats* stats) { return run->extractor->extract(frame, stats); });
+  if (!best)
+  {
+    std::cerr << "bench_lines: frame " << i << ": " << best.error().describe() << "\n";
+    return false;
+  }
+  const double t = ic::threadCpuMs();
+  run->map.insert(best->value);
+  const double merge_ms = ic::cpuMsSince(t);
+  run->detect.add(best->stats.detect_ms);
+  run->refine.add(best->stats.refine_ms);
+  run->depth.add(best->stats.depth_ms);
+  run->fit.add(best->stats.fit_ms);
+  run->merge.add(merge_ms);
+  run->total.add(best->ms + merge_ms);
+  run->lines_per_frame.add(best->value.size());
+  measureRgbdLines(i, best->value, truth, verbose, run);
+  return true;
+}
+
+void printMapAccuracy(const RgbdRun& run, const std::vector<ic::Segment3d>& truth, int support, bool verbose)
+{
+  Series d, a;
+  int on_edge = 0, over5 = 0, over10 = 0;
+  const auto lines = run.map.lines(support);
+  for (const auto& line : lines)
+  {
+    const ic::Line3dError e = ic::measureLine3d(line.a(), line.b(), truth, 0.1, 5.0);
+    if (e.edge < 0)
+    {
+      if (verbose)
+        std::printf("    map line on no true edge: support %d, %.2f m, (%.3f %.3f %.3f)-(%.3f %.3f %.3f)\n",
+                    line.support, line.length(), line.a().x(), line.a().y(), line.a().z(), line.b().x(), line.b().y(),
+                    line.b().z());
+      continue;
+    }
+    ++on_edge;
+    d.add(e.distance_m * 1000.0);
+    a.add(e.angle_deg);
+    over5 += e.distance_m > 0.005;
+    over10 += e.distance_m > 0.01;
+    if (verbose && e.distance_m > 0.005)
+      std::printf("    map line %.1f mm %.3f deg off edge %d: support %d, %.2f m, (%.3f %.3f %.3f)-(%.3f %.3f %.3f)\n",
+                  e.distance_m * 1000.0, e.angle_deg, e.edge, line.support, line.length(), line.a().x(), line.a().y(),
+                  line.a().z(), line.b().x(), line.b().y(), line.b().z());
+  }
+  std::printf(
+      "  line map, support >= %d: %zu lines, %d on a true edge: median %.2f mm %.3f deg, p90 %.2f mm "
+      "%.3f deg, max %.2f mm %.3f deg; %d over 5 mm, %d over 1 cm\n",
+      support, lines.size(), on_edge, d.median(), a.median(), d.quantile(0.9), a.quantile(0.9), d.max(), a.max(), over5,
+      over10);
+}
+
+void printWorldRgbdRun(const RgbdRun& run, const sim::World& w, int frames, const std::vector<ic::Segment3d>& truth,
+                       int min_support, bool verbose)
+{
+  std::printf("\nRGB-D frame %dx%d, detector %s: %.1f 3D lines per frame, %zu map lines after %d frames\n",
+              w.xtion.width, w.xtion.height, ic::toString(run.kind), run.lines_per_frame.mean(), run.map.size(),
+              frames);
+  printTimingTable({{"detection", &run.detect},
+                    {"2D fine-tuning", &run.refine},
+                    {"depth sampling", &run.depth},
+                    {"RANSAC + refinement", &run.fit},
+                    {"line-map merge", &run.merge},
+                    {"**total**", &run.total}});
+  std::printf(
+      "\n  3D line error against the distance from the sensor (error: RMS of the end points' distances to the "
+      "true line; matched: within 10 cm and 5 deg of a true edge):\n");
+  std::printf("  | range | lines | matched | within 1 cm, 0.5 deg | median | p90 |\n  |---|---|---|---|---|---|\n");
+  for (int b = 0; b < kBuckets; ++b)
+  {
+    if (!run.bucket_total.count(b) || !run.bucket_total.at(b))
+      continue;
+    const Series& d = run.bucket_distance.count(b) ? run.bucket_distance.at(b) : Series{};
+    const Series& a = run.bucket_angle.count(b) ? run.bucket_angle.at(b) : Series{};
+    const int good = run.bucket_good.count(b) ? run.bucket_good.at(b) : 0;
+    std::printf("  | %.0f-%.0f m | %d | %d | %d (%.1f %%) | %.2f mm, %.3f deg | %.2f mm, %.3f deg |\n", kBucketEdges[b],
+                kBucketEdges[b + 1], run.bucket_total.at(b), static_cast<int>(d.v.size()), good,
+                100.0 * good / run.bucket_total.at(b), d.median(), a.median(), d.quantile(0.9), a.quantile(0.9));
+  }
+  Series nd{run.near_distance}, na{run.near_angle};
+  std::printf("  within 3 m: %zu lines, median %.2f mm, %.3f deg (unmatched lines counted as infinite)\n", nd.v.size(),
+              nd.median(), na.median());
+  for (const int support : {min_support, 3})
+    printMapAccuracy(run, truth, support, verbose && support == min_support);
+}
+
+// One fixed camera, one pass (lambda 0 at the image centre, or the true distortion), over its noisy frames.
+bool benchFixedCameraPass(const sim::SurveySimulator& survey, size_t c, bool true_lambda,
+                          const ic::ImageLineOptions& image_options, const std::vector<ic::TrueEdgeImage>& edges,
+                          int fixed_frames, int repeat, bool verbose)
+{
+  const sim::FixedCameraConfig& fc = survey.world().fixed_cameras[c];
+  ic::DivisionModel distortion;
+  distortion.center = Eigen::Vector2d(0.5 * (fc.width - 1), 0.5 * (fc.height - 1));
+  if (true_lambda)
+    distortion = fc.camera.distortion();
+  FixedRun run;
+  for (int k = 0; k < fixed_frames; ++k)
+  {
+    const cv::Mat image = sim::toBgr(survey.fixedFrame(static_cast<int>(c), k).image);
+    auto best = bestOf<ic::ImageLineStats>(repeat, [&](ic::ImageLineStats* stats) {
+      return ic::extractImageLines(image, distortion, image_options, stats);
+    });
+    if (!best)
+    {
+      std::cerr << "bench_lines: " << fc.name << ": " << best.error().describe() << "\n";
+      return false;
+    }
+    run.detect.add(best->stats.detect_ms);
+    run.merge.add(best->stats.merge_ms);
+    run.refine.add(best->stats.refine_ms);
+    run.total.add(best->ms);
+    run.lines.add(best->value.size());
+    addImageLines(best->value, fc.camera, edges, verbose, fc.name + (true_lambda ? " (true lambda)" : " (lambda 0)"),
+                  &run);
+  }
+  std::printf(
+      "  | %s | %dx%d | %s | %.1f | %d of %d | %.1f | %.2f | %.1f | **%.1f** (max %.1f) | %.3f px | %.3f "
+      "px | %.3f, %.3f, %.3f px |\n",
+      fc.name.c_str(), fc.width, fc.height, true_lambda ? "true lambda" : "lambda 0", run.lines.mean(), run.matched,
+      run.extracted, run.detect.mean(), run.merge.mean(), run.refine.mean(), run.total.mean(), run.total.max(),
+      std::sqrt(run.before2 / std::max(1, run.samples)), std::sqrt(run.after2 / std::max(1, run.samples)),
+      run.after_line.median(), run.after_line.quantile(0.9), run.after_line.max());
+  return true;
+}
+
+bool benchWorldFixed(ic::CommandLine& cl, const sim::SurveySimulator& survey, const std::vector<ic::Segment3d>& truth,
+                     ic::SegmentDetectorKind kind, int fixed_frames, int repeat, bool verbose)
+{
+  ic::ImageLineOptions image_options;
+  image_options.detector.kind = kind;
+  image_options.refiner.end_tolerance_px = cl.number("end-tolerance", image_options.refiner.end_tolerance_px);
+  image_options.split_kink_px = cl.number("split-kink", image_options.split_kink_px);
+  image_options.refiner.min_break_px = cl.number("min-break", image_options.refiner.min_break_px);
+  std::printf(
+      "\nfixed cameras, detector %s (%d noisy frames each; first pass: lambda = 0 at the image centre; "
+      "then with the true lambda and centre)\n",
+      ic::toString(kind), fixed_frames);
+  std::printf(
+      "  | camera | size | pass | lines | on a true edge | detection | merging | fine-tuning | **total** "
+      "| RMS before | RMS after | per-line RMS after: median, p90, max |\n"
+      "  |---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  for (size_t c = 0; c < survey.world().fixed_cameras.size(); ++c)
+  {
+    // Collinear true edges (a row of chairs' seat edges, window panes) are one 3D line for a 2D line.
+    const auto edges = ic::projectEdges(survey.world().fixed_cameras[c].camera, ic::mergeCollinearSegments(truth));
+    for (const bool true_lambda : {false, true})
+      if (!benchFixedCameraPass(survey, c, true_lambda, image_options, edges, fixed_frames, repeat, verbose))
+        return false;
+  }
+  return true;
+}
+
 // The survey simulator's frames (simulation/survey.h): every RGB-D frame of a survey and a few noisy frames of
 // every fixed camera, against the world's true edges.
 int runWorld(ic::CommandLine& cl, const std::vector<ic::SegmentDetectorKind>& kinds)
@@ -471,9 +732,6 @@ int runWorld(ic::CommandLine& cl, const std::vector<ic::SegmentDetectorKind>& ki
       w.name.c_str(), static_cast<unsigned long long>(options.seed), frames, options.duration_s, options.rate_hz,
       w.xtion.rgb_noise_sigma, fixed_frames, truth.size(), repeat, cv::getNumThreads());
 
-  // ------------------------------------------------------------------------------------------------ RGB-D frames
-  const double bucket_edges[] = {0.0, 1.0, 2.0, 3.0, 4.0, 6.0};
-  const int buckets = 5;
   std::vector<RgbdRun> runs;
   for (const auto kind : kinds)
   {
@@ -486,212 +744,16 @@ int runWorld(ic::CommandLine& cl, const std::vector<ic::SegmentDetectorKind>& ki
   }
   for (int i = 0; i < frames; ++i)
   {
-    const sim::XtionFrame xf = survey->xtionFrame(i);
-    const ic::RgbdFrame frame = sim::toRgbdFrame(*survey, xf);
+    const ic::RgbdFrame frame = sim::toRgbdFrame(*survey, survey->xtionFrame(i));
     for (auto& run : runs)
-    {
-      ic::RgbdLineStats best;
-      double best_total = std::numeric_limits<double>::infinity();
-      std::vector<ic::Line3d> lines;
-      for (int r = 0; r < repeat; ++r)
-      {
-        ic::RgbdLineStats stats;
-        const double t = ic::threadCpuMs();
-        auto result = run.extractor->extract(frame, &stats);
-        const double ms = ic::cpuMsSince(t);
-        if (!result)
-        {
-          std::cerr << "bench_lines: frame " << i << ": " << result.error().describe() << "\n";
-          return 1;
-        }
-        if (ms < best_total)
-        {
-          best_total = ms;
-          best = stats;
-          lines = std::move(*result);
-        }
-      }
-      const double t = ic::threadCpuMs();
-      run.map.insert(lines);
-      const double merge_ms = ic::cpuMsSince(t);
-      run.detect.add(best.detect_ms);
-      run.refine.add(best.refine_ms);
-      run.depth.add(best.depth_ms);
-      run.fit.add(best.fit_ms);
-      run.merge.add(merge_ms);
-      run.total.add(best_total + merge_ms);
-      run.lines_per_frame.add(lines.size());
-      for (const auto& line : lines)
-      {
-        int bucket = 0;
-        while (bucket + 1 < buckets && line.range_m >= bucket_edges[bucket + 1])
-          ++bucket;
-        ++run.bucket_total[bucket];
-        const ic::Line3dError e = ic::measureLine3d(line.a, line.b, truth, 0.1, 5.0);
-        const double inf = std::numeric_limits<double>::infinity();
-        if (line.range_m < 3.0)
-        {
-          run.near_distance.push_back(e.edge < 0 ? inf : e.distance_m * 1000.0);
-          run.near_angle.push_back(e.edge < 0 ? inf : e.angle_deg);
-        }
-        if (e.edge < 0)
-        {
-          if (verbose)
-            std::printf(
-                "    frame %d: 3D line at %.2f m on no true edge (within 10 cm, 5 deg): image (%.1f %.1f)-(%.1f "
-                "%.1f), map (%.3f %.3f %.3f)-(%.3f %.3f %.3f)\n",
-                i, line.range_m, line.image.a.x(), line.image.a.y(), line.image.b.x(), line.image.b.y(), line.a.x(),
-                line.a.y(), line.a.z(), line.b.x(), line.b.y(), line.b.z());
-          continue;
-        }
-        run.bucket_distance[bucket].add(e.distance_m * 1000.0);
-        run.bucket_angle[bucket].add(e.angle_deg);
-        run.bucket_good[bucket] += e.distance_m <= 0.01 && e.angle_deg <= 0.5;
-        if (verbose && (e.distance_m > 0.01 || e.angle_deg > 0.5))
-          std::printf(
-              "    frame %d: 3D line at %.2f m, edge %d: %.1f mm %.3f deg, %d of %d inliers, rms %.1f mm, image (%.1f "
-              "%.1f)-(%.1f %.1f), map (%.3f %.3f %.3f)-(%.3f %.3f %.3f)\n",
-              i, line.range_m, e.edge, e.distance_m * 1000.0, e.angle_deg, line.inliers, line.samples,
-              line.rms_m * 1000.0, line.image.a.x(), line.image.a.y(), line.image.b.x(), line.image.b.y(), line.a.x(),
-              line.a.y(), line.a.z(), line.b.x(), line.b.y(), line.b.z());
-      }
-    }
+      if (!benchWorldRgbdFrame(i, frame, truth, repeat, verbose, &run))
+        return 1;
   }
-  for (auto& run : runs)
-  {
-    std::printf("\nRGB-D frame %dx%d, detector %s: %.1f 3D lines per frame, %zu map lines after %d frames\n",
-                w.xtion.width, w.xtion.height, ic::toString(run.kind), run.lines_per_frame.mean(), run.map.size(),
-                frames);
-    printTimingTable({{"detection", &run.detect},
-                      {"2D fine-tuning", &run.refine},
-                      {"depth sampling", &run.depth},
-                      {"RANSAC + refinement", &run.fit},
-                      {"line-map merge", &run.merge},
-                      {"**total**", &run.total}});
-    std::printf(
-        "\n  3D line error against the distance from the sensor (error: RMS of the end points' distances to the "
-        "true line; matched: within 10 cm and 5 deg of a true edge):\n");
-    std::printf("  | range | lines | matched | within 1 cm, 0.5 deg | median | p90 |\n  |---|---|---|---|---|---|\n");
-    for (int b = 0; b < buckets; ++b)
-    {
-      if (!run.bucket_total[b])
-        continue;
-      const int matched = static_cast<int>(run.bucket_distance[b].v.size());
-      std::printf("  | %.0f-%.0f m | %d | %d | %d (%.1f %%) | %.2f mm, %.3f deg | %.2f mm, %.3f deg |\n",
-                  bucket_edges[b], bucket_edges[b + 1], run.bucket_total[b], matched, run.bucket_good[b],
-                  100.0 * run.bucket_good[b] / run.bucket_total[b], run.bucket_distance[b].median(),
-                  run.bucket_angle[b].median(), run.bucket_distance[b].quantile(0.9),
-                  run.bucket_angle[b].quantile(0.9));
-    }
-    Series nd{run.near_distance}, na{run.near_angle};
-    std::printf("  within 3 m: %zu lines, median %.2f mm, %.3f deg (unmatched lines counted as infinite)\n",
-                nd.v.size(), nd.median(), na.median());
-    for (const int support : {min_support, 3})
-    {
-      Series d, a;
-      int on_edge = 0, over5 = 0, over10 = 0;
-      const auto lines = run.map.lines(support);
-      for (const auto& line : lines)
-      {
-        const ic::Line3dError e = ic::measureLine3d(line.a(), line.b(), truth, 0.1, 5.0);
-        if (e.edge < 0)
-        {
-          if (verbose && support == min_support)
-            std::printf("    map line on no true edge: support %d, %.2f m, (%.3f %.3f %.3f)-(%.3f %.3f %.3f)\n",
-                        line.support, line.length(), line.a().x(), line.a().y(), line.a().z(), line.b().x(),
-                        line.b().y(), line.b().z());
-          continue;
-        }
-        ++on_edge;
-        d.add(e.distance_m * 1000.0);
-        a.add(e.angle_deg);
-        over5 += e.distance_m > 0.005;
-        over10 += e.distance_m > 0.01;
-        if (verbose && support == min_support && e.distance_m > 0.005)
-          std::printf(
-              "    map line %.1f mm %.3f deg off edge %d: support %d, %.2f m, (%.3f %.3f %.3f)-(%.3f %.3f "
-              "%.3f)\n",
-              e.distance_m * 1000.0, e.angle_deg, e.edge, line.support, line.length(), line.a().x(), line.a().y(),
-              line.a().z(), line.b().x(), line.b().y(), line.b().z());
-      }
-      std::printf(
-          "  line map, support >= %d: %zu lines, %d on a true edge: median %.2f mm %.3f deg, p90 %.2f mm "
-          "%.3f deg, max %.2f mm %.3f deg; %d over 5 mm, %d over 1 cm\n",
-          support, lines.size(), on_edge, d.median(), a.median(), d.quantile(0.9), a.quantile(0.9), d.max(), a.max(),
-          over5, over10);
-    }
-  }
-
-  // ----------------------------------------------------------------------------------------------- fixed cameras
+  for (const auto& run : runs)
+    printWorldRgbdRun(run, w, frames, truth, min_support, verbose);
   for (const auto kind : kinds)
-  {
-    ic::ImageLineOptions image_options;
-    image_options.detector.kind = kind;
-    image_options.refiner.end_tolerance_px = cl.number("end-tolerance", image_options.refiner.end_tolerance_px);
-    image_options.split_kink_px = cl.number("split-kink", image_options.split_kink_px);
-    image_options.refiner.min_break_px = cl.number("min-break", image_options.refiner.min_break_px);
-    std::printf(
-        "\nfixed cameras, detector %s (%d noisy frames each; first pass: lambda = 0 at the image centre; "
-        "then with the true lambda and centre)\n",
-        ic::toString(kind), fixed_frames);
-    std::printf(
-        "  | camera | size | pass | lines | on a true edge | detection | merging | fine-tuning | **total** "
-        "| RMS before | RMS after | per-line RMS after: median, p90, max |\n"
-        "  |---|---|---|---|---|---|---|---|---|---|---|---|\n");
-    FixedRun all;
-    for (size_t c = 0; c < w.fixed_cameras.size(); ++c)
-    {
-      const sim::FixedCameraConfig& fc = w.fixed_cameras[c];
-      // Collinear true edges (a row of chairs' seat edges, window panes) are one 3D line for a 2D line.
-      const auto edges = ic::projectEdges(fc.camera, ic::mergeCollinearSegments(truth));
-      for (int pass = 0; pass < 2; ++pass)
-      {
-        ic::DivisionModel distortion;
-        distortion.center = Eigen::Vector2d(0.5 * (fc.width - 1), 0.5 * (fc.height - 1));
-        if (pass == 1)
-          distortion = fc.camera.distortion();
-        FixedRun run;
-        for (int k = 0; k < fixed_frames; ++k)
-        {
-          const cv::Mat image = sim::toBgr(survey->fixedFrame(static_cast<int>(c), k).image);
-          ic::ImageLineStats best;
-          double best_total = std::numeric_limits<double>::infinity();
-          std::vector<ic::ImageLine> lines;
-          for (int r = 0; r < repeat; ++r)
-          {
-            ic::ImageLineStats stats;
-            const double t = ic::threadCpuMs();
-            auto result = ic::extractImageLines(image, distortion, image_options, &stats);
-            const double ms = ic::cpuMsSince(t);
-            if (!result)
-            {
-              std::cerr << "bench_lines: " << fc.name << ": " << result.error().describe() << "\n";
-              return 1;
-            }
-            if (ms < best_total)
-            {
-              best_total = ms;
-              best = stats;
-              lines = std::move(*result);
-            }
-          }
-          run.detect.add(best.detect_ms);
-          run.merge.add(best.merge_ms);
-          run.refine.add(best.refine_ms);
-          run.total.add(best_total);
-          run.lines.add(lines.size());
-          addImageLines(lines, fc.camera, edges, verbose, fc.name + (pass ? " (true lambda)" : " (lambda 0)"), &run);
-        }
-        std::printf(
-            "  | %s | %dx%d | %s | %.1f | %d of %d | %.1f | %.2f | %.1f | **%.1f** (max %.1f) | %.3f px | %.3f "
-            "px | %.3f, %.3f, %.3f px |\n",
-            fc.name.c_str(), fc.width, fc.height, pass ? "true lambda" : "lambda 0", run.lines.mean(), run.matched,
-            run.extracted, run.detect.mean(), run.merge.mean(), run.refine.mean(), run.total.mean(), run.total.max(),
-            std::sqrt(run.before2 / std::max(1, run.samples)), std::sqrt(run.after2 / std::max(1, run.samples)),
-            run.after_line.median(), run.after_line.quantile(0.9), run.after_line.max());
-      }
-    }
-  }
+    if (!benchWorldFixed(cl, *survey, truth, kind, fixed_frames, repeat, verbose))
+      return 1;
   return 0;
 }
 

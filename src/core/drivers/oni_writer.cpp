@@ -1,5 +1,7 @@
 #include "insitu_calibration/drivers/oni_writer.h"
 
+#include "drivers/oni_format.h"
+
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
@@ -12,22 +14,7 @@ namespace drivers
 {
 namespace
 {
-// Record types and values of OpenNI2's .oni format (Source/Core/OniDataRecords.h, OniFileRecorder.cpp).
-constexpr uint32_t kRecordMagic = 0x0052494E;  // "NIR\0"
-constexpr uint32_t kIntProperty = 3;
-constexpr uint32_t kGeneralProperty = 6;
-constexpr uint32_t kNodeDataBegin = 8;
-constexpr uint32_t kNodeStateReady = 9;
-constexpr uint32_t kNewData = 10;
-constexpr uint32_t kEnd = 11;
-constexpr uint32_t kNodeAdded = 13;
-constexpr uint32_t kNodeTypeDepth = 2;
-constexpr uint32_t kNodeTypeImage = 3;
-constexpr uint32_t kCodecNone = 0x454E4F4E;  // "NONE": uncompressed
-constexpr uint64_t kPixelFormatRgb24 = 1;    // OpenNI 1 names
-constexpr uint64_t kPixelFormatGray16 = 4;
-constexpr uint64_t kOniPixelFormatDepth1mm = 100;
-constexpr uint64_t kOniPixelFormatRgb888 = 200;
+using namespace oni;  // the format's constants (oni_format.h)
 
 class RecordBuffer
 {
@@ -72,7 +59,7 @@ private:
 
 void intProperty(RecordBuffer& r, std::ofstream& out, uint32_t node, const std::string& name, uint64_t value)
 {
-  r.begin(kIntProperty, node);
+  r.begin(kRecordIntProperty, node);
   r.putString(name);
   r.put32(sizeof(value));
   r.put64(value);
@@ -82,7 +69,7 @@ void intProperty(RecordBuffer& r, std::ofstream& out, uint32_t node, const std::
 void generalProperty(RecordBuffer& r, std::ofstream& out, uint32_t node, const std::string& name, const void* data,
                      uint32_t size)
 {
-  r.begin(kGeneralProperty, node);
+  r.begin(kRecordGeneralProperty, node);
   r.putString(name);
   r.put32(size);
   r.putBytes(data, size);
@@ -128,7 +115,7 @@ Status writeSyntheticOni(const std::string& path, const SyntheticOniOptions& opt
   const uint64_t period_us = 1000000 / mode.fps;
   const uint64_t last_us = period_us * (options.frames - 1);
   // File header: "NI10", version 1.0.1.0, the largest time stamp, the largest node id.
-  out.write("NI10", 4);
+  out.write(kFileMagic, 4);
   const uint8_t version[8] = {1, 0, 1, 0, 0, 0, 0, 0};
   out.write(reinterpret_cast<const char*>(version), sizeof(version));
   out.write(reinterpret_cast<const char*>(&last_us), sizeof(last_us));
@@ -142,7 +129,7 @@ Status writeSyntheticOni(const std::string& path, const SyntheticOniOptions& opt
   {
     const bool color = node == kColorNode;
     const uint32_t bytes_per_pixel = color ? 3 : 2;
-    r.begin(kNodeAdded, node);
+    r.begin(kRecordNodeAdded, node);
     r.putString(color ? "Image" : "Depth");
     r.put32(color ? kNodeTypeImage : kNodeTypeDepth);
     r.put32(kCodecNone);
@@ -171,9 +158,9 @@ Status writeSyntheticOni(const std::string& path, const SyntheticOniOptions& opt
   }
   for (const uint32_t node : {kColorNode, kDepthNode})
   {
-    r.begin(kNodeStateReady, node);
+    r.begin(kRecordNodeStateReady, node);
     r.finish(out);
-    r.begin(kNodeDataBegin, node);
+    r.begin(kRecordNodeDataBegin, node);
     r.put32(static_cast<uint32_t>(options.frames));
     r.put64(last_us);
     r.finish(out);
@@ -193,13 +180,13 @@ Status writeSyntheticOni(const std::string& path, const SyntheticOniOptions& opt
       }
     for (const uint32_t node : {kColorNode, kDepthNode})
     {
-      r.begin(kNewData, node);
+      r.begin(kRecordNewData, node);
       r.put64(period_us * k);                 // time stamp
       r.put32(static_cast<uint32_t>(k + 1));  // frame id
       r.finish(out, node == kColorNode ? color_data : depth_data);
     }
   }
-  r.begin(kEnd, 0);
+  r.begin(kRecordEnd, 0);
   r.finish(out);
   out.close();
   if (!out)

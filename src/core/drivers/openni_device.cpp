@@ -2,6 +2,8 @@
 
 #include <OpenNI.h>
 
+#include "drivers/oni_format.h"
+
 #include <algorithm>
 #include <atomic>
 #include <cctype>
@@ -268,7 +270,7 @@ Expected<std::string> OpenniDevice::Impl::resolve(const std::string& wanted, boo
       return Error(ErrorCode::kIoError, "cannot read the recording '" + wanted + "': " + std::strerror(errno) +
                                             ". Give device_uri as an absolute path (a relative one is taken from the "
                                             "node's working directory, usually ~/.ros).");
-    if (!probe.read(magic, 4) || std::string(magic, 4) != "NI10")
+    if (!probe.read(magic, 4) || std::string(magic, 4) != oni::kFileMagic)
       return Error(ErrorCode::kParseError, "'" + wanted +
                                                "' is not an OpenNI2 recording (it does not start with NI10): record "
                                                "one with NiViewer2 or openni::Recorder.");
@@ -588,17 +590,10 @@ Status recordOni(const OpenniConfig& config, const std::string& path, double sec
 }
 
 // ---------------------------------------------------------------------------------------------------------------
-// The .oni format (OpenNI2's Source/Core/OniDataRecords.cpp): a 24-byte file header, then records, each a packed
-// header {magic "NIR\0", type, node id, fields size (header included), payload size, undo position (64 bit)} and its
-// fields. Property records carry {name size, name with its NUL, data size, data}.
+// The .oni format: oni_format.h. Property records carry {name size, name with its NUL, data size, data}.
 namespace
 {
-constexpr uint32_t kRecordMagic = 0x0052494E;
-constexpr uint32_t kRecordIntProperty = 3;
-constexpr uint32_t kRecordGeneralProperty = 6;
-constexpr uint32_t kRecordEnd = 11;
-constexpr size_t kFileHeaderSize = 24;
-constexpr size_t kRecordHeaderSize = 28;
+using namespace oni;
 
 uint32_t readU32(const std::string& bytes, size_t at)
 {
@@ -624,7 +619,7 @@ Expected<int> addCroppingToOniRecording(const std::string& path)
     buffer << in.rdbuf();
     bytes = buffer.str();
   }
-  if (bytes.size() < kFileHeaderSize || bytes.compare(0, 4, "NI10") != 0)
+  if (bytes.size() < kFileHeaderSize || bytes.compare(0, 4, kFileMagic) != 0)
     return Error(ErrorCode::kParseError, "'" + path + "' is not an OpenNI2 recording");
 
   struct NodeRecords
