@@ -391,7 +391,9 @@ TEST(ImageLines, LineEndsWhereANearlyCollinearEdgeTakesOver)
               << " trimmed; largest distance to the edge " << max_error << " px" << std::endl;
     ASSERT_GE(lines->size(), 1u);
     if (tolerance > 0.0)
+    {
       EXPECT_LT(max_error, 0.1);
+    }
   }
 }
 
