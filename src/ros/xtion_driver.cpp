@@ -1,5 +1,7 @@
 #include "insitu_calibration/ros/xtion_driver.h"
 
+#include <array>
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -11,6 +13,8 @@
 #include <sensor_msgs/image_encodings.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
 #include <tf2/LinearMath/Quaternion.h>
+
+#include "insitu_calibration/drivers/depth_cloud.h"
 
 namespace insitu_calibration
 {
@@ -37,44 +41,32 @@ std::string formatSeconds(double seconds)
   return text;
 }
 
-// Pinhole intrinsics from the fields of view; pixel (0,0) is the centre of the top-left pixel.
-sensor_msgs::CameraInfo infoFromFov(int width, int height, double hfov, double vfov)
+// Camera info from the core's pinhole matrices (drivers/depth_cloud.h) and back.
+sensor_msgs::CameraInfo toCameraInfo(const drivers::PinholeMatrices& m)
 {
   sensor_msgs::CameraInfo info;
-  info.width = width;
-  info.height = height;
-  const double fx = 0.5 * width / std::tan(0.5 * hfov);
-  const double fy = 0.5 * height / std::tan(0.5 * vfov);
-  const double cx = 0.5 * (width - 1);
-  const double cy = 0.5 * (height - 1);
+  info.width = m.width;
+  info.height = m.height;
   info.distortion_model = "plumb_bob";
   info.D.assign(5, 0.0);
-  info.K = {fx, 0, cx, 0, fy, cy, 0, 0, 1};
+  std::copy(m.K.begin(), m.K.end(), info.K.begin());
   info.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-  info.P = {fx, 0, cx, 0, 0, fy, cy, 0, 0, 0, 1, 0};
+  std::copy(m.P.begin(), m.P.end(), info.P.begin());
   return info;
 }
 
-// A calibration made at another resolution of the same aspect ratio (1280x1024 vs 640x512), scaled.
+// A calibration made at another resolution of the same aspect ratio, scaled (drivers::scalePinhole).
 bool scaleInfo(sensor_msgs::CameraInfo& info, int width, int height)
 {
-  if (info.width == 0 || info.height == 0)
+  drivers::PinholeMatrices m;
+  m.width = static_cast<int>(info.width);
+  m.height = static_cast<int>(info.height);
+  std::copy(info.K.begin(), info.K.end(), m.K.begin());
+  std::copy(info.P.begin(), info.P.end(), m.P.begin());
+  if (!drivers::scalePinhole(m, width, height))
     return false;
-  const double sx = static_cast<double>(width) / info.width;
-  const double sy = static_cast<double>(height) / info.height;
-  if (std::abs(sx - sy) > 1e-3 * std::max(sx, sy))
-    return false;
-  // Pixel (0,0) is the centre of the top-left pixel: a centre c scales as (c + 0.5) * s - 0.5.
-  info.K[0] *= sx;
-  info.K[2] = (info.K[2] + 0.5) * sx - 0.5;
-  info.K[4] *= sy;
-  info.K[5] = (info.K[5] + 0.5) * sy - 0.5;
-  info.P[0] *= sx;
-  info.P[2] = (info.P[2] + 0.5) * sx - 0.5;
-  info.P[3] *= sx;
-  info.P[5] *= sy;
-  info.P[6] = (info.P[6] + 0.5) * sy - 0.5;
-  info.P[7] *= sy;
+  std::copy(m.K.begin(), m.K.end(), info.K.begin());
+  std::copy(m.P.begin(), m.P.end(), info.P.begin());
   info.width = width;
   info.height = height;
   return true;
@@ -374,7 +366,7 @@ sensor_msgs::CameraInfo XtionDriver::cameraInfo(StreamKind kind, int width, int 
     hfov = model == StreamKind::kColor ? kNominalColorHfov : kNominalDepthHfov;
     vfov = model == StreamKind::kColor ? kNominalColorVfov : kNominalDepthVfov;
   }
-  return infoFromFov(width, height, hfov, vfov);
+  return toCameraInfo(drivers::pinholeFromFieldOfView(width, height, hfov, vfov));
 }
 
 void XtionDriver::onFrame(const drivers::FrameView& frame)
@@ -429,50 +421,16 @@ void XtionDriver::publishPoints(const sensor_msgs::ImageConstPtr& depth, const s
 
   // Colours only where depth is registered to the colour image (else the pixels do not correspond).
   const sensor_msgs::Image* color = (device_.summary().registration_on && last_color_) ? last_color_.get() : nullptr;
-  const float bad = std::numeric_limits<float>::quiet_NaN();
-  // Per-column and per-row factors: x = (u - cx) / fx * z, y = (v - cy) / fy * z.
-  std::vector<float> column_factor(depth->width);
-  std::vector<uint32_t> color_column(depth->width, 0);
-  for (uint32_t u = 0; u < depth->width; ++u)
-  {
-    column_factor[u] = static_cast<float>((u - info.K[2]) / info.K[0]);
-    if (color != nullptr)
-      color_column[u] = 3 * (u * color->width / depth->width);
-  }
-  const size_t x_offset = cloud->fields[0].offset;
-  const size_t y_offset = cloud->fields[1].offset;
-  const size_t z_offset = cloud->fields[2].offset;
-  const size_t rgb_offset = cloud->fields[3].offset;
-  uint8_t* point = cloud->data.data();
-  for (uint32_t v = 0; v < depth->height; ++v)
-  {
-    const float row_factor = static_cast<float>((v - info.K[5]) / info.K[4]);
-    const auto* row = reinterpret_cast<const uint16_t*>(&depth->data[static_cast<size_t>(v) * depth->step]);
-    const uint8_t* color_row =
-        color != nullptr ? &color->data[static_cast<size_t>(v * color->height / depth->height) * color->step] : nullptr;
-    for (uint32_t u = 0; u < depth->width; ++u, point += cloud->point_step)
-    {
-      float xyz[3] = {bad, bad, bad};
-      if (row[u] != 0)
-      {
-        xyz[2] = row[u] * 0.001f;
-        xyz[0] = column_factor[u] * xyz[2];
-        xyz[1] = row_factor * xyz[2];
-      }
-      std::memcpy(point + x_offset, &xyz[0], sizeof(float));
-      std::memcpy(point + y_offset, &xyz[1], sizeof(float));
-      std::memcpy(point + z_offset, &xyz[2], sizeof(float));
-      uint8_t bgr[4] = {0, 0, 0, 0};  // packed as pcl's rgb float: b, g, r, a
-      if (color_row != nullptr)
-      {
-        const uint8_t* pixel = color_row + color_column[u];
-        bgr[0] = pixel[2];
-        bgr[1] = pixel[1];
-        bgr[2] = pixel[0];
-      }
-      std::memcpy(point + rgb_offset, bgr, sizeof(bgr));
-    }
-  }
+  const drivers::DepthImageView depth_view{depth->data.data(), static_cast<int>(depth->width),
+                                           static_cast<int>(depth->height), depth->step};
+  drivers::RgbImageView color_view;
+  if (color != nullptr)
+    color_view = {color->data.data(), static_cast<int>(color->width), static_cast<int>(color->height), color->step};
+  const drivers::PointLayout layout{cloud->point_step, cloud->fields[0].offset, cloud->fields[1].offset,
+                                    cloud->fields[2].offset, cloud->fields[3].offset};
+  std::array<double, 9> K;
+  std::copy(info.K.begin(), info.K.end(), K.begin());
+  drivers::depthToPoints(depth_view, color != nullptr ? &color_view : nullptr, K, layout, cloud->data.data());
   points_pub_.publish(cloud);
 }
 
