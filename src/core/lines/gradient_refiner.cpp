@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "insitu_calibration/lines/segment_detector.h"
+#include "insitu_calibration/robust_statistics.h"
 
 namespace insitu_calibration
 {
@@ -105,15 +106,6 @@ WeightedLineFit fitOffsetSlope(const std::vector<double>& s, const std::vector<d
   fit.offset = mc - fit.slope * ms;
   fit.ok = true;
   return fit;
-}
-
-double medianOf(std::vector<double> v)
-{
-  if (v.empty())
-    return 0.0;
-  const size_t mid = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + mid, v.end());
-  return v[mid];
 }
 
 // The line being fine-tuned (a point on it, its direction and normal) and its samples along it: s = 0 at the centre
@@ -344,7 +336,7 @@ size_t selectEdgeSamples(const RefinerOptions& o, const SampledLine& line, const
       for (size_t i = 0; i < line.s.size(); ++i)
         if (e->valid[i] && line.inside[i])
           contrasts.push_back(e->weight[i]);
-      *typical_contrast = medianOf(contrasts);
+      *typical_contrast = middleValue(contrasts);
     }
     for (size_t i = 0; i < line.s.size(); ++i)
       if (e->use[i] && std::abs(e->weight[i] - *typical_contrast) > o.contrast_tolerance * *typical_contrast)
@@ -377,7 +369,7 @@ Expected<int> reweightRobustly(const RefinerOptions& o, const SampledLine& line,
   for (size_t i = 0; i < s.size(); ++i)
     if (e->use[i])
       abs_residuals.push_back(std::abs(residual[i]));
-  const double scale = std::max(o.outlier_px / 3.0, 1.4826 * medianOf(abs_residuals));
+  const double scale = std::max(o.outlier_px / 3.0, robustSigma(abs_residuals));
   const double cutoff = 4.685 * scale;
   int used = 0;
   for (size_t i = 0; i < s.size(); ++i)
@@ -575,7 +567,7 @@ void measureOffLineEnds(const RefinerOptions& o, const SampledLine& line, const 
   for (size_t i = 0; i < line.s.size(); ++i)
     if (e.use[i])
       abs_residuals.push_back(std::abs(e.final_residual[i]));
-  const double tolerance = std::max(o.end_tolerance_px, 3.0 * 1.4826 * medianOf(abs_residuals));
+  const double tolerance = std::max(o.end_tolerance_px, 3.0 * kMadToSigma * middleValue(abs_residuals));
   r->off_a_px = offLineRun(o, line, e, tolerance, true);
   r->off_b_px = offLineRun(o, line, e, tolerance, false);
 }

@@ -12,6 +12,8 @@
 #include <pcl/sample_consensus/ransac.h>
 #include <pcl/sample_consensus/sac_model_line.h>
 
+#include "insitu_calibration/robust_statistics.h"
+
 namespace insitu_calibration
 {
 namespace
@@ -34,26 +36,19 @@ struct Consensus
   Eigen::Vector3d direction = Eigen::Vector3d::UnitX();
 };
 
-double medianOf(std::vector<double> v)
-{
-  const size_t mid = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + mid, v.end());
-  return v[mid];
-}
-
 double thresholdFor(const std::vector<Eigen::Vector3d>& points, const Line3dFitOptions& options)
 {
   std::vector<double> z;
   z.reserve(points.size());
   for (const auto& p : points)
     z.push_back(p.z());
-  double range = medianOf(z);
+  double range = middleValue(z);
   if (!(range > 0.0))
   {
     z.clear();
     for (const auto& p : points)
       z.push_back(p.norm());
-    range = medianOf(z);
+    range = middleValue(z);
   }
   return options.threshold_m + options.threshold_per_m2 * range * range;
 }
