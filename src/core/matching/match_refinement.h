@@ -1,0 +1,30 @@
+// Step 3 of the matcher from one start camera: match, calibrate, re-match with tightened thresholds until the
+// matches settle; and the correspondences a set of matches makes.
+#ifndef INSITU_CALIBRATION_MATCHING_MATCH_REFINEMENT_H
+#define INSITU_CALIBRATION_MATCHING_MATCH_REFINEMENT_H
+
+#include <limits>
+#include <vector>
+
+#include "matching/matching_problem.h"
+
+namespace insitu_calibration
+{
+namespace matching
+{
+// From `start`, with a first distance threshold of initial_max_distance_px, never matching the banned pairs. A start
+// whose calibration still explains the image worse than abandon_above after options.abandon_after rounds is
+// abandoned (an error).
+Expected<LineMatchResult> refineMatches(const MatchingProblem& problem, const CameraModel& start,
+                                        double initial_max_distance_px, const PairSet& banned,
+                                        double abandon_above = std::numeric_limits<double>::infinity());
+
+// The image lines left unmatched are straight edges too (plumb lines for the distortion), when they have 3 or more
+// points and a chord of at least min_length_px (0: none).
+std::vector<std::vector<Eigen::Vector2d>> straightLinesOf(const std::vector<LineMatch>& matches,
+                                                          const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                                                          double min_length_px);
+}  // namespace matching
+}  // namespace insitu_calibration
+
+#endif  // INSITU_CALIBRATION_MATCHING_MATCH_REFINEMENT_H

@@ -1,0 +1,20 @@
+// Step 1 of the matcher: the cameras within the prior's uncertainty that best explain the image lines.
+#ifndef INSITU_CALIBRATION_MATCHING_PRIOR_SEARCH_H
+#define INSITU_CALIBRATION_MATCHING_PRIOR_SEARCH_H
+
+#include <vector>
+
+#include "matching/matching_problem.h"
+
+namespace insitu_calibration
+{
+namespace matching
+{
+// A grid over yaw, pitch and field of view within 1.5 sigma; the search_starts best distinct cells are then each
+// refined by a pattern search over all seven values (repetitive structure such as a row of windows gives several
+// local optima, and the best grid cell is not always the right one).
+std::vector<CameraModel> searchPrior(const MatchingProblem& problem, const CameraPrior& prior);
+}  // namespace matching
+}  // namespace insitu_calibration
+
+#endif  // INSITU_CALIBRATION_MATCHING_PRIOR_SEARCH_H
