@@ -9,7 +9,7 @@
 #include <Eigen/Core>
 
 #include "insitu_calibration/camera/camera_model.h"
-#include "insitu_calibration/synthetic/synthetic_lines.h"
+#include "insitu_calibration/geometry/segment.h"
 
 namespace insitu_calibration
 {
