@@ -1,7 +1,10 @@
 #include "insitu_calibration/lines/depth_sampler.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
+#include <optional>
 
 #include <Eigen/Dense>
 
@@ -41,6 +44,153 @@ bool occludedBySurfaceBeyondGap(const cv::Mat& depth_m, const Eigen::Vector2d& p
   return false;
 }
 
+// The valid depth readings in a band of +-band pixels across the edge at p: each pixel's signed offset from the edge
+// (its centre, across it) and its depth. Returns the smallest depth (infinity when none).
+double readBand(const cv::Mat& depth_m, const Eigen::Vector2d& p, const Eigen::Vector2d& n, int band,
+                std::vector<double>* offsets, std::vector<double>* depths)
+{
+  offsets->clear();
+  depths->clear();
+  double z_min = std::numeric_limits<double>::infinity();
+  for (int j = -band; j <= band; ++j)
+  {
+    const Eigen::Vector2d q = p + static_cast<double>(j) * n;
+    const int x = static_cast<int>(std::lround(q.x()));
+    const int y = static_cast<int>(std::lround(q.y()));
+    if (x < 0 || y < 0 || x >= depth_m.cols || y >= depth_m.rows)
+      continue;
+    const float z = depth_m.at<float>(y, x);
+    if (!std::isfinite(z))
+      continue;
+    offsets->push_back((Eigen::Vector2d(x, y) - p).dot(n));
+    depths->push_back(z);
+    z_min = std::min(z_min, static_cast<double>(z));
+  }
+  return z_min;
+}
+
+struct EdgeDepth
+{
+  double depth_m = 0.0;
+  bool far_seen = false;  // readings of a farther surface in the band: a discontinuity
+};
+
+// Near cluster: inverse depth, affine in the offset on each side of the edge and continuous across it (a crease: both
+// sides' slopes; an occluding contour: the near side only), evaluated at offset 0. Nothing when the nearest reading
+// is too far from the edge or the fit is not positive.
+std::optional<EdgeDepth> nearClusterDepth(const std::vector<double>& offsets, const std::vector<double>& depths,
+                                          double z_min, double jump, const DepthSamplerOptions& options)
+{
+  Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d atb = Eigen::Vector3d::Zero();
+  double nearest_offset = std::numeric_limits<double>::infinity();
+  double near_lo = std::numeric_limits<double>::infinity(), near_hi = 0.0;
+  int left = 0, right = 0;
+  EdgeDepth edge;
+  for (size_t k = 0; k < depths.size(); ++k)
+  {
+    if (depths[k] > z_min + jump)
+    {
+      edge.far_seen = true;
+      continue;
+    }
+    const double o = offsets[k];
+    const Eigen::Vector3d row(1.0, std::min(o, 0.0), std::max(o, 0.0));
+    ata += row * row.transpose();
+    atb += row / depths[k];
+    nearest_offset = std::min(nearest_offset, std::abs(o));
+    near_lo = std::min(near_lo, depths[k]);
+    near_hi = std::max(near_hi, depths[k]);
+    left += o < -0.25;
+    right += o > 0.25;
+  }
+  if (nearest_offset > options.max_extrapolation_px)
+    return std::nullopt;
+  // Keep the slope of a side only when it has two readings or more.
+  for (int side = 1; side <= 2; ++side)
+  {
+    if ((side == 1 ? left : right) >= 2)
+      continue;
+    ata.row(side).setZero();
+    ata.col(side).setZero();
+    ata(side, side) = 1.0;
+    atb(side) = 0.0;
+  }
+  const double inverse_depth = ata.ldlt().solve(atb)(0);
+  if (!(inverse_depth > 0.0))
+    return std::nullopt;
+  // Never beyond the near cluster's readings by more than a jump.
+  edge.depth_m = std::clamp(1.0 / inverse_depth, near_lo - jump, near_hi + jump);
+  return edge;
+}
+
+// Each side alone (readings at least half a pixel off the edge), its inverse depth extrapolated to the edge; NaN where
+// a side has fewer than two readings or too little spread.
+std::array<double, 2> oneSidedInverseDepths(const std::vector<double>& offsets, const std::vector<double>& depths)
+{
+  std::array<double, 2> sides = {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
+  for (int side = 0; side < 2; ++side)
+  {
+    double sw = 0.0, so = 0.0, sv = 0.0, soo = 0.0, sov = 0.0;
+    for (size_t k = 0; k < depths.size(); ++k)
+    {
+      const double o = offsets[k];
+      if (side == 0 ? o > -0.5 : o < 0.5)
+        continue;
+      const double v = 1.0 / depths[k];
+      sw += 1.0;
+      so += o;
+      sv += v;
+      soo += o * o;
+      sov += o * v;
+    }
+    const double var = soo - (sw > 0.0 ? so * so / sw : 0.0);
+    if (sw >= 2.0 && var > 0.25)
+    {
+      const double slope = (sov - so * sv / sw) / var;
+      sides[side] = (sv - slope * so) / sw;
+    }
+  }
+  return sides;
+}
+
+// A step smaller than the per-sample jump (a door frame standing 1-2 cm off its wall, under depth noise of several mm)
+// shows as a consistent difference of the two one-sided depths along the whole segment: then the edge belongs to the
+// nearer side, and its samples take that side's depth.
+void assignSmallStepToNearSide(const DepthSamplerOptions& options, const std::vector<double>& side_left,
+                               const std::vector<double>& side_right, std::vector<DepthSample>* out)
+{
+  std::vector<double> diff;
+  double z_sum = 0.0;
+  for (size_t i = 0; i < out->size(); ++i)
+    if (std::isfinite(side_left[i]) && std::isfinite(side_right[i]))
+    {
+      diff.push_back(side_left[i] - side_right[i]);
+      z_sum += (*out)[i].depth_m;
+    }
+  if (diff.size() < 8)
+    return;
+  const double m = static_cast<double>(diff.size());
+  double mean = 0.0;
+  for (double x : diff)
+    mean += x;
+  mean /= m;
+  double var = 0.0;
+  for (double x : diff)
+    var += (x - mean) * (x - mean);
+  const double standard_error = std::sqrt(var / (m - 1.0) / m);
+  const double z = z_sum / m;
+  const double step_m = std::abs(mean) * z * z;  // inverse-depth difference -> depth difference
+  if (!(std::abs(mean) > options.small_step_sigmas * standard_error && step_m >= options.small_step_min_m))
+    return;
+  const std::vector<double>& near = mean > 0.0 ? side_left : side_right;
+  for (size_t i = 0; i < out->size(); ++i)
+    if (std::isfinite(near[i]) && near[i] > 0.0)
+    {
+      (*out)[i].depth_m = 1.0 / near[i];
+      (*out)[i].discontinuity = true;
+    }
+}
 }  // namespace
 
 Expected<cv::Mat> depthToMeters(const cv::Mat& depth, double min_range_m, double max_range_m)
@@ -106,7 +256,7 @@ std::vector<DepthSample> sampleDepthAlongSegment(const cv::Mat& depth_m, const S
   const double start = options.end_margin_px + 0.5 * (usable - (count - 1) * options.step_px);
   out.reserve(count);
 
-  // One-sided near-surface inverse depths at the edge, for the step test after the loop (NaN: not available).
+  // One-sided near-surface inverse depths at the edge, for the small-step test after the loop (NaN: not available).
   const double nan = std::numeric_limits<double>::quiet_NaN();
   std::vector<double> side_left, side_right;
   std::vector<double> offsets, depths;
@@ -116,24 +266,7 @@ std::vector<DepthSample> sampleDepthAlongSegment(const cv::Mat& depth_m, const S
   {
     const double s = start + i * options.step_px;
     const Eigen::Vector2d p = segment.a + s * d;
-    offsets.clear();
-    depths.clear();
-    double z_min = std::numeric_limits<double>::infinity();
-    for (int j = -band; j <= band; ++j)
-    {
-      const Eigen::Vector2d q = p + static_cast<double>(j) * n;
-      const int x = static_cast<int>(std::lround(q.x()));
-      const int y = static_cast<int>(std::lround(q.y()));
-      if (x < 0 || y < 0 || x >= depth_m.cols || y >= depth_m.rows)
-        continue;
-      const float z = depth_m.at<float>(y, x);
-      if (!std::isfinite(z))
-        continue;
-      // The signed offset of the pixel centre from the edge, across it.
-      offsets.push_back((Eigen::Vector2d(x, y) - p).dot(n));
-      depths.push_back(z);
-      z_min = std::min(z_min, static_cast<double>(z));
-    }
+    const double z_min = readBand(depth_m, p, n, band, &offsets, &depths);
     if (depths.empty())
       continue;
     const double jump = std::max(options.jump_min_m, options.jump_ratio * z_min);
@@ -142,124 +275,22 @@ std::vector<DepthSample> sampleDepthAlongSegment(const cv::Mat& depth_m, const S
     // the readings are the background: no sample here.
     if (occludedBySurfaceBeyondGap(depth_m, p, n, offsets, band, options.gap_search_px, z_min - jump))
       continue;
-    // Near cluster: inverse depth, affine in the offset on each side of the edge and continuous across it (a
-    // crease: both sides' slopes; an occluding contour: the near side only), evaluated at offset 0.
-    Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d atb = Eigen::Vector3d::Zero();
-    double nearest_offset = std::numeric_limits<double>::infinity();
-    double near_lo = std::numeric_limits<double>::infinity(), near_hi = 0.0;
-    int left = 0, right = 0;
-    bool far_seen = false;
-    for (size_t k = 0; k < depths.size(); ++k)
-    {
-      if (depths[k] > z_min + jump)
-      {
-        far_seen = true;
-        continue;
-      }
-      const double o = offsets[k];
-      const Eigen::Vector3d row(1.0, std::min(o, 0.0), std::max(o, 0.0));
-      ata += row * row.transpose();
-      atb += row / depths[k];
-      nearest_offset = std::min(nearest_offset, std::abs(o));
-      near_lo = std::min(near_lo, depths[k]);
-      near_hi = std::max(near_hi, depths[k]);
-      left += o < -0.25;
-      right += o > 0.25;
-    }
-    if (nearest_offset > options.max_extrapolation_px)
+    const std::optional<EdgeDepth> edge = nearClusterDepth(offsets, depths, z_min, jump, options);
+    if (!edge)
       continue;
-    // Keep the slope of a side only when it has two readings or more.
-    for (int side = 1; side <= 2; ++side)
-    {
-      if ((side == 1 ? left : right) >= 2)
-        continue;
-      ata.row(side).setZero();
-      ata.col(side).setZero();
-      ata(side, side) = 1.0;
-      atb(side) = 0.0;
-    }
-    const double inverse_depth = ata.ldlt().solve(atb)(0);
-    if (!(inverse_depth > 0.0))
-      continue;
-    double z = 1.0 / inverse_depth;
-    // Never beyond the near cluster's readings by more than a jump.
-    z = std::clamp(z, near_lo - jump, near_hi + jump);
     DepthSample sample;
     sample.pixel = p;
     sample.t = s / length;
-    sample.depth_m = z;
-    sample.discontinuity = far_seen;
+    sample.depth_m = edge->depth_m;
+    sample.discontinuity = edge->far_seen;
     out.push_back(sample);
-    // Each side alone (readings at least half a pixel off the edge), extrapolated to the edge.
-    double sides[2] = {nan, nan};
-    if (!far_seen)
-    {
-      for (int side = 0; side < 2; ++side)
-      {
-        double sw = 0.0, so = 0.0, sv = 0.0, soo = 0.0, sov = 0.0;
-        for (size_t k = 0; k < depths.size(); ++k)
-        {
-          const double o = offsets[k];
-          if (side == 0 ? o > -0.5 : o < 0.5)
-            continue;
-          const double v = 1.0 / depths[k];
-          sw += 1.0;
-          so += o;
-          sv += v;
-          soo += o * o;
-          sov += o * v;
-        }
-        const double var = soo - (sw > 0.0 ? so * so / sw : 0.0);
-        if (sw >= 2.0 && var > 0.25)
-        {
-          const double slope = (sov - so * sv / sw) / var;
-          sides[side] = (sv - slope * so) / sw;
-        }
-      }
-    }
+    const std::array<double, 2> sides =
+        edge->far_seen ? std::array<double, 2>{nan, nan} : oneSidedInverseDepths(offsets, depths);
     side_left.push_back(sides[0]);
     side_right.push_back(sides[1]);
   }
-
-  // A step smaller than the per-sample jump (a door frame standing 1-2 cm off its wall, under depth noise of
-  // several mm) shows as a consistent difference of the two one-sided depths along the whole segment: then the
-  // edge belongs to the nearer side.
   if (options.small_step_sigmas > 0.0)
-  {
-    std::vector<double> diff;
-    double z_sum = 0.0;
-    for (size_t i = 0; i < out.size(); ++i)
-      if (std::isfinite(side_left[i]) && std::isfinite(side_right[i]))
-      {
-        diff.push_back(side_left[i] - side_right[i]);
-        z_sum += out[i].depth_m;
-      }
-    if (diff.size() >= 8)
-    {
-      const double m = static_cast<double>(diff.size());
-      double mean = 0.0;
-      for (double x : diff)
-        mean += x;
-      mean /= m;
-      double var = 0.0;
-      for (double x : diff)
-        var += (x - mean) * (x - mean);
-      const double standard_error = std::sqrt(var / (m - 1.0) / m);
-      const double z = z_sum / m;
-      const double step_m = std::abs(mean) * z * z;  // inverse-depth difference -> depth difference
-      if (std::abs(mean) > options.small_step_sigmas * standard_error && step_m >= options.small_step_min_m)
-      {
-        const std::vector<double>& near = mean > 0.0 ? side_left : side_right;
-        for (size_t i = 0; i < out.size(); ++i)
-          if (std::isfinite(near[i]) && near[i] > 0.0)
-          {
-            out[i].depth_m = 1.0 / near[i];
-            out[i].discontinuity = true;
-          }
-      }
-    }
-  }
+    assignSmallStepToNearSide(options, side_left, side_right, &out);
   return out;
 }
 
