@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <limits>
 #include <memory>
 
 #include <Eigen/Dense>
@@ -164,6 +165,144 @@ Status checkLength(const Line3d& line, const Line3dFitOptions& options)
   return Success();
 }
 
+// Total least squares on the inliers, then the inliers of the refined line, up to three times; stops early when the
+// consensus would shrink (the larger one is kept).
+void refinePcaLine(const std::vector<Eigen::Vector3d>& points, double threshold, std::vector<int>* inliers,
+                   Eigen::Vector3d* point, Eigen::Vector3d* direction)
+{
+  for (int round = 0; round < 3; ++round)
+  {
+    pcaLine(points, *inliers, point, direction);
+    if (round == 2)
+      break;
+    std::vector<int> next;
+    for (size_t i = 0; i < points.size(); ++i)
+    {
+      const Eigen::Vector3d r = points[i] - *point;
+      if ((r - r.dot(*direction) * *direction).norm() <= threshold)
+        next.push_back(static_cast<int>(i));
+    }
+    if (next.size() < inliers->size())
+      break;
+    inliers->swap(next);
+  }
+}
+
+// Depth samples back-projected (camera frame, m) with their parameter t along the normalised 2D segment xa + t xab.
+void backProjectSamples(const std::vector<DepthSample>& samples, const RgbdCamera& camera, const Eigen::Vector2d& xa,
+                        const Eigen::Vector2d& xab, std::vector<Eigen::Vector3d>* points, std::vector<double>* t)
+{
+  points->reserve(samples.size());
+  t->reserve(samples.size());
+  for (const auto& s : samples)
+  {
+    if (!(s.depth_m > 0.0) || !std::isfinite(s.depth_m) || !s.pixel.allFinite())
+      continue;
+    const Eigen::Vector2d x = camera.normalize(s.pixel);
+    points->push_back(s.depth_m * x.homogeneous());
+    t->push_back((x - xa).dot(xab) / xab.squaredNorm());
+  }
+}
+
+// Inverse depth v = alpha + beta t along the 2D segment.
+struct InverseDepthLine
+{
+  double alpha = 0.0;
+  double beta = 0.0;
+};
+
+// Least squares on the inliers; then the inliers again by their depth residual, and a final fit (RANSAC's inliers
+// and the fit are kept when the new inliers would be too few).
+Expected<InverseDepthLine> fitInverseDepth(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& t,
+                                           double threshold, const Line3dFitOptions& options, std::vector<int>* inliers)
+{
+  InverseDepthLine fit;
+  for (int round = 0; round < 3; ++round)
+  {
+    double sw = 0.0, st = 0.0, sv = 0.0, stt = 0.0, stv = 0.0;
+    for (int i : *inliers)
+    {
+      const double v = 1.0 / points[i].z();
+      sw += 1.0;
+      st += t[i];
+      sv += v;
+      stt += t[i] * t[i];
+      stv += t[i] * v;
+    }
+    const double var = stt - st * st / sw;
+    if (!(var > 1e-12 * sw))
+      return Error(ErrorCode::kDegenerate, "the depth samples do not spread along the segment");
+    fit.beta = (stv - st * sv / sw) / var;
+    fit.alpha = (sv - fit.beta * st) / sw;
+    if (round == 2)
+      break;
+    std::vector<int> next;
+    for (size_t i = 0; i < points.size(); ++i)
+    {
+      const double v = fit.alpha + fit.beta * t[i];
+      if (v > 0.0 && std::abs(points[i].z() - 1.0 / v) <= threshold)
+        next.push_back(static_cast<int>(i));
+    }
+    const double required = std::max<double>(options.min_inliers, options.min_inlier_ratio * points.size());
+    if (static_cast<double>(next.size()) < required)
+      break;
+    inliers->swap(next);
+  }
+  return fit;
+}
+
+// The larger standard error of the two end points: that of the inverse depth at each end (affine least squares),
+// then along its ray: sigma_z = sigma_v z^2, times the ray's length per unit z.
+double inverseDepthEndSigma(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& t,
+                            const std::vector<int>& inliers, const InverseDepthLine& fit, double t_lo, double t_hi,
+                            const Eigen::Vector3d& pa, const Eigen::Vector3d& pb)
+{
+  double t_mean = 0.0;
+  for (int i : inliers)
+    t_mean += t[i];
+  t_mean /= static_cast<double>(inliers.size());
+  double stt = 0.0, rss = 0.0;
+  for (int i : inliers)
+  {
+    stt += (t[i] - t_mean) * (t[i] - t_mean);
+    const double r = 1.0 / points[i].z() - fit.alpha - fit.beta * t[i];
+    rss += r * r;
+  }
+  const double n = static_cast<double>(inliers.size());
+  const double sigma_v = std::sqrt(rss / std::max(1.0, n - 2.0));
+  auto end_sigma = [&](double t_end, double v_end, const Eigen::Vector3d& p) {
+    const double var = sigma_v * sigma_v * (1.0 / n + (t_end - t_mean) * (t_end - t_mean) / std::max(stt, 1e-12));
+    return std::sqrt(var) / (v_end * v_end) * p.norm() / p.z();
+  };
+  return std::max(end_sigma(t_lo, fit.alpha + fit.beta * t_lo, pa), end_sigma(t_hi, fit.alpha + fit.beta * t_hi, pb));
+}
+
+// The 3D line whose inverse depth is affine along the 2D segment (xa + t xab, normalised coordinates); its extent is
+// the inliers' on the image line.
+Expected<Line3d> inverseDepthLine(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& t,
+                                  const Eigen::Vector2d& xa, const Eigen::Vector2d& xab, double threshold,
+                                  const Line3dFitOptions& options, std::vector<int> inliers)
+{
+  const Expected<InverseDepthLine> fit = fitInverseDepth(points, t, threshold, options, &inliers);
+  if (!fit)
+    return fit.error();
+  double t_lo = std::numeric_limits<double>::infinity(), t_hi = -t_lo;
+  for (int i : inliers)
+  {
+    t_lo = std::min(t_lo, t[i]);
+    t_hi = std::max(t_hi, t[i]);
+  }
+  const double va = fit->alpha + fit->beta * t_lo, vb = fit->alpha + fit->beta * t_hi;
+  if (!(va > 0.0 && vb > 0.0))
+    return Error(ErrorCode::kDegenerate, "the fitted 3D line passes behind the camera");
+  const Eigen::Vector3d pa = (xa + t_lo * xab).homogeneous() / va;
+  const Eigen::Vector3d pb = (xa + t_hi * xab).homogeneous() / vb;
+  Line3d line = finishLine(points, inliers, pa, (pb - pa).normalized());
+  line.a = pa;
+  line.b = pb;
+  line.sigma_m = inverseDepthEndSigma(points, t, inliers, *fit, t_lo, t_hi, pa, pb);
+  return line;
+}
 }  // namespace
 
 Expected<Line3d> fitLine3d(const std::vector<Eigen::Vector3d>& points, const Line3dFitOptions& options)
@@ -185,22 +324,7 @@ Expected<Line3d> fitLine3d(const std::vector<Eigen::Vector3d>& points, const Lin
   // Refinement: total least squares on the inliers, then the inliers of the refined line, twice.
   std::vector<int> inliers = consensus->inliers;
   Eigen::Vector3d point, direction;
-  for (int round = 0; round < 3; ++round)
-  {
-    pcaLine(finite, inliers, &point, &direction);
-    if (round == 2)
-      break;
-    std::vector<int> next;
-    for (size_t i = 0; i < finite.size(); ++i)
-    {
-      const Eigen::Vector3d r = finite[i] - point;
-      if ((r - r.dot(direction) * direction).norm() <= threshold)
-        next.push_back(static_cast<int>(i));
-    }
-    if (next.size() < inliers.size())
-      break;  // keep the larger consensus
-    inliers.swap(next);
-  }
+  refinePcaLine(finite, threshold, &inliers, &point, &direction);
   Line3d line = finishLine(finite, inliers, point, direction);
   line.samples = static_cast<int>(points.size());
   if (auto s = checkLength(line, options); !s)
@@ -218,20 +342,10 @@ Expected<Line3d> fitLine3dToDepthSamples(const Segment2d& segment, const std::ve
   if (!segment.a.allFinite() || !segment.b.allFinite() || !(segment.length() > 0.0))
     return Error(ErrorCode::kInvalidInput, "the 2D segment is degenerate or not finite");
   const Eigen::Vector2d xa = camera.normalize(segment.a);
-  const Eigen::Vector2d xb = camera.normalize(segment.b);
-  const Eigen::Vector2d xab = xb - xa;
+  const Eigen::Vector2d xab = camera.normalize(segment.b) - xa;
   std::vector<Eigen::Vector3d> points;
   std::vector<double> t;
-  points.reserve(samples.size());
-  t.reserve(samples.size());
-  for (const auto& s : samples)
-  {
-    if (!(s.depth_m > 0.0) || !std::isfinite(s.depth_m) || !s.pixel.allFinite())
-      continue;
-    const Eigen::Vector2d x = camera.normalize(s.pixel);
-    points.push_back(s.depth_m * x.homogeneous());
-    t.push_back((x - xa).dot(xab) / xab.squaredNorm());
-  }
+  backProjectSamples(samples, camera, xa, xab, &points, &t);
   if (points.size() < static_cast<size_t>(std::max(2, options.min_inliers)))
     return Error(ErrorCode::kNotEnoughData, std::to_string(points.size()) + " depth samples along the segment, " +
                                                 std::to_string(std::max(2, options.min_inliers)) + " needed");
@@ -239,102 +353,22 @@ Expected<Line3d> fitLine3dToDepthSamples(const Segment2d& segment, const std::ve
   auto consensus = ransacLine(points, threshold, options);
   if (!consensus)
     return consensus.error();
-  std::vector<int> inliers = consensus->inliers;
 
   Line3d line;
   if (options.refinement == Line3dRefinement::kPca)
   {
+    std::vector<int> inliers = consensus->inliers;
     Eigen::Vector3d point, direction;
-    for (int round = 0; round < 3; ++round)
-    {
-      pcaLine(points, inliers, &point, &direction);
-      if (round == 2)
-        break;
-      std::vector<int> next;
-      for (size_t i = 0; i < points.size(); ++i)
-      {
-        const Eigen::Vector3d r = points[i] - point;
-        if ((r - r.dot(direction) * direction).norm() <= threshold)
-          next.push_back(static_cast<int>(i));
-      }
-      if (next.size() < inliers.size())
-        break;
-      inliers.swap(next);
-    }
+    refinePcaLine(points, threshold, &inliers, &point, &direction);
     line = finishLine(points, inliers, point, direction);
     line.sigma_m = 2.0 * line.rms_m / std::sqrt(static_cast<double>(std::max<size_t>(1, inliers.size())));
   }
   else
   {
-    // Inverse depth affine along the 2D segment, least squares on the inliers; then the inliers again by their
-    // depth residual, and a final fit.
-    double alpha = 0.0, beta = 0.0;
-    for (int round = 0; round < 3; ++round)
-    {
-      double sw = 0.0, st = 0.0, sv = 0.0, stt = 0.0, stv = 0.0;
-      for (int i : inliers)
-      {
-        const double v = 1.0 / points[i].z();
-        sw += 1.0;
-        st += t[i];
-        sv += v;
-        stt += t[i] * t[i];
-        stv += t[i] * v;
-      }
-      const double var = stt - st * st / sw;
-      if (!(var > 1e-12 * sw))
-        return Error(ErrorCode::kDegenerate, "the depth samples do not spread along the segment");
-      beta = (stv - st * sv / sw) / var;
-      alpha = (sv - beta * st) / sw;
-      if (round == 2)
-        break;
-      std::vector<int> next;
-      for (size_t i = 0; i < points.size(); ++i)
-      {
-        const double v = alpha + beta * t[i];
-        if (v > 0.0 && std::abs(points[i].z() - 1.0 / v) <= threshold)
-          next.push_back(static_cast<int>(i));
-      }
-      const double required = std::max<double>(options.min_inliers, options.min_inlier_ratio * points.size());
-      if (static_cast<double>(next.size()) < required)
-        break;  // keep RANSAC's inliers and this fit
-      inliers.swap(next);
-    }
-    double t_lo = std::numeric_limits<double>::infinity(), t_hi = -t_lo;
-    for (int i : inliers)
-    {
-      t_lo = std::min(t_lo, t[i]);
-      t_hi = std::max(t_hi, t[i]);
-    }
-    const double va = alpha + beta * t_lo, vb = alpha + beta * t_hi;
-    if (!(va > 0.0 && vb > 0.0))
-      return Error(ErrorCode::kDegenerate, "the fitted 3D line passes behind the camera");
-    const Eigen::Vector3d pa = (xa + t_lo * xab).homogeneous() / va;
-    const Eigen::Vector3d pb = (xa + t_hi * xab).homogeneous() / vb;
-    const Eigen::Vector3d direction = (pb - pa).normalized();
-    line = finishLine(points, inliers, pa, direction);
-    line.a = pa;  // the extent is the inliers' on the image line
-    line.b = pb;
-    // Standard errors of the inverse depth at the two ends (affine least squares), then of the end points along
-    // their rays: sigma_z = sigma_v z^2, times the ray's length per unit z.
-    double t_mean = 0.0;
-    for (int i : inliers)
-      t_mean += t[i];
-    t_mean /= static_cast<double>(inliers.size());
-    double stt = 0.0, rss = 0.0;
-    for (int i : inliers)
-    {
-      stt += (t[i] - t_mean) * (t[i] - t_mean);
-      const double r = 1.0 / points[i].z() - alpha - beta * t[i];
-      rss += r * r;
-    }
-    const double n = static_cast<double>(inliers.size());
-    const double sigma_v = std::sqrt(rss / std::max(1.0, n - 2.0));
-    auto end_sigma = [&](double t_end, double v_end, const Eigen::Vector3d& p) {
-      const double var = sigma_v * sigma_v * (1.0 / n + (t_end - t_mean) * (t_end - t_mean) / std::max(stt, 1e-12));
-      return std::sqrt(var) / (v_end * v_end) * p.norm() / p.z();
-    };
-    line.sigma_m = std::max(end_sigma(t_lo, va, pa), end_sigma(t_hi, vb, pb));
+    auto fitted = inverseDepthLine(points, t, xa, xab, threshold, options, consensus->inliers);
+    if (!fitted)
+      return fitted.error();
+    line = *fitted;
   }
   const double required = std::max<double>(options.min_inliers, options.min_inlier_ratio * points.size());
   if (static_cast<double>(line.inliers) < required)
