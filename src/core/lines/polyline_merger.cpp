@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include <Eigen/Dense>
 
@@ -104,14 +105,13 @@ Curve fitCurve(const std::vector<const Fragment*>& group, bool allow_curvature)
   return c;
 }
 
-}  // namespace
-
-std::vector<ImagePolyline> mergeSegments(const std::vector<Segment2d>& segments, const DivisionModel& distortion,
-                                         const PolylineMergeOptions& options)
+// The segments as undistorted fragments (sampled every spacing px), longest first; degenerate or unmappable ones
+// left out.
+std::vector<Fragment> undistortedFragments(const std::vector<Segment2d>& segments, const DivisionModel& distortion,
+                                           double spacing)
 {
   std::vector<Fragment> fragments;
   fragments.reserve(segments.size());
-  const double spacing = std::max(1.0, options.sample_spacing_px);
   for (size_t i = 0; i < segments.size(); ++i)
   {
     const Segment2d& s = segments[i];
@@ -140,8 +140,107 @@ std::vector<ImagePolyline> mergeSegments(const std::vector<Segment2d>& segments,
   }
   std::sort(fragments.begin(), fragments.end(),
             [](const Fragment& x, const Fragment& y) { return x.length > y.length; });
+  return fragments;
+}
 
+// Cheap tests of a fragment against the current curve: gap along it, offset and direction, with the bend the group
+// may still take over the length the fragment would add (a chord of length X and sagitta s deviates by up to 4 s
+// from the tangent at its end, and turns by 8 s / X).
+bool mayJoin(const Curve& curve, const Fragment& f, const PolylineMergeOptions& options, double max_angle)
+{
+  const Eigen::Vector2d la = curve.local(f.a), lb = curve.local(f.b);
+  const double x_lo = std::min(la.x(), lb.x()), x_hi = std::max(la.x(), lb.x());
+  const double gap = std::max({0.0, x_lo - curve.x_max, curve.x_min - x_hi});
+  if (gap > options.max_gap_px)
+    return false;
+  const double new_extent = std::max(x_hi, curve.x_max) - std::min(x_lo, curve.x_min);
+  const double added = new_extent - (curve.x_max - curve.x_min);
+  const double offset_limit = 2.0 * options.max_offset_px + 4.0 * options.max_sagitta_ratio * new_extent;
+  if (curve.distance(f.a) > offset_limit || curve.distance(f.b) > offset_limit)
+    return false;
+  const double xm = 0.5 * (la.x() + lb.x());
+  const Eigen::Vector2d tangent = (curve.e1 + curve.slope(xm) * curve.e2).normalized();
+  const double bend = 8.0 * options.max_sagitta_ratio * added / std::max(1.0, new_extent);
+  return std::abs(tangent.dot((f.b - f.a) / f.length)) >= std::cos(max_angle + bend);
+}
+
+// The group's curve refitted with the fragment (the last of the group) passes the whole group's tests.
+bool acceptsRefit(const Curve& candidate, const Fragment& f, const PolylineMergeOptions& options, double max_angle)
+{
+  const double chord = candidate.x_max - candidate.x_min;
+  const double sagitta = std::abs(candidate.c2) * 0.25 * chord * chord;
+  const double xc = 0.5 * (candidate.local(f.a).x() + candidate.local(f.b).x());
+  const Eigen::Vector2d refit_tangent = (candidate.e1 + candidate.slope(xc) * candidate.e2).normalized();
+  return candidate.max_residual <= options.max_offset_px && sagitta <= options.max_sagitta_ratio * chord &&
+         std::abs(refit_tangent.dot((f.b - f.a) / f.length)) >= std::cos(max_angle);
+}
+
+// Grows the group of fragments[seed] with every unused fragment that fits its curve, until none does; marks them used.
+Curve growGroup(const std::vector<Fragment>& fragments, size_t seed, const PolylineMergeOptions& options,
+                std::vector<char>* used, std::vector<const Fragment*>* group)
+{
   const double max_angle = options.max_angle_deg * M_PI / 180.0;
+  *group = {&fragments[seed]};
+  Curve curve = fitCurve(*group, false);
+  bool grown = true;
+  while (grown)
+  {
+    grown = false;
+    for (size_t c = seed + 1; c < fragments.size(); ++c)
+    {
+      if ((*used)[c] || !mayJoin(curve, fragments[c], options, max_angle))
+        continue;
+      group->push_back(&fragments[c]);
+      const Curve candidate = fitCurve(*group, true);
+      if (acceptsRefit(candidate, fragments[c], options, max_angle))
+      {
+        curve = candidate;
+        (*used)[c] = 1;
+        grown = true;
+      }
+      else
+      {
+        group->pop_back();
+      }
+    }
+  }
+  return curve;
+}
+
+// The group's curve as a distorted polyline, with parts short enough that each stays within max_part_sagitta_px of
+// the curve; nothing when a point cannot be distorted.
+std::optional<ImagePolyline> polylineOf(const Curve& curve, const std::vector<const Fragment*>& group,
+                                        const DivisionModel& distortion, const PolylineMergeOptions& options)
+{
+  const double chord = curve.x_max - curve.x_min;
+  ImagePolyline line;
+  line.length_px = chord;
+  line.rms_residual_px = curve.rms_residual;
+  for (const Fragment* f : group)
+    line.fragments.push_back(f->index);
+  double part_length = std::max(1.0, options.max_part_length_px);
+  const double curvature = 2.0 * std::abs(curve.c2);
+  if (curvature > 0.0 && options.max_part_sagitta_px > 0.0)
+    part_length = std::min(
+        part_length, std::max(options.min_part_length_px, std::sqrt(8.0 * options.max_part_sagitta_px / curvature)));
+  const int parts = std::max(1, static_cast<int>(std::ceil(chord / part_length)));
+  for (int k = 0; k <= parts; ++k)
+  {
+    const double x = curve.x_min + chord * static_cast<double>(k) / parts;
+    const auto d = distortion.distort(curve.global(x, curve.y(x)));
+    if (!d || !d->allFinite())
+      return std::nullopt;
+    line.points.push_back(*d);
+  }
+  return line;
+}
+}  // namespace
+
+std::vector<ImagePolyline> mergeSegments(const std::vector<Segment2d>& segments, const DivisionModel& distortion,
+                                         const PolylineMergeOptions& options)
+{
+  const std::vector<Fragment> fragments =
+      undistortedFragments(segments, distortion, std::max(1.0, options.sample_spacing_px));
   std::vector<char> used(fragments.size(), 0);
   std::vector<ImagePolyline> out;
   for (size_t seed = 0; seed < fragments.size(); ++seed)
@@ -149,81 +248,12 @@ std::vector<ImagePolyline> mergeSegments(const std::vector<Segment2d>& segments,
     if (used[seed])
       continue;
     used[seed] = 1;
-    std::vector<const Fragment*> group{&fragments[seed]};
-    Curve curve = fitCurve(group, false);
-    bool grown = true;
-    while (grown)
-    {
-      grown = false;
-      for (size_t c = seed + 1; c < fragments.size(); ++c)
-      {
-        if (used[c])
-          continue;
-        const Fragment& f = fragments[c];
-        // Cheap tests against the current curve: gap along it, offset and direction, with the bend the group may
-        // still take over the length the fragment would add (a chord of length X and sagitta s deviates by up to 4 s
-        // from the tangent at its end, and turns by 8 s / X).
-        const Eigen::Vector2d la = curve.local(f.a), lb = curve.local(f.b);
-        const double x_lo = std::min(la.x(), lb.x()), x_hi = std::max(la.x(), lb.x());
-        const double gap = std::max({0.0, x_lo - curve.x_max, curve.x_min - x_hi});
-        if (gap > options.max_gap_px)
-          continue;
-        const double new_extent = std::max(x_hi, curve.x_max) - std::min(x_lo, curve.x_min);
-        const double added = new_extent - (curve.x_max - curve.x_min);
-        const double offset_limit = 2.0 * options.max_offset_px + 4.0 * options.max_sagitta_ratio * new_extent;
-        if (curve.distance(f.a) > offset_limit || curve.distance(f.b) > offset_limit)
-          continue;
-        const double xm = 0.5 * (la.x() + lb.x());
-        const Eigen::Vector2d tangent = (curve.e1 + curve.slope(xm) * curve.e2).normalized();
-        const double bend = 8.0 * options.max_sagitta_ratio * added / std::max(1.0, new_extent);
-        if (std::abs(tangent.dot((f.b - f.a) / f.length)) < std::cos(max_angle + bend))
-          continue;
-        // Refit with the fragment and check the whole group.
-        group.push_back(&f);
-        const Curve candidate = fitCurve(group, true);
-        const double chord = candidate.x_max - candidate.x_min;
-        const double sagitta = std::abs(candidate.c2) * 0.25 * chord * chord;
-        const double xc = 0.5 * (candidate.local(f.a).x() + candidate.local(f.b).x());
-        const Eigen::Vector2d refit_tangent = (candidate.e1 + candidate.slope(xc) * candidate.e2).normalized();
-        if (candidate.max_residual <= options.max_offset_px && sagitta <= options.max_sagitta_ratio * chord &&
-            std::abs(refit_tangent.dot((f.b - f.a) / f.length)) >= std::cos(max_angle))
-        {
-          curve = candidate;
-          used[c] = 1;
-          grown = true;
-        }
-        else
-        {
-          group.pop_back();
-        }
-      }
-    }
-    const double chord = curve.x_max - curve.x_min;
-    if (chord < options.min_length_px)
+    std::vector<const Fragment*> group;
+    const Curve curve = growGroup(fragments, seed, options, &used, &group);
+    if (curve.x_max - curve.x_min < options.min_length_px)
       continue;
-    ImagePolyline line;
-    line.length_px = chord;
-    line.rms_residual_px = curve.rms_residual;
-    for (const Fragment* f : group)
-      line.fragments.push_back(f->index);
-    double part_length = std::max(1.0, options.max_part_length_px);
-    const double curvature = 2.0 * std::abs(curve.c2);
-    if (curvature > 0.0 && options.max_part_sagitta_px > 0.0)
-      part_length = std::min(
-          part_length, std::max(options.min_part_length_px, std::sqrt(8.0 * options.max_part_sagitta_px / curvature)));
-    const int parts = std::max(1, static_cast<int>(std::ceil(chord / part_length)));
-    bool ok = true;
-    for (int k = 0; k <= parts && ok; ++k)
-    {
-      const double x = curve.x_min + chord * static_cast<double>(k) / parts;
-      const auto d = distortion.distort(curve.global(x, curve.y(x)));
-      if (!d || !d->allFinite())
-        ok = false;
-      else
-        line.points.push_back(*d);
-    }
-    if (ok)
-      out.push_back(std::move(line));
+    if (auto line = polylineOf(curve, group, distortion, options))
+      out.push_back(std::move(*line));
   }
   return out;
 }
