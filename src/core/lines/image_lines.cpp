@@ -1,5 +1,8 @@
 #include "insitu_calibration/lines/image_lines.h"
 
+#include <optional>
+#include <string>
+
 #include "insitu_calibration/cpu_time.h"
 
 namespace insitu_calibration
@@ -109,6 +112,82 @@ double polylineLength(const std::vector<Eigen::Vector2d>& points)
   return length;
 }
 
+// The piece of a fine-tuned polyline between cut vertices first and last (parts [first, last), vertices [first,
+// last]), trimmed where it leaves its edge; nothing when too little is left. piece/pieces: its place among them.
+std::optional<ImageLine> pieceOf(const ImagePolyline& polyline, const RefinedPolyline& refined, size_t first,
+                                 size_t last, size_t piece, size_t pieces, const ImageLineOptions& options,
+                                 ImageLineStats& st)
+{
+  ImageLine line;
+  line.detected.assign(polyline.points.begin() + first, polyline.points.begin() + last + 1);
+  line.points.assign(refined.points.begin() + first, refined.points.begin() + last + 1);
+  line.parts.assign(refined.parts.begin() + first, refined.parts.begin() + last);
+  line.fragments = polyline.fragments;
+  // A cut vertex belongs to the part on its side only.
+  if (piece > 0)
+    line.points.front() = line.parts.front().a;
+  if (piece + 1 < pieces)
+    line.points.back() = line.parts.back().b;
+  trimFailedEnds(line);
+  if (line.points.size() < 2)
+    return std::nullopt;
+  const bool trimmed = line.parts.front().off_a_px > 0.0 || line.parts.back().off_b_px > 0.0;
+  trimOffEnds(line);
+  st.trimmed += trimmed;
+  const bool changed = pieces > 1 || trimmed;
+  line.length_px = changed ? polylineLength(line.points) : polyline.length_px;
+  if (changed && line.length_px < options.merge.min_length_px)
+    return std::nullopt;
+  double contrast = 0.0;
+  int ok_parts = 0;
+  for (const auto& p : line.parts)
+    if (p.samples > 0)
+    {
+      contrast += p.contrast;
+      ++ok_parts;
+    }
+  line.contrast = ok_parts ? contrast / ok_parts : 0.0;
+  return line;
+}
+
+// One merged polyline fine-tuned (Eq. 8) and cut where two fine-tuned parts disagree: its pieces, appended to lines.
+void refineIntoLines(const LineRefiner& refiner, const ImagePolyline& polyline, const ImageLineOptions& options,
+                     ImageLineStats& st, std::vector<ImageLine>* lines)
+{
+  auto refined = refiner.refinePolyline(polyline.points);
+  if (!refined)
+  {
+    ++st.rejected;
+    return;
+  }
+  const int parts = static_cast<int>(refined->parts.size());
+  if (parts - refined->failed_parts < options.min_part_support * parts)
+  {
+    ++st.rejected;
+    return;
+  }
+  const std::vector<size_t> cuts = findCuts(polyline.points, refined->parts, options);
+  st.splits += cuts.size() > 2;
+  for (size_t c = 0; c + 1 < cuts.size(); ++c)
+  {
+    auto line = pieceOf(polyline, *refined, cuts[c], cuts[c + 1], c, cuts.size() - 1, options, st);
+    if (line)
+      lines->push_back(std::move(*line));
+    else
+      ++st.rejected;
+  }
+}
+
+// Why no line came out, for the caller's message.
+std::string noLinesNote(const ImageLineStats& st, size_t polylines, const ImageLineOptions& options)
+{
+  if (st.segments.empty())
+    return "no line segment of at least " + std::to_string(options.detector.min_length_px) + " px detected";
+  if (polylines == 0)
+    return std::to_string(st.segments.size()) + " segments, but no merged line of at least " +
+           std::to_string(options.merge.min_length_px) + " px";
+  return "fine-tuning found no edge under any of the " + std::to_string(polylines) + " lines";
+}
 }  // namespace
 
 Expected<std::vector<ImageLine>> extractImageLines(const cv::Mat& image, const DivisionModel& distortion,
@@ -143,75 +222,12 @@ Expected<std::vector<ImageLine>> extractImageLines(const cv::Mat& image, const D
     if (!refiner)
       return refiner.error();
     for (const auto& polyline : polylines)
-    {
-      auto refined = refiner->refinePolyline(polyline.points);
-      if (!refined)
-      {
-        ++st.rejected;
-        continue;
-      }
-      const int parts = static_cast<int>(refined->parts.size());
-      if (parts - refined->failed_parts < options.min_part_support * parts)
-      {
-        ++st.rejected;
-        continue;
-      }
-      // Pieces between the vertices where two fine-tuned parts disagree.
-      const std::vector<size_t> cuts = findCuts(polyline.points, refined->parts, options);
-      st.splits += cuts.size() > 2;
-      for (size_t c = 0; c + 1 < cuts.size(); ++c)
-      {
-        const size_t first = cuts[c], last = cuts[c + 1];  // parts [first, last), vertices [first, last]
-        ImageLine line;
-        line.detected.assign(polyline.points.begin() + first, polyline.points.begin() + last + 1);
-        line.points.assign(refined->points.begin() + first, refined->points.begin() + last + 1);
-        line.parts.assign(refined->parts.begin() + first, refined->parts.begin() + last);
-        line.fragments = polyline.fragments;
-        // A cut vertex belongs to the part on its side only.
-        if (c > 0)
-          line.points.front() = line.parts.front().a;
-        if (c + 2 < cuts.size())
-          line.points.back() = line.parts.back().b;
-        trimFailedEnds(line);
-        if (line.points.size() < 2)
-        {
-          ++st.rejected;
-          continue;
-        }
-        const bool trimmed = line.parts.front().off_a_px > 0.0 || line.parts.back().off_b_px > 0.0;
-        trimOffEnds(line);
-        st.trimmed += trimmed;
-        line.length_px = cuts.size() > 2 || trimmed ? polylineLength(line.points) : polyline.length_px;
-        if ((cuts.size() > 2 || trimmed) && line.length_px < options.merge.min_length_px)
-        {
-          ++st.rejected;
-          continue;
-        }
-        double contrast = 0.0;
-        int ok_parts = 0;
-        for (const auto& p : line.parts)
-          if (p.samples > 0)
-          {
-            contrast += p.contrast;
-            ++ok_parts;
-          }
-        line.contrast = ok_parts ? contrast / ok_parts : 0.0;
-        lines.push_back(std::move(line));
-      }
-    }
+      refineIntoLines(*refiner, polyline, options, st, &lines);
   }
   st.refine_ms = cpuMsSince(t);
   st.lines = static_cast<int>(lines.size());
   if (lines.empty())
-  {
-    if (st.segments.empty())
-      st.note = "no line segment of at least " + std::to_string(options.detector.min_length_px) + " px detected";
-    else if (polylines.empty())
-      st.note = std::to_string(st.segments.size()) + " segments, but no merged line of at least " +
-                std::to_string(options.merge.min_length_px) + " px";
-    else
-      st.note = "fine-tuning found no edge under any of the " + std::to_string(polylines.size()) + " lines";
-  }
+    st.note = noLinesNote(st, polylines.size(), options);
   return lines;
 }
 
