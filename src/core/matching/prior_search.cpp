@@ -66,8 +66,9 @@ std::vector<SearchState> bestGridCells(const MatchingProblem& problem, const Cam
       }
   std::sort(grid.begin(), grid.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   std::vector<SearchState> seeds;
-  for (const auto& [score, s] : grid)
+  for (const auto& scored : grid)
   {
+    const SearchState& s = scored.second;  // not a structured binding: a lambda cannot capture one (clang)
     const bool distinct = std::all_of(seeds.begin(), seeds.end(), [&](const SearchState& t) {
       return std::abs(s.yaw - t.yaw) > 1.5 * g.angle_step || std::abs(s.pitch - t.pitch) > 1.5 * g.angle_step ||
              std::abs(s.fov_scale - t.fov_scale) > 1.5 * g.fov_step;
