@@ -103,68 +103,59 @@ uint16_t syntheticDepth(const SyntheticOniOptions& options, int frame, int x, in
   return static_cast<uint16_t>(1500 + 2 * x);
 }
 
-Status writeSyntheticOni(const std::string& path, const SyntheticOniOptions& options)
+namespace
 {
-  const VideoModeSpec& mode = options.mode;
-  if (mode.width <= 0 || mode.height <= 0 || mode.fps <= 0 || options.frames <= 0)
-    return Error(ErrorCode::kInvalidInput, "a synthetic recording needs a mode and at least one frame");
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out)
-    return Error(ErrorCode::kIoError, "cannot write '" + path + "': " + std::strerror(errno));
+constexpr uint32_t kColorNode = 1;
+constexpr uint32_t kDepthNode = 2;
 
-  const uint64_t period_us = 1000000 / mode.fps;
-  const uint64_t last_us = period_us * (options.frames - 1);
-  // File header: "NI10", version 1.0.1.0, the largest time stamp, the largest node id.
+// File header: "NI10", version 1.0.1.0, the largest time stamp, the largest node id.
+void writeFileHeader(std::ofstream& out, uint64_t last_us)
+{
   out.write(kFileMagic, 4);
   const uint8_t version[8] = {1, 0, 1, 0, 0, 0, 0, 0};
   out.write(reinterpret_cast<const char*>(version), sizeof(version));
   out.write(reinterpret_cast<const char*>(&last_us), sizeof(last_us));
   const uint32_t max_node = 2;
   out.write(reinterpret_cast<const char*>(&max_node), sizeof(max_node));
+}
 
-  RecordBuffer r;
-  const uint32_t kColorNode = 1;
-  const uint32_t kDepthNode = 2;
-  for (const uint32_t node : {kColorNode, kDepthNode})
-  {
-    const bool color = node == kColorNode;
-    const uint32_t bytes_per_pixel = color ? 3 : 2;
-    r.begin(kRecordNodeAdded, node);
-    r.putString(color ? "Image" : "Depth");
-    r.put32(color ? kNodeTypeImage : kNodeTypeDepth);
-    r.put32(kCodecNone);
-    r.put32(static_cast<uint32_t>(options.frames));
-    r.put64(0);        // first time stamp
-    r.put64(last_us);  // last time stamp
-    r.put64(0);        // no seek table
-    r.finish(out);
-    intProperty(r, out, node, "oniRequiredFrameSize",
-                static_cast<uint64_t>(mode.width) * mode.height * bytes_per_pixel);
-    const uint8_t cropping[12] = {0};  // XnCropping {bool enabled, 4 x uint16}: off
-    generalProperty(r, out, node, "xnCropping", cropping, sizeof(cropping));
-    if (!color)
-      intProperty(r, out, node, "xnDeviceMaxDepth", 10000);
-    intProperty(r, out, node, "xnSupportedMapOutputModesCount", 1);
-    const uint32_t map_mode[3] = {static_cast<uint32_t>(mode.width), static_cast<uint32_t>(mode.height),
-                                  static_cast<uint32_t>(mode.fps)};
-    generalProperty(r, out, node, "xnSupportedMapOutputModes", map_mode, sizeof(map_mode));
-    generalProperty(r, out, node, "xnMapOutputMode", map_mode, sizeof(map_mode));
-    const uint32_t supported_formats = color ? 1u : 8u;  // bit field: RGB24 / Grayscale16
-    generalProperty(r, out, node, "xnSupportedPixelFormats", &supported_formats, sizeof(supported_formats));
-    intProperty(r, out, node, "xnPixelFormat", color ? kPixelFormatRgb24 : kPixelFormatGray16);
-    intProperty(r, out, node, "oniPixelFormat", color ? kOniPixelFormatRgb888 : kOniPixelFormatDepth1mm);
-    const double fov[2] = {options.hfov, options.vfov};
-    generalProperty(r, out, node, "xnFOV", fov, sizeof(fov));
-  }
-  for (const uint32_t node : {kColorNode, kDepthNode})
-  {
-    r.begin(kRecordNodeStateReady, node);
-    r.finish(out);
-    r.begin(kRecordNodeDataBegin, node);
-    r.put32(static_cast<uint32_t>(options.frames));
-    r.put64(last_us);
-    r.finish(out);
-  }
+// A stream's node: its record and the properties OpenNI2's player reads (mode, pixel format, field of view).
+void writeNode(RecordBuffer& r, std::ofstream& out, uint32_t node, const SyntheticOniOptions& options, uint64_t last_us)
+{
+  const VideoModeSpec& mode = options.mode;
+  const bool color = node == kColorNode;
+  const uint32_t bytes_per_pixel = color ? 3 : 2;
+  r.begin(kRecordNodeAdded, node);
+  r.putString(color ? "Image" : "Depth");
+  r.put32(color ? kNodeTypeImage : kNodeTypeDepth);
+  r.put32(kCodecNone);
+  r.put32(static_cast<uint32_t>(options.frames));
+  r.put64(0);        // first time stamp
+  r.put64(last_us);  // last time stamp
+  r.put64(0);        // no seek table
+  r.finish(out);
+  intProperty(r, out, node, "oniRequiredFrameSize", static_cast<uint64_t>(mode.width) * mode.height * bytes_per_pixel);
+  const uint8_t cropping[12] = {0};  // XnCropping {bool enabled, 4 x uint16}: off
+  generalProperty(r, out, node, "xnCropping", cropping, sizeof(cropping));
+  if (!color)
+    intProperty(r, out, node, "xnDeviceMaxDepth", 10000);
+  intProperty(r, out, node, "xnSupportedMapOutputModesCount", 1);
+  const uint32_t map_mode[3] = {static_cast<uint32_t>(mode.width), static_cast<uint32_t>(mode.height),
+                                static_cast<uint32_t>(mode.fps)};
+  generalProperty(r, out, node, "xnSupportedMapOutputModes", map_mode, sizeof(map_mode));
+  generalProperty(r, out, node, "xnMapOutputMode", map_mode, sizeof(map_mode));
+  const uint32_t supported_formats = color ? 1u : 8u;  // bit field: RGB24 / Grayscale16
+  generalProperty(r, out, node, "xnSupportedPixelFormats", &supported_formats, sizeof(supported_formats));
+  intProperty(r, out, node, "xnPixelFormat", color ? kPixelFormatRgb24 : kPixelFormatGray16);
+  intProperty(r, out, node, "oniPixelFormat", color ? kOniPixelFormatRgb888 : kOniPixelFormatDepth1mm);
+  const double fov[2] = {options.hfov, options.vfov};
+  generalProperty(r, out, node, "xnFOV", fov, sizeof(fov));
+}
+
+// Every frame of both streams, generated by syntheticColor and syntheticDepth.
+void writeFrames(RecordBuffer& r, std::ofstream& out, const SyntheticOniOptions& options, uint64_t period_us)
+{
+  const VideoModeSpec& mode = options.mode;
   std::vector<uint8_t> color_data(static_cast<size_t>(mode.width) * mode.height * 3);
   std::vector<uint8_t> depth_data(static_cast<size_t>(mode.width) * mode.height * 2);
   for (int k = 0; k < options.frames; ++k)
@@ -186,6 +177,33 @@ Status writeSyntheticOni(const std::string& path, const SyntheticOniOptions& opt
       r.finish(out, node == kColorNode ? color_data : depth_data);
     }
   }
+}
+}  // namespace
+
+Status writeSyntheticOni(const std::string& path, const SyntheticOniOptions& options)
+{
+  const VideoModeSpec& mode = options.mode;
+  if (mode.width <= 0 || mode.height <= 0 || mode.fps <= 0 || options.frames <= 0)
+    return Error(ErrorCode::kInvalidInput, "a synthetic recording needs a mode and at least one frame");
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out)
+    return Error(ErrorCode::kIoError, "cannot write '" + path + "': " + std::strerror(errno));
+  const uint64_t period_us = 1000000 / mode.fps;
+  const uint64_t last_us = period_us * (options.frames - 1);
+  writeFileHeader(out, last_us);
+  RecordBuffer r;
+  for (const uint32_t node : {kColorNode, kDepthNode})
+    writeNode(r, out, node, options, last_us);
+  for (const uint32_t node : {kColorNode, kDepthNode})
+  {
+    r.begin(kRecordNodeStateReady, node);
+    r.finish(out);
+    r.begin(kRecordNodeDataBegin, node);
+    r.put32(static_cast<uint32_t>(options.frames));
+    r.put64(last_us);
+    r.finish(out);
+  }
+  writeFrames(r, out, options, period_us);
   r.begin(kRecordEnd, 0);
   r.finish(out);
   out.close();
