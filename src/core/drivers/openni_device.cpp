@@ -608,34 +608,29 @@ void writeU32(std::string& bytes, size_t at, uint32_t value)
 }
 }  // namespace
 
-Expected<int> addCroppingToOniRecording(const std::string& path)
+namespace
 {
-  std::string bytes;
-  {
-    std::ifstream in(path, std::ios::binary);
-    if (!in)
-      return Error(ErrorCode::kIoError, "cannot read '" + path + "': " + std::strerror(errno));
-    std::ostringstream buffer;
-    buffer << in.rdbuf();
-    bytes = buffer.str();
-  }
-  if (bytes.size() < kFileHeaderSize || bytes.compare(0, 4, kFileMagic) != 0)
-    return Error(ErrorCode::kParseError, "'" + path + "' is not an OpenNI2 recording");
+// Per stream node: whether it records xnCropping, and where its xnIsGenerating record starts (0: none).
+struct NodeRecords
+{
+  bool has_cropping = false;
+  size_t is_generating_at = 0;
+};
+using NodeTable = std::vector<std::pair<uint32_t, NodeRecords>>;
 
-  struct NodeRecords
-  {
-    bool has_cropping = false;
-    size_t is_generating_at = 0;  // 0 = none
-  };
-  std::vector<std::pair<uint32_t, NodeRecords>> nodes;
-  auto node = [&nodes](uint32_t id) -> NodeRecords& {
-    for (auto& entry : nodes)
-      if (entry.first == id)
-        return entry.second;
-    nodes.emplace_back(id, NodeRecords());
-    return nodes.back().second;
-  };
+NodeRecords& nodeOf(NodeTable& nodes, uint32_t id)
+{
+  for (auto& entry : nodes)
+    if (entry.first == id)
+      return entry.second;
+  nodes.emplace_back(id, NodeRecords());
+  return nodes.back().second;
+}
 
+// Walks the records up to the end record, noting each node's cropping and xnIsGenerating records.
+Expected<NodeTable> scanNodeRecords(const std::string& bytes, const std::string& path)
+{
+  NodeTable nodes;
   size_t at = kFileHeaderSize;
   while (at + kRecordHeaderSize <= bytes.size())
   {
@@ -656,37 +651,59 @@ Expected<int> addCroppingToOniRecording(const std::string& path)
       {
         const std::string name(bytes.data() + at + kRecordHeaderSize + 4, name_size - 1);
         if (name == "xnCropping")
-          node(id).has_cropping = true;
+          nodeOf(nodes, id).has_cropping = true;
         else if (name == "xnIsGenerating" && type == kRecordIntProperty)
-          node(id).is_generating_at = at;
+          nodeOf(nodes, id).is_generating_at = at;
       }
     }
     at += fields + payload;
   }
+  return nodes;
+}
 
-  int fixed = 0;
-  for (const auto& entry : nodes)
+// Rewrites the xnIsGenerating record at `record` in place as an xnCropping record (cropping off): the two have the
+// same size ("xnIsGenerating\0" + 8 bytes of value == "xnCropping\0" + 12 bytes of XnCropping {bool, 4 x uint16}).
+bool replaceWithCropping(std::string& bytes, size_t record)
+{
+  const uint32_t fields = readU32(bytes, record + 12);
+  const std::string name("xnCropping", 11);
+  const size_t needed = kRecordHeaderSize + 4 + name.size() + 4 + 12;
+  if (needed != fields)
+    return false;
+  writeU32(bytes, record + 4, kRecordGeneralProperty);
+  writeU32(bytes, record + 16, 0);
+  std::memset(&bytes[record + 20], 0, 8);  // undo position: none
+  size_t p = record + kRecordHeaderSize;
+  writeU32(bytes, p, static_cast<uint32_t>(name.size()));
+  std::memcpy(&bytes[p + 4], name.data(), name.size());
+  p += 4 + name.size();
+  writeU32(bytes, p, 12);
+  std::memset(&bytes[p + 4], 0, 12);  // cropping off
+  return true;
+}
+}  // namespace
+
+Expected<int> addCroppingToOniRecording(const std::string& path)
+{
+  std::string bytes;
   {
-    if (entry.second.has_cropping || entry.second.is_generating_at == 0)
-      continue;
-    const size_t record = entry.second.is_generating_at;
-    const uint32_t fields = readU32(bytes, record + 12);
-    // "xnIsGenerating\0" + 8 bytes of value == "xnCropping\0" + 12 bytes of XnCropping {bool, 4 x uint16}.
-    const std::string name("xnCropping", 11);
-    const size_t needed = kRecordHeaderSize + 4 + name.size() + 4 + 12;
-    if (needed != fields)
-      continue;
-    writeU32(bytes, record + 4, kRecordGeneralProperty);
-    writeU32(bytes, record + 16, 0);
-    std::memset(&bytes[record + 20], 0, 8);  // undo position: none
-    size_t p = record + kRecordHeaderSize;
-    writeU32(bytes, p, static_cast<uint32_t>(name.size()));
-    std::memcpy(&bytes[p + 4], name.data(), name.size());
-    p += 4 + name.size();
-    writeU32(bytes, p, 12);
-    std::memset(&bytes[p + 4], 0, 12);  // cropping off
-    ++fixed;
+    std::ifstream in(path, std::ios::binary);
+    if (!in)
+      return Error(ErrorCode::kIoError, "cannot read '" + path + "': " + std::strerror(errno));
+    std::ostringstream buffer;
+    buffer << in.rdbuf();
+    bytes = buffer.str();
   }
+  if (bytes.size() < kFileHeaderSize || bytes.compare(0, 4, kFileMagic) != 0)
+    return Error(ErrorCode::kParseError, "'" + path + "' is not an OpenNI2 recording");
+  const Expected<NodeTable> nodes = scanNodeRecords(bytes, path);
+  if (!nodes)
+    return nodes.error();
+  int fixed = 0;
+  for (const auto& entry : *nodes)
+    if (!entry.second.has_cropping && entry.second.is_generating_at != 0 &&
+        replaceWithCropping(bytes, entry.second.is_generating_at))
+      ++fixed;
   if (fixed > 0)
   {
     std::ofstream out(path, std::ios::binary | std::ios::trunc);
