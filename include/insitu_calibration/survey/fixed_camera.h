@@ -15,6 +15,7 @@
 #include "insitu_calibration/io/calibration_file.h"
 #include "insitu_calibration/lines/image_lines.h"
 #include "insitu_calibration/matching/line_matcher.h"
+#include "insitu_calibration/survey/image_explanation.h"
 #include "insitu_calibration/survey/temporal_median.h"
 
 namespace insitu_calibration
@@ -51,6 +52,9 @@ struct FixedCameraOptions
   double max_sigma_focal_relative = 0.03;
   double max_sigma_position_m = 0.15;
   double max_sigma_rotation_deg = 1.5;
+  // The final check (image_explanation.h): the camera must explain the image as a whole (its projected map lines on
+  // image edges, its matched lines predicted when held out).
+  ImageExplanationOptions explanation;
 };
 
 struct FixedCameraStatus
@@ -74,7 +78,8 @@ struct FixedCameraResult
   std::vector<std::vector<Eigen::Vector2d>> matched_image_lines;
   std::vector<Segment3d> matched_map_lines;
   int loops = 0;
-  std::string summary;  // how good the result is, in words
+  ImageExplanation explanation;  // the final check's measurements (map-based calibrations)
+  std::string summary;           // how good the result is, in words
 };
 
 class FixedCamera
@@ -108,6 +113,8 @@ private:
   Expected<FixedCameraResult> calibrateFromMap(const std::vector<Segment3d>& map_lines, const std::string& world_frame,
                                                const std::vector<double>& map_line_sigmas_m);
   Status check(const CameraCalibration& calibration, size_t matched_lines) const;
+  // The final check of a map-based result: measures how well it explains the median image, refuses it if badly.
+  Status checkExplanation(FixedCameraResult& result, const std::vector<Segment3d>& map_lines) const;
 
   FixedCameraConfig config_;
   FixedCameraOptions options_;

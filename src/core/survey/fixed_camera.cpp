@@ -151,6 +151,14 @@ Status FixedCamera::check(const CameraCalibration& c, size_t matched_lines) cons
   return Success{};
 }
 
+Status FixedCamera::checkExplanation(FixedCameraResult& result, const std::vector<Segment3d>& map_lines) const
+{
+  const CameraCalibration& c = result.calibration;
+  result.explanation = explainImage(median_.median(), c.camera, config_.image_width, config_.image_height, map_lines,
+                                    c.refinement ? &*c.refinement : nullptr, options_.explanation);
+  return acceptExplanation(result.explanation, options_.explanation);
+}
+
 Expected<FixedCameraResult> FixedCamera::calibrateFromFile(const std::string& world_frame)
 {
   auto data = loadCorrespondenceFile(config_.correspondence_file);
@@ -247,7 +255,12 @@ Expected<FixedCameraResult> FixedCamera::calibrate(const std::vector<Segment3d>&
     return result.error();
   if (const Status ok = check(result->calibration, result->matched_image_lines.size()); !ok)
     return ok.error();
+  if (config_.correspondence_file.empty())
+    if (const Status ok = checkExplanation(*result, map_lines); !ok)
+      return ok.error();
   result->summary = describeResult(result->calibration, result->matched_image_lines.size());
+  if (config_.correspondence_file.empty())
+    result->summary += "; " + result->explanation.describe();
   calibration_ = result->file;
   last_result_ = *result;
   return result;
