@@ -29,10 +29,13 @@ struct ImageExplanationOptions
   double min_alignment = 0.8;        // |gradient . normal| / |gradient|
   double chance_offset_px = 4.0;     // where the chance level is measured
   double min_line_length_px = 20.0;  // shorter projections are not assessed
-  // Acceptance (0 disables a test): the share of projected map-line samples on edges, absolute and over chance;
-  // the median held-out residual over the median fitted residual of the matched lines.
-  double min_overlay_agreement = 0.0;
-  double min_overlay_over_chance = 0.0;
+  // Acceptance (0 disables a test): the share of projected map-line samples on edges, absolute and over chance.
+  // The default world's true cameras with the edges they see: 76-80 % (chance 23-29 %); wrong cameras 22-51 %
+  // (one floor tile off: 51 %); correct calibrations of generated buildings 68-99 %, accepted wrong ones 27-62 %.
+  double min_overlay_agreement = 0.6;
+  double min_overlay_over_chance = 2.0;
+  // The median held-out residual over the median fitted residual of the matched lines: measured and reported, not
+  // enforced (1.1-1.6 for right and wrong results alike on the tuning buildings).
   double max_heldout_ratio = 0.0;
 };
 
