@@ -24,14 +24,22 @@ def row(seed, directory, seconds):
                            compare, re.M)
         if failed or not result:
             reason = failed.group(1) if failed else "no result (see calibrate.log)"
-            print("\t".join(cells + ["refused", "", "", "", reason, seconds]))
+            # With the truth, calibrate_survey says how far the refused result was: was the refusal needed?
+            truth = re.search(r"^%s: FAILED: .*\n  truth of the refused result: focal ([-+0-9.]+) %%, rotation "
+                              r"([0-9.]+) deg, position ([0-9.]+) mm" % name, log, re.M)
+            refused = category(*(abs(float(x)) for x in truth.groups())) if truth else ""
+            print("\t".join(cells + ["refused", "", "", "", reason, seconds, refused]))
             continue
         focal, rotation, position = abs(float(result.group(1))), float(result.group(2)), float(result.group(3))
-        errors = (focal, rotation, position)
-        status = ("WRONG" if any(e > w for e, w in zip(errors, WRONG)) else
-                  "good" if all(e <= g for e, g in zip(errors, GOOD)) else
-                  "fair" if all(e <= g for e, g in zip(errors, FAIR)) else "off")
-        print("\t".join(cells + [status, "%.3f" % focal, "%.3f" % rotation, "%.1f" % position, "", seconds]))
+        print("\t".join(cells + [category(focal, rotation, position), "%.3f" % focal, "%.3f" % rotation,
+                                 "%.1f" % position, "", seconds, ""]))
+
+
+def category(focal, rotation, position):
+    errors = (focal, rotation, position)
+    return ("WRONG" if any(e > w for e, w in zip(errors, WRONG)) else
+            "good" if all(e <= g for e, g in zip(errors, GOOD)) else
+            "fair" if all(e <= g for e, g in zip(errors, FAIR)) else "off")
 
 
 def percentile(values, p):
@@ -56,6 +64,8 @@ def summary(path):
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         errors = ("%s %% | %s deg | %s mm" % (r[7], r[8], r[9])) if r[7] else " | | "
+        if r[6] == "refused" and len(r) > 12 and r[12]:
+            r[10] += " (the refused result was %s)" % r[12]
         print("| %s | %s | %s | %s | %s deg | %s m | %s | %s | %s |" % (r[0], r[1], r[2], r[3], r[4], r[5], r[6],
                                                                          errors, r[10]))
     n = len(rows)
@@ -73,6 +83,10 @@ def summary(path):
     for r in rows:
         if r[6] == "refused":
             reasons[reason_class(r[10])] = reasons.get(reason_class(r[10]), 0) + 1
+    judged = [r for r in rows if r[6] == "refused" and len(r) > 12 and r[12]]
+    if judged:
+        print("  refused results that were (with the truth): %s" % ", ".join(
+            "%s %d" % (c, sum(1 for r in judged if r[12] == c)) for c in ("good", "fair", "off", "WRONG")))
     print("  refusals by reason:")
     for reason, k in sorted(reasons.items(), key=lambda x: -x[1]):
         print("    %3d  %s" % (k, reason))
@@ -88,7 +102,7 @@ def summary(path):
         k[0] += 1
         k[1] += r[6] in ("good", "fair")
         k[2] += r[6] == "WRONG"
-    print("  per kind (cameras / within 0.5 %% 0.3 deg 3 cm / wrong): " +
+    print("  per kind (cameras / within 0.5 % 0.3 deg 3 cm / wrong): " +
           ", ".join("%s %d/%d/%d" % (k, v[0], v[1], v[2]) for k, v in sorted(by_kind.items())))
 
 

@@ -103,6 +103,9 @@ public:
 
   const std::optional<CalibrationFile>& calibration() const { return calibration_; }
   const std::optional<FixedCameraResult>& lastResult() const { return last_result_; }
+  // The last result the checks refused (for diagnostics against a simulator's truth), if the last calibration got
+  // that far.
+  const std::optional<FixedCameraResult>& lastRefused() const { return last_refused_; }
   void setCalibration(const CalibrationFile& calibration) { calibration_ = calibration; }
   // Forgets images, matches and calibration.
   void reset();
@@ -123,6 +126,7 @@ private:
   TemporalMedian median_;
   std::optional<CalibrationFile> calibration_;
   std::optional<FixedCameraResult> last_result_;
+  std::optional<FixedCameraResult> last_refused_;
   size_t last_matched_ = 0;
 };
 

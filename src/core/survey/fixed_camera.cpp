@@ -92,6 +92,7 @@ void FixedCamera::reset()
   median_.clear();
   calibration_.reset();
   last_result_.reset();
+  last_refused_.reset();
   last_matched_ = 0;
 }
 
@@ -253,11 +254,15 @@ Expected<FixedCameraResult> FixedCamera::calibrate(const std::vector<Segment3d>&
                                                     : calibrateFromFile(world_frame);
   if (!result)
     return result.error();
-  if (const Status ok = check(result->calibration, result->matched_image_lines.size()); !ok)
+  last_refused_.reset();
+  Status ok = check(result->calibration, result->matched_image_lines.size());
+  if (ok && config_.correspondence_file.empty())
+    ok = checkExplanation(*result, map_lines);
+  if (!ok)
+  {
+    last_refused_ = *result;
     return ok.error();
-  if (config_.correspondence_file.empty())
-    if (const Status ok = checkExplanation(*result, map_lines); !ok)
-      return ok.error();
+  }
   result->summary = describeResult(result->calibration, result->matched_image_lines.size());
   if (config_.correspondence_file.empty())
     result->summary += "; " + result->explanation.describe();
