@@ -117,6 +117,18 @@ void reportAgainstTruth(const std::string& truth_dir, const std::string& name, c
       result.matched_image_lines.size(), wrong, unknown_image, unknown_map, map_stats.median_px, map_stats.max_px);
 }
 
+// Diagnostic: how far from the truth a result the checks refused was (was the refusal needed?).
+void reportRefusedAgainstTruth(const std::string& truth_dir, const std::string& name,
+                               const ic::FixedCameraResult& refused)
+{
+  const auto truth = ic::loadCalibrationFile(truth_dir + "/" + name + ".yaml");
+  if (!truth)
+    return;
+  const ic::CameraErrors e = ic::compareCameras(truth->camera, refused.calibration.camera);
+  std::printf("  truth of the refused result: focal %+.3f %%, rotation %.3f deg, position %.1f mm\n",
+              100.0 * e.focal_relative, e.rotation_rad * 180.0 / M_PI, 1000.0 * e.center_m);
+}
+
 // Diagnostic: the image lines matched under the true camera (tight thresholds), calibrated like the pipeline does.
 void oracleCalibration(const std::string& truth_dir, const std::string& name, const ic::FixedCamera& camera,
                        const std::vector<ic::Segment3d>& map, const ic::FixedCameraOptions& options,
@@ -515,6 +527,8 @@ int main(int argc, char** argv)
     if (!result)
     {
       std::printf("%s: FAILED: %s\n", name.c_str(), result.error().describe().c_str());
+      if (cli.has("truth-dir") && camera.lastRefused())
+        reportRefusedAgainstTruth(cli.value("truth-dir"), name, *camera.lastRefused());
       status = 1;
       continue;
     }

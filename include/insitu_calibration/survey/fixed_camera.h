@@ -15,6 +15,7 @@
 #include "insitu_calibration/io/calibration_file.h"
 #include "insitu_calibration/lines/image_lines.h"
 #include "insitu_calibration/matching/line_matcher.h"
+#include "insitu_calibration/survey/image_explanation.h"
 #include "insitu_calibration/survey/temporal_median.h"
 
 namespace insitu_calibration
@@ -47,10 +48,15 @@ struct FixedCameraOptions
   double max_prior_distance_sigmas = 6.0;  // the camera must be within this many position sigmas of its prior
   // A result whose own one-sigma uncertainty exceeds any of these is refused as under-constrained (mostly coplanar
   // or parallel lines, a small part of the view): better an error than a confident wrong camera. A rank-deficient
-  // result (no uncertainty) is refused too.
-  double max_sigma_focal_relative = 0.03;
-  double max_sigma_position_m = 0.15;
-  double max_sigma_rotation_deg = 1.5;
+  // result (no uncertainty) is refused too. A third of the errors that make a result wrong (5 % focal length, 10 cm,
+  // 2 deg) or less: at 0.03 / 0.15 / 1.5 generated buildings gave accepted cameras 1.4 deg and 13 cm off with
+  // sigmas of 1 deg and 8 cm; the default world's correct results have at most 0.2 %, 11 mm and 0.13 deg.
+  double max_sigma_focal_relative = 0.01;
+  double max_sigma_position_m = 0.03;
+  double max_sigma_rotation_deg = 0.5;
+  // The final check (image_explanation.h): the camera must explain the image as a whole (its projected map lines on
+  // image edges, its matched lines predicted when held out).
+  ImageExplanationOptions explanation;
 };
 
 struct FixedCameraStatus
@@ -74,7 +80,8 @@ struct FixedCameraResult
   std::vector<std::vector<Eigen::Vector2d>> matched_image_lines;
   std::vector<Segment3d> matched_map_lines;
   int loops = 0;
-  std::string summary;  // how good the result is, in words
+  ImageExplanation explanation;  // the final check's measurements (map-based calibrations)
+  std::string summary;           // how good the result is, in words
 };
 
 class FixedCamera
@@ -96,6 +103,9 @@ public:
 
   const std::optional<CalibrationFile>& calibration() const { return calibration_; }
   const std::optional<FixedCameraResult>& lastResult() const { return last_result_; }
+  // The last result the checks refused (for diagnostics against a simulator's truth), if the last calibration got
+  // that far.
+  const std::optional<FixedCameraResult>& lastRefused() const { return last_refused_; }
   void setCalibration(const CalibrationFile& calibration) { calibration_ = calibration; }
   // Forgets images, matches and calibration.
   void reset();
@@ -108,12 +118,15 @@ private:
   Expected<FixedCameraResult> calibrateFromMap(const std::vector<Segment3d>& map_lines, const std::string& world_frame,
                                                const std::vector<double>& map_line_sigmas_m);
   Status check(const CameraCalibration& calibration, size_t matched_lines) const;
+  // The final check of a map-based result: measures how well it explains the median image, refuses it if badly.
+  Status checkExplanation(FixedCameraResult& result, const std::vector<Segment3d>& map_lines) const;
 
   FixedCameraConfig config_;
   FixedCameraOptions options_;
   TemporalMedian median_;
   std::optional<CalibrationFile> calibration_;
   std::optional<FixedCameraResult> last_result_;
+  std::optional<FixedCameraResult> last_refused_;
   size_t last_matched_ = 0;
 };
 

@@ -92,6 +92,7 @@ void FixedCamera::reset()
   median_.clear();
   calibration_.reset();
   last_result_.reset();
+  last_refused_.reset();
   last_matched_ = 0;
 }
 
@@ -149,6 +150,14 @@ Status FixedCamera::check(const CameraCalibration& c, size_t matched_lines) cons
   if (!c.camera.pose().rotation.allFinite() || !c.camera.pose().translation.allFinite())
     return Error(ErrorCode::kNoSolution, "the pose is not finite");
   return Success{};
+}
+
+Status FixedCamera::checkExplanation(FixedCameraResult& result, const std::vector<Segment3d>& map_lines) const
+{
+  const CameraCalibration& c = result.calibration;
+  result.explanation = explainImage(median_.median(), c.camera, config_.image_width, config_.image_height, map_lines,
+                                    c.refinement ? &*c.refinement : nullptr, options_.explanation);
+  return acceptExplanation(result.explanation, options_.explanation);
 }
 
 Expected<FixedCameraResult> FixedCamera::calibrateFromFile(const std::string& world_frame)
@@ -245,9 +254,18 @@ Expected<FixedCameraResult> FixedCamera::calibrate(const std::vector<Segment3d>&
                                                     : calibrateFromFile(world_frame);
   if (!result)
     return result.error();
-  if (const Status ok = check(result->calibration, result->matched_image_lines.size()); !ok)
+  last_refused_.reset();
+  Status ok = check(result->calibration, result->matched_image_lines.size());
+  if (ok && config_.correspondence_file.empty())
+    ok = checkExplanation(*result, map_lines);
+  if (!ok)
+  {
+    last_refused_ = *result;
     return ok.error();
+  }
   result->summary = describeResult(result->calibration, result->matched_image_lines.size());
+  if (config_.correspondence_file.empty())
+    result->summary += "; " + result->explanation.describe();
   calibration_ = result->file;
   last_result_ = *result;
   return result;

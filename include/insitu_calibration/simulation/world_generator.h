@@ -1,0 +1,71 @@
+// Procedural buildings for the simulator (generate_world): a world file in the format of config/worlds/*.yaml from a
+// seed, with fixed cameras placed as installers place them and the installers' priors in config/cameras.yaml's
+// format, so that the survey pipeline can be measured on buildings nobody tuned it on (scripts/bench_generalisation).
+//
+// Kinds: room (4 x 4 x 2.6 m to 10 x 8 x 3.2 m), hall (12 x 8 x 4 m to 20 x 12 x 6 m, columns, a reception desk, a
+// stage with steps), corridor (15-25 m long, rooms off it through doorways) and office (desk rows, screens,
+// cabinets). Doorways open onto small vestibules so that nothing is seen through them but more building.
+// Cameras (2-3): in corners or on walls 2.4-5 m high (below the ceiling), looking at a point of the floor area;
+// horizontal field of view 30-110 deg, division distortion from none to 60 px at the corners (more for wider lenses),
+// principal point up to 3 % off centre, 640x480 to 2560x1440, roll up to 3 deg. The robot's route covers the floor
+// in lanes and keeps 0.45 m from walls and obstacles; the Xtion's mount varies (height 0.3-1.5 m, tilt -20..15 deg).
+#ifndef INSITU_CALIBRATION_SIMULATION_WORLD_GENERATOR_H
+#define INSITU_CALIBRATION_SIMULATION_WORLD_GENERATOR_H
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include "insitu_calibration/error.h"
+#include "insitu_calibration/simulation/world.h"
+
+namespace insitu_calibration
+{
+namespace simulation
+{
+enum class BuildingKind
+{
+  kRoom,
+  kHall,
+  kCorridor,
+  kOffice
+};
+
+const char* buildingKindName(BuildingKind kind);
+Expected<BuildingKind> parseBuildingKind(const std::string& name);  // room | hall | corridor | office
+
+// How far the installer's prior is from the truth: the position moved this far in a random direction, the viewing
+// direction turned this much about a random axis across it, the horizontal field of view scaled by 1 +- this. The
+// prior's sigmas are set to the same sizes.
+struct PriorError
+{
+  double position_m = 0.5;
+  double direction_deg = 10.0;
+  double fov_relative = 0.2;
+};
+
+struct WorldGeneratorOptions
+{
+  uint64_t seed = 1;
+  std::optional<BuildingKind> kind;  // default: drawn from the seed
+  PriorError prior_error;
+  double max_route_s = 0.0;  // > 0: lanes further apart (and the route cut) to keep the drive this short
+  double speed = 0.45;       // robot speed along the legs, m/s
+};
+
+struct GeneratedWorld
+{
+  BuildingKind kind = BuildingKind::kRoom;
+  std::string world_yaml;    // the world file
+  std::string cameras_yaml;  // the installer's priors (config/cameras.yaml format)
+  World world;               // world_yaml as parseWorld reads it
+  double route_duration_s = 0.0;
+};
+
+// Same options, same files (byte for byte). Errors only when the generated file fails to parse (a bug).
+Expected<GeneratedWorld> generateWorld(const WorldGeneratorOptions& options);
+
+}  // namespace simulation
+}  // namespace insitu_calibration
+
+#endif  // INSITU_CALIBRATION_SIMULATION_WORLD_GENERATOR_H

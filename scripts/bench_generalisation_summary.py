@@ -1,0 +1,113 @@
+#!/usr/bin/python3
+"""Rows and summary of scripts/bench_generalisation (one building's files -> TSV rows; all rows -> the report)."""
+import re
+import sys
+
+GOOD = (0.5, 0.2, 20.0)   # focal %, rotation deg, position mm: the issue's goal with a perfect localiser
+FAIR = (0.5, 0.3, 30.0)   # ... with the localiser error of the map issue
+WRONG = (5.0, 2.0, 100.0)  # an accepted result this far off is wrong
+
+
+def row(seed, directory, seconds):
+    world = open(directory + "/world.txt").read().splitlines()
+    kind = re.search(r": (\w+);", world[0]).group(1)
+    log = open(directory + "/calibrate.log").read()
+    compare = open(directory + "/compare.md").read()
+    for line in world[1:]:
+        m = re.match(r"\s+(\S+) (\d+x\d+) fx \S+ \(HFOV (\S+) deg\) at \S+ \S+ (\S+),", line)
+        if not m:
+            continue
+        name, size, hfov, height = m.groups()
+        failed = re.search(r"^%s: FAILED: (.*)$" % name, log, re.M)
+        cells = [seed, kind, name, size, hfov, height]
+        result = re.search(r"^\| %s \| ([-+0-9.]+) %% \|[^|]*\|[^|]*\| ([0-9.]+) deg \| ([0-9.]+) mm \|" % name,
+                           compare, re.M)
+        if failed or not result:
+            reason = failed.group(1) if failed else "no result (see calibrate.log)"
+            # With the truth, calibrate_survey says how far the refused result was: was the refusal needed?
+            truth = re.search(r"^%s: FAILED: .*\n  truth of the refused result: focal ([-+0-9.]+) %%, rotation "
+                              r"([0-9.]+) deg, position ([0-9.]+) mm" % name, log, re.M)
+            refused = category(*(abs(float(x)) for x in truth.groups())) if truth else ""
+            print("\t".join(cells + ["refused", "", "", "", reason, seconds, refused]))
+            continue
+        focal, rotation, position = abs(float(result.group(1))), float(result.group(2)), float(result.group(3))
+        print("\t".join(cells + [category(focal, rotation, position), "%.3f" % focal, "%.3f" % rotation,
+                                 "%.1f" % position, "", seconds, ""]))
+
+
+def category(focal, rotation, position):
+    errors = (focal, rotation, position)
+    return ("WRONG" if any(e > w for e, w in zip(errors, WRONG)) else
+            "good" if all(e <= g for e, g in zip(errors, GOOD)) else
+            "fair" if all(e <= g for e, g in zip(errors, FAIR)) else "off")
+
+
+def percentile(values, p):
+    values = sorted(values)
+    if not values:
+        return float("nan")
+    k = (len(values) - 1) * p / 100.0
+    lo = int(k)
+    hi = min(lo + 1, len(values) - 1)
+    return values[lo] + (values[hi] - values[lo]) * (k - lo)
+
+
+def reason_class(reason):
+    reason = re.sub(r"\(.*?\)", "(...)", reason)
+    reason = re.sub(r"[-+]?\d+(\.\d+)?", "N", reason)
+    return reason.split(";")[0].strip()
+
+
+def summary(path):
+    rows = [line.rstrip("\n").split("\t") for line in open(path) if line.strip()]
+    print("\n| seed | kind | camera | size | HFOV | height | result | focal error | rotation | position | reason |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        errors = ("%s %% | %s deg | %s mm" % (r[7], r[8], r[9])) if r[7] else " | | "
+        if r[6] == "refused" and len(r) > 12 and r[12]:
+            r[10] += " (the refused result was %s)" % r[12]
+        print("| %s | %s | %s | %s | %s deg | %s m | %s | %s | %s |" % (r[0], r[1], r[2], r[3], r[4], r[5], r[6],
+                                                                         errors, r[10]))
+    n = len(rows)
+    count = {s: sum(1 for r in rows if r[6] == s) for s in ("good", "fair", "off", "WRONG", "refused")}
+    buildings = len(set(r[0] for r in rows))
+    print("\n%d cameras in %d buildings: %d accepted, %d refused" % (n, buildings, n - count["refused"],
+                                                                     count["refused"]))
+    pct = lambda k: 100.0 * k / n if n else 0.0
+    print("  within 0.5 %% / 0.2 deg / 2 cm (goal >= 90 %%):  %d (%.0f %%)" % (count["good"], pct(count["good"])))
+    print("  within 0.5 %% / 0.3 deg / 3 cm (goal >= 80 %%):  %d (%.0f %%)" % (count["good"] + count["fair"],
+                                                                        pct(count["good"] + count["fair"])))
+    print("  accepted, less accurate but not wrong:         %d" % count["off"])
+    print("  accepted WRONG (> 5 %% focal, 2 deg or 10 cm):  %d (goal 0)" % count["WRONG"])
+    reasons = {}
+    for r in rows:
+        if r[6] == "refused":
+            reasons[reason_class(r[10])] = reasons.get(reason_class(r[10]), 0) + 1
+    judged = [r for r in rows if r[6] == "refused" and len(r) > 12 and r[12]]
+    if judged:
+        print("  refused results that were (with the truth): %s" % ", ".join(
+            "%s %d" % (c, sum(1 for r in judged if r[12] == c)) for c in ("good", "fair", "off", "WRONG")))
+    print("  refusals by reason:")
+    for reason, k in sorted(reasons.items(), key=lambda x: -x[1]):
+        print("    %3d  %s" % (k, reason))
+    accepted = [r for r in rows if r[7]]
+    if accepted:
+        print("  errors of the accepted results (median / 90th percentile / max):")
+        for name, column, unit in (("focal", 7, "%"), ("rotation", 8, "deg"), ("position", 9, "mm")):
+            v = [float(r[column]) for r in accepted]
+            print("    %-9s %8.3f / %8.3f / %8.3f %s" % (name, percentile(v, 50), percentile(v, 90), max(v), unit))
+    by_kind = {}
+    for r in rows:
+        k = by_kind.setdefault(r[1], [0, 0, 0])
+        k[0] += 1
+        k[1] += r[6] in ("good", "fair")
+        k[2] += r[6] == "WRONG"
+    print("  per kind (cameras / within 0.5 % 0.3 deg 3 cm / wrong): " +
+          ", ".join("%s %d/%d/%d" % (k, v[0], v[1], v[2]) for k, v in sorted(by_kind.items())))
+
+
+if __name__ == "__main__":
+    if sys.argv[1] == "row":
+        row(*sys.argv[2:5])
+    else:
+        summary(sys.argv[2])

@@ -1,0 +1,282 @@
+#include "insitu_calibration/simulation/route_planner.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <queue>
+
+namespace insitu_calibration
+{
+namespace simulation
+{
+namespace
+{
+double distanceToSegment(const Eigen::Vector2d& p, const Eigen::Vector2d& a, const Eigen::Vector2d& b)
+{
+  const Eigen::Vector2d d = b - a;
+  const double t = d.squaredNorm() > 0.0 ? std::clamp((p - a).dot(d) / d.squaredNorm(), 0.0, 1.0) : 0.0;
+  return (p - (a + t * d)).norm();
+}
+
+// The free cells of the walkable area (clearance from its border and from every obstacle), as a grid.
+class Grid
+{
+public:
+  Grid(const FloorPlan& plan, double cell, double clearance)
+      : origin_(plan.walkable.min()),
+        cell_(cell),
+        nx_(std::max(1, static_cast<int>(plan.walkable.sizes().x() / cell))),
+        ny_(std::max(1, static_cast<int>(plan.walkable.sizes().y() / cell))),
+        free_(nx_ * ny_, 0)
+  {
+    Eigen::AlignedBox2d inner(plan.walkable.min() + Eigen::Vector2d::Constant(clearance),
+                              plan.walkable.max() - Eigen::Vector2d::Constant(clearance));
+    for (int j = 0; j < ny_; ++j)
+      for (int i = 0; i < nx_; ++i)
+      {
+        const Eigen::Vector2d p = center(i, j);
+        bool ok = !inner.isEmpty() && inner.contains(p);
+        for (size_t k = 0; ok && k < plan.obstacles.size(); ++k)
+          ok = distanceToFootprint(p, plan.obstacles[k]) > clearance;
+        free_[index(i, j)] = ok ? 1 : 0;
+      }
+  }
+  Eigen::Vector2d center(int i, int j) const { return origin_ + cell_ * Eigen::Vector2d(i + 0.5, j + 0.5); }
+  int index(int i, int j) const { return j * nx_ + i; }
+  bool inside(int i, int j) const { return i >= 0 && j >= 0 && i < nx_ && j < ny_; }
+  bool isFree(int i, int j) const { return inside(i, j) && free_[index(i, j)] != 0; }
+  bool isFree(const Eigen::Vector2d& p) const
+  {
+    return isFree(static_cast<int>(std::floor((p.x() - origin_.x()) / cell_)),
+                  static_cast<int>(std::floor((p.y() - origin_.y()) / cell_)));
+  }
+  // Keeps only the largest 4-connected free region.
+  void keepLargestRegion()
+  {
+    std::vector<int> label(free_.size(), -1);
+    std::vector<size_t> sizes;
+    for (int start = 0; start < static_cast<int>(free_.size()); ++start)
+    {
+      if (!free_[start] || label[start] >= 0)
+        continue;
+      const int id = static_cast<int>(sizes.size());
+      sizes.push_back(0);
+      std::vector<int> stack{start};
+      label[start] = id;
+      while (!stack.empty())
+      {
+        const int c = stack.back();
+        stack.pop_back();
+        ++sizes[id];
+        const int i = c % nx_, j = c / nx_;
+        for (const auto& [di, dj] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}})
+          if (isFree(i + di, j + dj) && label[index(i + di, j + dj)] < 0)
+          {
+            label[index(i + di, j + dj)] = id;
+            stack.push_back(index(i + di, j + dj));
+          }
+      }
+    }
+    const int best = static_cast<int>(std::max_element(sizes.begin(), sizes.end()) - sizes.begin());
+    for (size_t c = 0; c < free_.size(); ++c)
+      free_[c] = (label[c] == best) ? 1 : 0;
+  }
+  // A* on the 8-connected grid (diagonals only between free cells); cell indices from a to b.
+  std::vector<int> shortestPath(int a, int b) const
+  {
+    std::vector<double> cost(free_.size(), std::numeric_limits<double>::infinity());
+    std::vector<int> parent(free_.size(), -1);
+    using Entry = std::pair<double, int>;
+    std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> open;
+    const auto h = [&](int c) { return (center(c % nx_, c / nx_) - center(b % nx_, b / nx_)).norm(); };
+    cost[a] = 0.0;
+    open.push({h(a), a});
+    while (!open.empty())
+    {
+      const int c = open.top().second;
+      open.pop();
+      if (c == b)
+        break;
+      const int i = c % nx_, j = c / nx_;
+      for (int dj = -1; dj <= 1; ++dj)
+        for (int di = -1; di <= 1; ++di)
+        {
+          if ((di == 0 && dj == 0) || !isFree(i + di, j + dj) || !isFree(i + di, j) || !isFree(i, j + dj))
+            continue;
+          const int n = index(i + di, j + dj);
+          const double c2 = cost[c] + cell_ * std::hypot(di, dj);
+          if (c2 < cost[n])
+          {
+            cost[n] = c2;
+            parent[n] = c;
+            open.push({c2 + h(n), n});
+          }
+        }
+    }
+    std::vector<int> path;
+    for (int c = b; c >= 0; c = parent[c])
+      path.push_back(c);
+    std::reverse(path.begin(), path.end());
+    return path.front() == a ? path : std::vector<int>{};
+  }
+  // Whether the straight segment stays on free cells.
+  bool lineOfSight(const Eigen::Vector2d& a, const Eigen::Vector2d& b) const
+  {
+    const int steps = static_cast<int>(std::ceil((b - a).norm() / (0.25 * cell_))) + 1;
+    for (int k = 0; k <= steps; ++k)
+      if (!isFree(a + (b - a) * (static_cast<double>(k) / steps)))
+        return false;
+    return true;
+  }
+  int nx() const { return nx_; }
+  int ny() const { return ny_; }
+
+private:
+  Eigen::Vector2d origin_;
+  double cell_;
+  int nx_, ny_;
+  std::vector<char> free_;
+};
+
+// Lane end points: lanes spread evenly (about `spacing` apart) over the rows that have free cells, per lane its
+// first and last free cell, alternating direction (boustrophedon).
+std::vector<int> laneTargets(const Grid& grid, bool along_x, double spacing, double cell)
+{
+  const int lanes_across = along_x ? grid.ny() : grid.nx();
+  const int along = along_x ? grid.nx() : grid.ny();
+  const auto cellAt = [&](int lane, int k) { return along_x ? std::pair{k, lane} : std::pair{lane, k}; };
+  int lo = -1, hi = -1;
+  for (int lane = 0; lane < lanes_across; ++lane)
+    for (int k = 0; k < along; ++k)
+      if (const auto [i, j] = cellAt(lane, k); grid.isFree(i, j))
+      {
+        lo = lo < 0 ? lane : lo;
+        hi = lane;
+        break;
+      }
+  if (lo < 0)
+    return {};
+  const int n = std::max(1, static_cast<int>(std::lround((hi - lo) * cell / spacing)) + 1);
+  std::vector<int> targets;
+  bool forward = true;
+  for (int l = 0; l < n; ++l)
+  {
+    const int lane = n == 1 ? (lo + hi) / 2 : lo + static_cast<int>(std::lround((hi - lo) * l / (n - 1.0)));
+    int first = -1, last = -1;
+    for (int k = 0; k < along; ++k)
+      if (const auto [i, j] = cellAt(lane, k); grid.isFree(i, j))
+      {
+        first = first < 0 ? grid.index(i, j) : first;
+        last = grid.index(i, j);
+      }
+    if (first < 0)
+      continue;
+    targets.push_back(forward ? first : last);
+    if (last != first)
+      targets.push_back(forward ? last : first);
+    forward = !forward;
+  }
+  return targets;
+}
+
+// The cell path as waypoints: from each point, straight to the farthest later point in line of sight.
+std::vector<Eigen::Vector2d> straighten(const Grid& grid, const std::vector<Eigen::Vector2d>& path)
+{
+  std::vector<Eigen::Vector2d> out{path.front()};
+  size_t i = 0;
+  while (i + 1 < path.size())
+  {
+    size_t j = i + 1;
+    for (size_t k = path.size() - 1; k > i + 1; --k)
+      if (grid.lineOfSight(path[i], path[k]))
+      {
+        j = k;
+        break;
+      }
+    out.push_back(path[j]);
+    i = j;
+  }
+  return out;
+}
+
+std::vector<Eigen::Vector2d> cutAtLength(const std::vector<Eigen::Vector2d>& points, double max_length)
+{
+  std::vector<Eigen::Vector2d> out{points.front()};
+  double length = 0.0;
+  for (size_t k = 1; k < points.size(); ++k)
+  {
+    const double leg = (points[k] - points[k - 1]).norm();
+    if (length + leg > max_length)
+    {
+      const double rest = max_length - length;
+      if (rest > 0.3)
+        out.push_back(points[k - 1] + (points[k] - points[k - 1]) * (rest / leg));
+      break;
+    }
+    length += leg;
+    out.push_back(points[k]);
+  }
+  return out;
+}
+}  // namespace
+
+double distanceToFootprint(const Eigen::Vector2d& p, const Footprint& quad)
+{
+  bool inside = true;
+  double sign = 0.0;
+  double best = std::numeric_limits<double>::infinity();
+  for (size_t k = 0; k < 4; ++k)
+  {
+    const Eigen::Vector2d& a = quad[k];
+    const Eigen::Vector2d& b = quad[(k + 1) % 4];
+    const Eigen::Vector2d e = b - a, r = p - a;
+    const double cross = e.x() * r.y() - e.y() * r.x();
+    if (sign == 0.0)
+      sign = cross >= 0.0 ? 1.0 : -1.0;
+    else if (cross * sign < 0.0)
+      inside = false;
+    best = std::min(best, distanceToSegment(p, a, b));
+  }
+  return inside ? 0.0 : best;
+}
+
+double polylineLength(const std::vector<Eigen::Vector2d>& points)
+{
+  double length = 0.0;
+  for (size_t k = 1; k < points.size(); ++k)
+    length += (points[k] - points[k - 1]).norm();
+  return length;
+}
+
+Expected<std::vector<Eigen::Vector2d>> planCoverageRoute(const FloorPlan& plan, const RoutePlanOptions& options)
+{
+  Grid grid(plan, options.cell_m, options.clearance_m);
+  grid.keepLargestRegion();
+  const bool along_x = plan.walkable.sizes().x() >= plan.walkable.sizes().y();
+  const std::vector<int> targets = laneTargets(grid, along_x, options.lane_spacing_m, options.cell_m);
+  if (targets.size() < 2)
+    return Error(ErrorCode::kNoSolution, "the floor has no free lane " + std::to_string(options.clearance_m) +
+                                             " m clear of walls and obstacles");
+  // Each leg between lane ends straightened on its own (a shortcut across targets would skip lanes).
+  std::vector<Eigen::Vector2d> route;
+  for (size_t k = 0; k + 1 < targets.size(); ++k)
+  {
+    std::vector<Eigen::Vector2d> cells;
+    for (const int c : grid.shortestPath(targets[k], targets[k + 1]))
+      cells.push_back(grid.center(c % grid.nx(), c / grid.nx()));
+    if (cells.empty())
+      continue;
+    const std::vector<Eigen::Vector2d> leg = straighten(grid, cells);
+    for (size_t i = 0; i < leg.size(); ++i)
+      if (route.empty() || (leg[i] - route.back()).norm() > 1e-6)
+        route.push_back(leg[i]);
+  }
+  if (options.max_length_m > 0.0 && polylineLength(route) > options.max_length_m)
+    route = cutAtLength(route, options.max_length_m);
+  if (route.size() < 2)
+    return Error(ErrorCode::kNoSolution, "the planned route is shorter than one leg");
+  return route;
+}
+
+}  // namespace simulation
+}  // namespace insitu_calibration

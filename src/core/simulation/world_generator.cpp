@@ -1,0 +1,244 @@
+#include "insitu_calibration/simulation/world_generator.h"
+
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "generator_layouts.h"
+#include "insitu_calibration/simulation/trajectory.h"
+
+namespace insitu_calibration
+{
+namespace simulation
+{
+namespace
+{
+using generator::num;
+using generator::Rng;
+using generator::vec;
+using generator::vec3;
+using V2 = Eigen::Vector2d;
+using V3 = Eigen::Vector3d;
+constexpr double kPi = 3.14159265358979323846;
+
+struct PlacedCamera
+{
+  std::string name;
+  int width = 0, height = 0;
+  double fx = 0.0, cx = 0.0, cy = 0.0, corner_px = 0.0, roll_deg = 0.0;
+  V3 position, target;
+};
+
+// Whether the segment a -> b passes through an axis-aligned box (slab test).
+bool segmentHitsBox(const V3& a, const V3& b, const generator::Box3& box)
+{
+  double t0 = 0.0, t1 = 1.0;
+  const V3 d = b - a;
+  for (int k = 0; k < 3; ++k)
+  {
+    if (std::abs(d[k]) < 1e-12)
+    {
+      if (a[k] < box.min[k] || a[k] > box.max[k])
+        return false;
+      continue;
+    }
+    double lo = (box.min[k] - a[k]) / d[k], hi = (box.max[k] - a[k]) / d[k];
+    if (lo > hi)
+      std::swap(lo, hi);
+    t0 = std::max(t0, lo);
+    t1 = std::min(t1, hi);
+    if (t0 > t1)
+      return false;
+  }
+  return true;
+}
+
+bool clearView(const generator::Scene& scene, const V3& from, const V3& to)
+{
+  for (const auto& box : scene.solids)
+    if (segmentHitsBox(from, to, box))
+      return false;
+  return true;
+}
+
+// An installer's camera at a site: a height under the ceiling, aimed at a visible point of the floor area at least
+// 2 m away and 10-60 degrees down; lens, sensor and mounting drawn from the ranges.
+std::optional<PlacedCamera> placeCamera(const generator::Layout& layout, const V2& site, Rng& rng)
+{
+  static const int kSizes[][2] = {{640, 480}, {800, 600}, {1280, 720}, {1280, 960}, {1920, 1080}, {2560, 1440}};
+  const double top = std::min(5.0, layout.ceiling_height - 0.12);
+  PlacedCamera c;
+  c.position = V3(site.x(), site.y(), top > 2.4 ? rng.uniform(2.4, top) : top);
+  const Eigen::AlignedBox2d& area = layout.scene.plan.walkable;
+  for (int attempt = 0; attempt < 60; ++attempt)
+  {
+    const V3 target(rng.uniform(area.min().x() + 0.5, area.max().x() - 0.5),
+                    rng.uniform(area.min().y() + 0.5, area.max().y() - 0.5), rng.uniform(0.0, 1.2));
+    const double horizontal = (target - c.position).head<2>().norm();
+    const double down = std::atan2(c.position.z() - target.z(), horizontal) * 180.0 / kPi;
+    if (horizontal < 2.0 || down < 10.0 || down > 60.0 || !clearView(layout.scene, c.position, target))
+      continue;
+    c.target = target;
+    const auto& size = kSizes[rng.integer(0, 5)];
+    c.width = size[0];
+    c.height = size[1];
+    const double fov = rng.uniform(30.0, 110.0) * kPi / 180.0;
+    c.fx = 0.5 * c.width / std::tan(0.5 * fov);
+    c.cx = 0.5 * c.width - 0.5 + rng.uniform(-0.03, 0.03) * c.width;
+    c.cy = 0.5 * c.height - 0.5 + rng.uniform(-0.03, 0.03) * c.height;
+    c.corner_px = -rng.uniform(0.0, 60.0);
+    c.roll_deg = rng.uniform(-3.0, 3.0);
+    return c;
+  }
+  return std::nullopt;
+}
+
+std::vector<PlacedCamera> placeCameras(const generator::Layout& layout, Rng& rng)
+{
+  std::vector<V2> sites = layout.camera_sites;
+  const int wanted = rng.integer(2, 3);
+  std::vector<PlacedCamera> cameras;
+  while (static_cast<int>(cameras.size()) < wanted && !sites.empty())
+  {
+    const size_t k = static_cast<size_t>(rng.integer(0, static_cast<int>(sites.size()) - 1));
+    if (auto c = placeCamera(layout, sites[k], rng))
+    {
+      c->name = std::string("cam_") + static_cast<char>('a' + cameras.size());
+      cameras.push_back(*c);
+    }
+    sites.erase(sites.begin() + static_cast<long>(k));
+  }
+  return cameras;
+}
+
+// Lanes further apart until the drive fits the budget; cut the route if even that is too long.
+Expected<std::vector<V2>> planRoute(const FloorPlan& plan, const WorldGeneratorOptions& options)
+{
+  RoutePlanOptions route;
+  Expected<std::vector<V2>> best = Error(ErrorCode::kNoSolution, "no route");
+  for (int round = 0; round < 8; ++round)
+  {
+    best = planCoverageRoute(plan, route);
+    if (!best || options.max_route_s <= 0.0)
+      return best;
+    Route r;
+    r.waypoints = *best;
+    r.speed = options.speed;
+    r.turn_rate_deg = 40.0;
+    r.loop = false;
+    if (RouteTrajectory(r).lapDuration() <= options.max_route_s)
+      return best;
+    route.lane_spacing_m *= 1.35;
+  }
+  route.max_length_m = 0.75 * options.max_route_s * options.speed;
+  return planCoverageRoute(plan, route);
+}
+
+std::string cameraYaml(const PlacedCamera& c)
+{
+  std::ostringstream out;
+  out << "  - name: " << c.name << "\n    width: " << c.width << "\n    height: " << c.height
+      << "\n    fx: " << num(c.fx) << "\n    fy: " << num(c.fx) << "\n    cx: " << num(c.cx)
+      << "\n    cy: " << num(c.cy) << "\n    corner_displacement_px: " << num(c.corner_px)
+      << "\n    position: " << vec3(c.position) << "\n    look_at: " << vec3(c.target)
+      << "\n    roll_deg: " << num(c.roll_deg) << "\n";
+  return out.str();
+}
+
+// The installer's prior: the truth moved, turned and its field of view scaled by the requested errors.
+std::string priorYaml(const PlacedCamera& c, const PriorError& error, Rng& rng)
+{
+  V3 shift(rng.gaussian(), rng.gaussian(), rng.gaussian());
+  const V3 position = c.position + error.position_m * shift.normalized();
+  const V3 direction = (c.target - c.position).normalized();
+  V3 across = direction.cross(V3(rng.gaussian(), rng.gaussian(), rng.gaussian())).normalized();
+  const V3 turned = Eigen::AngleAxisd(error.direction_deg * kPi / 180.0, across) * direction;
+  const double fov = 2.0 * std::atan(0.5 * c.width / c.fx) * 180.0 / kPi;
+  const double scaled = fov * (1.0 + (rng.chance(0.5) ? 1.0 : -1.0) * error.fov_relative);
+  std::ostringstream out;
+  out << "  - name: " << c.name << "\n    image_topic: /fixed/" << c.name << "/image_raw\n    image_width: " << c.width
+      << "\n    image_height: " << c.height << "\n    prior:\n      position: " << vec3(position)
+      << "\n      position_sigma_m: " << num(std::max(0.05, error.position_m))
+      << "\n      direction: " << vec({turned.x(), turned.y(), turned.z()})
+      << "\n      direction_sigma_deg: " << num(std::max(1.0, error.direction_deg))
+      << "\n      horizontal_fov_deg: " << num(std::min(170.0, scaled))
+      << "\n      fov_sigma_relative: " << num(std::max(0.02, error.fov_relative)) << "\n";
+  return out.str();
+}
+
+std::string worldYaml(const WorldGeneratorOptions& options, BuildingKind kind, const generator::Layout& layout,
+                      const std::vector<V2>& route, const std::vector<PlacedCamera>& cameras, Rng& rng)
+{
+  std::ostringstream out;
+  const std::string name = std::string("generated_") + buildingKindName(kind) + "_" + std::to_string(options.seed);
+  out << "# Generated by generate_world --seed " << options.seed << " --kind " << buildingKindName(kind)
+      << " (format: docs/simulator.md).\nname: " << name << "\ndescription: " << layout.description << ", "
+      << cameras.size() << " fixed cameras.\n";
+  const double ambient = rng.uniform(0.5, 0.7);
+  out << "lighting: {ambient: " << num(ambient) << ", diffuse: " << num(1.0 - ambient)
+      << ", direction: " << vec({rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(0.6, 1.2)}) << "}\nsurfaces:\n"
+      << layout.scene.surfaces() << "route:\n  waypoints: [";
+  for (size_t k = 0; k < route.size(); ++k)
+    out << (k ? ", " : "") << vec({route[k].x(), route[k].y()});
+  out << "]\n  speed: " << num(options.speed) << "\n  turn_rate_deg: 40\n  loop: false\n";
+  out << "xtion:\n  mount_height: " << num(rng.uniform(0.3, 1.5))
+      << "\n  mount_forward: 0.1\n  tilt_deg: " << num(rng.uniform(-20.0, 15.0)) << "\nfixed_cameras:\n";
+  for (const auto& c : cameras)
+    out << cameraYaml(c);
+  return out.str();
+}
+}  // namespace
+
+const char* buildingKindName(BuildingKind kind)
+{
+  switch (kind)
+  {
+    case BuildingKind::kHall:
+      return "hall";
+    case BuildingKind::kCorridor:
+      return "corridor";
+    case BuildingKind::kOffice:
+      return "office";
+    default:
+      return "room";
+  }
+}
+
+Expected<BuildingKind> parseBuildingKind(const std::string& name)
+{
+  for (const BuildingKind k :
+       {BuildingKind::kRoom, BuildingKind::kHall, BuildingKind::kCorridor, BuildingKind::kOffice})
+    if (name == buildingKindName(k))
+      return k;
+  return Error(ErrorCode::kInvalidInput, "unknown building kind '" + name + "' (room, hall, corridor or office)");
+}
+
+Expected<GeneratedWorld> generateWorld(const WorldGeneratorOptions& options)
+{
+  Rng rng(options.seed, 0x776f726c64ULL), prior_rng(options.seed, 0x7072696f72ULL);
+  GeneratedWorld out;
+  out.kind = options.kind ? *options.kind : static_cast<BuildingKind>(rng.integer(0, 3));
+  const generator::Layout layout = generator::buildLayout(out.kind, rng);
+  const auto cameras = placeCameras(layout, rng);
+  const auto route = planRoute(layout.scene.plan, options);
+  if (!route)
+    return Error(route.error().code(), std::string("generate_world: ") + route.error().message());
+  out.world_yaml = worldYaml(options, out.kind, layout, *route, cameras, rng);
+  std::ostringstream priors;
+  priors << "# Installer priors for the fixed cameras of generate_world --seed " << options.seed << " --kind "
+         << buildingKindName(out.kind) << ": each off by " << num(options.prior_error.position_m) << " m, "
+         << num(options.prior_error.direction_deg) << " deg and " << num(100.0 * options.prior_error.fov_relative)
+         << " % field of view (format: config/cameras.yaml).\ncameras:\n";
+  for (const auto& c : cameras)
+    priors << priorYaml(c, options.prior_error, prior_rng);
+  out.cameras_yaml = priors.str();
+  auto world = parseWorld(out.world_yaml, "generated world (seed " + std::to_string(options.seed) + ")");
+  if (!world)
+    return world.error();
+  out.world = std::move(*world);
+  out.route_duration_s = RouteTrajectory(out.world.route).lapDuration();
+  return out;
+}
+
+}  // namespace simulation
+}  // namespace insitu_calibration

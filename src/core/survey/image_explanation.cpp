@@ -1,0 +1,161 @@
+#include "insitu_calibration/survey/image_explanation.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include <opencv2/imgproc.hpp>
+
+#include "insitu_calibration/matching/line_matcher.h"
+
+namespace insitu_calibration
+{
+namespace
+{
+double median(std::vector<double> v)
+{
+  if (v.empty())
+    return 0.0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+float bilinear(const cv::Mat& m, double x, double y)
+{
+  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  if (x0 < 0 || y0 < 0 || x0 + 1 >= m.cols || y0 + 1 >= m.rows)
+    return 0.0f;
+  const float fx = static_cast<float>(x - x0), fy = static_cast<float>(y - y0);
+  return (1 - fy) * ((1 - fx) * m.at<float>(y0, x0) + fx * m.at<float>(y0, x0 + 1)) +
+         fy * ((1 - fx) * m.at<float>(y0 + 1, x0) + fx * m.at<float>(y0 + 1, x0 + 1));
+}
+
+struct Gradients
+{
+  cv::Mat gx, gy;  // grey levels per px
+};
+
+Gradients gradients(const cv::Mat& image)
+{
+  cv::Mat grey;
+  if (image.channels() == 3)
+    cv::cvtColor(image, grey, cv::COLOR_RGB2GRAY);
+  else
+    grey = image;
+  grey.convertTo(grey, CV_32F);
+  Gradients g;
+  cv::Sobel(grey, g.gx, CV_32F, 1, 0, 3, 1.0 / 8.0);
+  cv::Sobel(grey, g.gy, CV_32F, 0, 1, 3, 1.0 / 8.0);
+  return g;
+}
+
+// Whether an edge across the normal n lies within 1 px of p.
+bool onEdge(const Gradients& g, const Eigen::Vector2d& p, const Eigen::Vector2d& n, const ImageExplanationOptions& o)
+{
+  for (const double s : {-1.0, -0.5, 0.0, 0.5, 1.0})
+  {
+    const Eigen::Vector2d q = p + s * n;
+    const Eigen::Vector2d grad(bilinear(g.gx, q.x(), q.y()), bilinear(g.gy, q.x(), q.y()));
+    const double across = std::abs(grad.dot(n));
+    if (across >= o.min_gradient && across >= o.min_alignment * grad.norm())
+      return true;
+  }
+  return false;
+}
+
+// Samples of one map line's projection: on-edge counts at the line and beside it.
+void assessLine(const Gradients& g, const CameraModel& camera, const Segment3d& line,
+                const std::pair<double, double>& interval, int width, int height, const ImageExplanationOptions& o,
+                ImageExplanation& out, size_t& on, size_t& beside)
+{
+  const Eigen::Vector3d a = line.a + interval.first * (line.b - line.a);
+  const Eigen::Vector3d b = line.a + interval.second * (line.b - line.a);
+  const auto pa = camera.project(a), pb = camera.project(b);
+  if (!pa || !pb || (*pb - *pa).norm() < o.min_line_length_px)
+    return;
+  const int n = std::min(600, static_cast<int>((*pb - *pa).norm() / o.sample_step_px) + 1);
+  ++out.map_lines;
+  for (int k = 0; k < n; ++k)
+  {
+    const double t = (k + 0.5) / n;
+    const auto p = camera.project(a + t * (b - a));
+    const auto q = camera.project(a + std::min(1.0, t + 0.5 / n) * (b - a));
+    const auto r = camera.project(a + std::max(0.0, t - 0.5 / n) * (b - a));
+    if (!p || !q || !r || (*q - *r).norm() < 1e-6)
+      continue;
+    const Eigen::Vector2d d = (*q - *r).normalized(), normal(-d.y(), d.x());
+    if (p->x() < 3 || p->y() < 3 || p->x() > width - 4 || p->y() > height - 4)
+      continue;
+    ++out.samples;
+    on += onEdge(g, *p, normal, o) ? 1 : 0;
+    beside += onEdge(g, *p + o.chance_offset_px * normal, normal, o) ? 1 : 0;
+    beside += onEdge(g, *p - o.chance_offset_px * normal, normal, o) ? 1 : 0;
+  }
+}
+}  // namespace
+
+std::string ImageExplanation::describe() const
+{
+  char buffer[320];
+  std::snprintf(buffer, sizeof(buffer),
+                "%zu map lines in view, %.0f %% of their length on image edges (%.0f %% 4 px beside them); %zu matched "
+                "lines: median residual %.3f px, held out %.3f px",
+                map_lines, 100.0 * overlay_agreement, 100.0 * overlay_chance, matched_lines, median_rms_px,
+                median_heldout_px);
+  return buffer;
+}
+
+ImageExplanation explainImage(const cv::Mat& image, const CameraModel& camera, int width, int height,
+                              const std::vector<Segment3d>& map_lines, const RefinementResult* refinement,
+                              const ImageExplanationOptions& options)
+{
+  ImageExplanation out;
+  if (!image.empty())
+  {
+    const Gradients g = gradients(image);
+    size_t on = 0, beside = 0;
+    for (const auto& line : map_lines)
+      if (const auto interval = visibleInterval(camera, line, width, height))
+        assessLine(g, camera, line, *interval, width, height, options, out, on, beside);
+    if (out.samples > 0)
+    {
+      out.overlay_agreement = static_cast<double>(on) / out.samples;
+      out.overlay_chance = 0.5 * static_cast<double>(beside) / out.samples;
+    }
+  }
+  if (refinement)
+  {
+    std::vector<double> rms, heldout;
+    for (size_t k = 0; k < refinement->line_loo_rms_px.size() && k < refinement->line_rms_px.size(); ++k)
+      if (std::isfinite(refinement->line_rms_px[k]) && !std::isnan(refinement->line_loo_rms_px[k]))
+      {
+        rms.push_back(refinement->line_rms_px[k]);
+        heldout.push_back(refinement->line_loo_rms_px[k]);
+      }
+    out.matched_lines = rms.size();
+    out.median_rms_px = median(rms);
+    out.median_heldout_px = median(heldout);
+  }
+  return out;
+}
+
+Status acceptExplanation(const ImageExplanation& e, const ImageExplanationOptions& o)
+{
+  const std::string numbers = " (" + e.describe() + ")";
+  if (o.min_overlay_agreement > 0.0 && e.samples > 0 && e.overlay_agreement < o.min_overlay_agreement)
+    return Error(ErrorCode::kNoSolution,
+                 "the camera does not explain the image: too few of the map lines it sees fall on image edges" +
+                     numbers + "; the matches are probably wrong: check the prior, or survey more of the view");
+  if (o.min_overlay_over_chance > 0.0 && e.samples > 0 &&
+      e.overlay_agreement < o.min_overlay_over_chance * e.overlay_chance)
+    return Error(ErrorCode::kNoSolution,
+                 "the camera does not explain the image: the map lines it sees meet image edges hardly more often "
+                 "than lines beside them" +
+                     numbers + "; the matches are probably wrong: check the prior, or survey more of the view");
+  if (o.max_heldout_ratio > 0.0 && e.matched_lines > 0 && e.median_heldout_px > o.max_heldout_ratio * e.median_rms_px)
+    return Error(ErrorCode::kNoSolution, "the camera predicts its own lines badly when each is held out" + numbers +
+                                             "; a few lines decide it: survey more of the camera's view");
+  return Success{};
+}
+
+}  // namespace insitu_calibration

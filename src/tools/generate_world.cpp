@@ -1,0 +1,113 @@
+// generate_world: a procedural building for the simulator (a world file) and its installer's camera priors.
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+
+#include "command_line.h"
+#include "insitu_calibration/simulation/world_generator.h"
+
+namespace sim = insitu_calibration::simulation;
+
+namespace
+{
+const char* kUsage = R"(Usage: generate_world --seed N --out WORLD.yaml [options]
+
+Writes a building drawn from the seed in the simulator's world format (docs/simulator.md): a room, hall, corridor
+with rooms, or office, with openings, columns, steps, furniture and textures; 2-3 fixed cameras placed as installers
+place them (corners and walls, 2.4-5 m high, horizontal FOV 30-110 deg, division distortion 0-60 px at the corners,
+principal point up to 3 % off centre, 640x480 to 2560x1440, roll up to 3 deg); a robot route that covers the floor
+in lanes 0.45 m clear of everything; the Xtion's mount varied (height 0.3-1.5 m, tilt -20..15 deg). Same seed, same
+files. Prints the building, its cameras and the route's duration.
+
+Options:
+  --seed N                 the building (required)
+  --kind K                 room | hall | corridor | office (default: drawn from the seed)
+  --out FILE               the world file
+  --cameras-out FILE       also the installer's priors in config/cameras.yaml's format
+  --prior-error M,DEG,FOV  how far each prior is from the truth: position (m, random direction), viewing direction
+                           (deg, random axis) and horizontal field of view (relative, random sign); the priors'
+                           sigmas are the same sizes (default 0.5,10,0.2)
+  --max-route-s S          keep the drive under S seconds (lanes further apart, the route cut; default 0: cover
+                           the floor in lanes 1.5 m apart)
+  -h, --help               this text
+
+Example:
+  generate_world --seed 101 --out /tmp/w.yaml --cameras-out /tmp/c.yaml --max-route-s 40
+  simulate_survey --world /tmp/w.yaml --out /tmp/s.bag --duration 40
+  calibrate_survey /tmp/s.bag --cameras /tmp/c.yaml --out-dir /tmp/out --truth-dir /tmp/s_truth
+)";
+
+bool writeFile(const std::string& path, const std::string& text)
+{
+  std::ofstream out(path);
+  out << text;
+  return static_cast<bool>(out);
+}
+
+bool parsePriorError(const std::string& text, sim::PriorError* error)
+{
+  double m = 0, d = 0, f = 0;
+  char extra = 0;
+  if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &m, &d, &f, &extra) != 3 || m < 0 || d < 0 || f < 0 || f >= 1)
+    return false;
+  *error = {m, d, f};
+  return true;
+}
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  insitu_calibration::CommandLine cli(argc, argv, {"seed", "kind", "out", "cameras-out", "prior-error", "max-route-s"},
+                                      {});
+  if (cli.help())
+  {
+    std::cout << kUsage;
+    return 0;
+  }
+  sim::WorldGeneratorOptions options;
+  options.seed = static_cast<uint64_t>(cli.number("seed", -1));
+  options.max_route_s = cli.number("max-route-s", 0.0);
+  std::string problem = cli.error();
+  if (problem.empty() && (!cli.has("seed") || !cli.has("out")))
+    problem = "--seed and --out are required";
+  if (problem.empty() && cli.has("kind"))
+  {
+    const auto kind = sim::parseBuildingKind(cli.value("kind"));
+    if (kind)
+      options.kind = *kind;
+    else
+      problem = kind.error().message();
+  }
+  if (problem.empty() && cli.has("prior-error") && !parsePriorError(cli.value("prior-error"), &options.prior_error))
+    problem = "--prior-error needs three non-negative numbers M,DEG,FOV (FOV < 1), e.g. 0.5,10,0.2";
+  if (!problem.empty())
+  {
+    std::cerr << "generate_world: " << problem << "\n\n" << kUsage;
+    return 2;
+  }
+  const auto world = sim::generateWorld(options);
+  if (!world)
+  {
+    std::cerr << "generate_world: " << world.error().describe() << "\n";
+    return 1;
+  }
+  if (!writeFile(cli.value("out"), world->world_yaml) ||
+      (cli.has("cameras-out") && !writeFile(cli.value("cameras-out"), world->cameras_yaml)))
+  {
+    std::cerr << "generate_world: cannot write " << cli.value("out") << " or " << cli.value("cameras-out") << "\n";
+    return 1;
+  }
+  std::printf("%s (seed %llu): %s; %zu surfaces, route %zu waypoints, %.1f s\n", world->world.name.c_str(),
+              static_cast<unsigned long long>(options.seed), sim::buildingKindName(world->kind),
+              world->world.surfaces.size(), world->world.route.waypoints.size(), world->route_duration_s);
+  for (const auto& c : world->world.fixed_cameras)
+  {
+    const auto& k = c.camera.intrinsics();
+    const Eigen::Vector3d p = c.camera.pose().center();
+    std::printf("  %s %dx%d fx %.1f (HFOV %.1f deg) at %.2f %.2f %.2f, lambda %.3g\n", c.name.c_str(), c.width,
+                c.height, k.fx, 2.0 * std::atan(0.5 * c.width / k.fx) * 180.0 / M_PI, p.x(), p.y(), p.z(),
+                c.camera.distortion().lambda);
+  }
+  return 0;
+}

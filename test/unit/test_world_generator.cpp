@@ -1,0 +1,231 @@
+// The procedural buildings of generate_world: they load, their cameras see the building, their routes cover the
+// floor without touching anything, and the installer priors are off by exactly the requested amounts.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <set>
+#include <string>
+
+#include "insitu_calibration/simulation/renderer.h"
+#include "insitu_calibration/simulation/route_planner.h"
+#include "insitu_calibration/simulation/trajectory.h"
+#include "insitu_calibration/simulation/world_generator.h"
+#include "insitu_calibration/survey/camera_config.h"
+
+namespace ic = insitu_calibration;
+namespace sim = insitu_calibration::simulation;
+
+namespace
+{
+constexpr double kRadToDeg = 180.0 / M_PI;
+
+struct Case
+{
+  uint64_t seed;
+  sim::BuildingKind kind;
+};
+const Case kCases[] = {{1, sim::BuildingKind::kRoom},     {2, sim::BuildingKind::kHall},
+                       {3, sim::BuildingKind::kCorridor}, {4, sim::BuildingKind::kOffice},
+                       {5, sim::BuildingKind::kRoom},     {6, sim::BuildingKind::kHall},
+                       {7, sim::BuildingKind::kCorridor}, {8, sim::BuildingKind::kOffice}};
+
+sim::GeneratedWorld generate(const Case& c, double max_route_s = 0.0)
+{
+  sim::WorldGeneratorOptions options;
+  options.seed = c.seed;
+  options.kind = c.kind;
+  options.max_route_s = max_route_s;
+  auto world = sim::generateWorld(options);
+  EXPECT_TRUE(world) << (world ? "" : world.error().describe());
+  return world ? *world : sim::GeneratedWorld{};
+}
+
+// The surfaces a 1.3 m tall robot could touch (not the floor, rugs, the ceiling or what hangs from it).
+bool standsOnFloor(const sim::Surface& s)
+{
+  double lo = 1e9, hi = -1e9;
+  for (const auto& v : s.rings[0])
+  {
+    lo = std::min(lo, v.z());
+    hi = std::max(hi, v.z());
+  }
+  return hi >= 0.05 && lo <= 1.3;
+}
+}  // namespace
+
+TEST(WorldGenerator, SameSeedSameFilesOtherSeedOtherBuilding)
+{
+  const auto a = generate(kCases[0]), b = generate(kCases[0]), c = generate(kCases[4]);
+  EXPECT_EQ(a.world_yaml, b.world_yaml);
+  EXPECT_EQ(a.cameras_yaml, b.cameras_yaml);
+  EXPECT_NE(a.world_yaml, c.world_yaml);
+  sim::WorldGeneratorOptions drawn;
+  drawn.seed = 12345;
+  EXPECT_TRUE(sim::generateWorld(drawn));
+  EXPECT_FALSE(sim::parseBuildingKind("castle"));
+}
+
+// Cameras within the ranges, each seeing only building (no void through an opening or past a wall) and
+// several surfaces of it.
+TEST(WorldGenerator, CamerasAreInstalledAsSpecifiedAndSeeTheBuilding)
+{
+  for (const Case& c : kCases)
+  {
+    const auto g = generate(c);
+    ASSERT_GE(g.world.fixed_cameras.size(), 2u) << g.world.name;
+    const sim::Renderer renderer(g.world);
+    for (const auto& cam : g.world.fixed_cameras)
+    {
+      const auto& k = cam.camera.intrinsics();
+      const double fov = 2.0 * std::atan(0.5 * cam.width / k.fx) * kRadToDeg;
+      const Eigen::Vector3d p = cam.camera.pose().center();
+      EXPECT_GE(p.z(), 2.4) << cam.name;
+      EXPECT_LE(p.z(), 5.0) << cam.name;
+      EXPECT_GE(fov, 30.0) << cam.name;
+      EXPECT_LE(fov, 110.0) << cam.name;
+      EXPECT_LE(std::abs(k.cx - 0.5 * (cam.width - 1)), 0.03 * cam.width + 1e-6);
+      EXPECT_LE(std::abs(k.cy - 0.5 * (cam.height - 1)), 0.03 * cam.height + 1e-6);
+      EXPECT_GE(cam.width, 640);
+      EXPECT_LE(cam.width, 2560);
+      const auto corner = cam.camera.distortion().undistort(Eigen::Vector2d(0, 0));
+      ASSERT_TRUE(corner);
+      EXPECT_LE((*corner - Eigen::Vector2d(0, 0)).norm(), 61.0) << cam.name;
+      // Rendered at a quarter of the size (the same view): every pixel on a surface, many surfaces.
+      const double s = 0.25;
+      ic::Intrinsics small{k.fx * s, k.fy * s, 0.0, (k.cx + 0.5) * s - 0.5, (k.cy + 0.5) * s - 0.5};
+      ic::DivisionModel d = cam.camera.distortion();
+      d.lambda /= s * s;
+      d.center = (d.center + Eigen::Vector2d(0.5, 0.5)) * s - Eigen::Vector2d(0.5, 0.5);
+      const auto view = sim::ViewCamera::fromModel(ic::CameraModel(small, d, cam.camera.pose()),
+                                                   static_cast<int>(cam.width * s), static_cast<int>(cam.height * s));
+      sim::RenderOptions options;
+      options.color = false;
+      options.supersampling = 1;
+      const auto rendered = renderer.render(view, options);
+      std::set<int> seen;
+      int void_pixels = 0;
+      for (int y = 0; y < rendered.surface.rows; ++y)
+        for (int x = 0; x < rendered.surface.cols; ++x)
+        {
+          const int id = rendered.surface.at<int>(y, x);
+          void_pixels += id < 0 ? 1 : 0;
+          seen.insert(id);
+        }
+      EXPECT_EQ(void_pixels, 0) << g.world.name << " " << cam.name;
+      EXPECT_GE(seen.size(), 4u) << g.world.name << " " << cam.name;
+    }
+  }
+}
+
+// The robot (0.3 m radius, 1.3 m tall) never drives through anything, and passes within 1.5 m of most of the floor.
+TEST(WorldGenerator, RouteCoversTheFloorAndKeepsClear)
+{
+  for (const Case& c : kCases)
+  {
+    const auto g = generate(c);
+    const sim::RouteTrajectory route(g.world.route);
+    const auto path = route.pathPoints(0.05);
+    double closest = 1e9;
+    std::string closest_surface;
+    for (const auto& p : path)
+      for (const auto& s : g.world.surfaces)
+        if (standsOnFloor(s))
+          for (const double z : {0.05, 0.4, 0.8, 1.2})
+          {
+            const double d = s.distance(Eigen::Vector3d(p.x(), p.y(), z));
+            if (d < closest)
+            {
+              closest = d;
+              closest_surface = s.name;
+            }
+          }
+    EXPECT_GE(closest, 0.3) << g.world.name << ": " << closest_surface;
+    // Floor coverage: points of the floor within 1.05 m of the path's extent (the walls are 0.45 m beyond it), 0.6 m
+    // clear of anything standing, within 1.5 m of the path.
+    Eigen::AlignedBox2d box;
+    for (const auto& p : path)
+      box.extend(p);
+    int near = 0, total = 0;
+    const auto& floor = g.world.surfaces.front();
+    for (double x = box.min().x() - 1.05; x <= box.max().x() + 1.05; x += 0.25)
+      for (double y = box.min().y() - 1.05; y <= box.max().y() + 1.05; y += 0.25)
+      {
+        const Eigen::Vector3d q(x, y, 0.4);
+        if (floor.distance(Eigen::Vector3d(x, y, 0.0)) > 1e-6)
+          continue;
+        bool clear = true;
+        for (const auto& s : g.world.surfaces)
+          clear = clear && (!standsOnFloor(s) || s.distance(q) > 0.6);
+        if (!clear)
+          continue;
+        double d = 1e9;
+        for (const auto& p : path)
+          d = std::min(d, (p - q.head<2>()).norm());
+        ++total;
+        near += d <= 1.5 ? 1 : 0;
+      }
+    std::printf("%s: route %.0f s, %zu waypoints, clearance %.2f m, %d of %d free floor points within 1.5 m\n",
+                g.world.name.c_str(), g.route_duration_s, g.world.route.waypoints.size(), closest, near, total);
+    EXPECT_GE(near, 0.85 * total) << g.world.name;
+  }
+}
+
+TEST(WorldGenerator, RouteBudgetIsKept)
+{
+  for (const Case& c : kCases)
+  {
+    const auto g = generate(c, 40.0);
+    EXPECT_LE(g.route_duration_s, 40.0 + 1e-6) << g.world.name;
+    EXPECT_GE(g.route_duration_s, 10.0) << g.world.name;
+  }
+}
+
+// The priors in config/cameras.yaml's format, each exactly 0.5 m, 10 deg and 20 % (or as asked) from the truth.
+TEST(WorldGenerator, PriorsAreOffByTheRequestedAmounts)
+{
+  for (const double scale : {1.0, 0.5})
+  {
+    sim::WorldGeneratorOptions options;
+    options.seed = 9;
+    options.prior_error = {0.5 * scale, 10.0 * scale, 0.2 * scale};
+    const auto g = sim::generateWorld(options);
+    ASSERT_TRUE(g);
+    const auto priors = ic::parseCameraConfig(g->cameras_yaml);
+    ASSERT_TRUE(priors) << priors.error().describe();
+    ASSERT_EQ(priors->size(), g->world.fixed_cameras.size());
+    for (size_t k = 0; k < priors->size(); ++k)
+    {
+      const auto& truth = g->world.fixed_cameras[k];
+      const ic::CameraPrior& p = *(*priors)[k].camera.prior;
+      EXPECT_EQ((*priors)[k].camera.name, truth.name);
+      EXPECT_EQ((*priors)[k].camera.image_width, truth.width);
+      EXPECT_NEAR((p.position - truth.camera.pose().center()).norm(), 0.5 * scale, 2e-3);
+      const Eigen::Vector3d axis = truth.camera.pose().rotation.row(2).transpose();
+      EXPECT_NEAR(std::acos(std::clamp(p.direction.normalized().dot(axis), -1.0, 1.0)) * kRadToDeg, 10.0 * scale, 0.3);
+      const double fov = 2.0 * std::atan(0.5 * truth.width / truth.camera.intrinsics().fx) * kRadToDeg;
+      EXPECT_NEAR(std::abs(p.horizontal_fov_deg / fov - 1.0), 0.2 * scale, 2e-3);
+      EXPECT_DOUBLE_EQ(p.position_sigma_m, 0.5 * scale);
+    }
+  }
+}
+
+TEST(RoutePlanner, LanesAcrossAnEmptyRoomAndAroundAnObstacle)
+{
+  sim::FloorPlan plan;
+  plan.walkable = Eigen::AlignedBox2d(Eigen::Vector2d(0, 0), Eigen::Vector2d(10, 6));
+  const auto empty = sim::planCoverageRoute(plan, {});
+  ASSERT_TRUE(empty);
+  EXPECT_EQ(empty->size(), 8u);  // four lanes 1.5 m apart, each two waypoints
+  plan.obstacles.push_back(
+      {Eigen::Vector2d(4, 0), Eigen::Vector2d(6, 0), Eigen::Vector2d(6, 4), Eigen::Vector2d(4, 4)});
+  const auto around = sim::planCoverageRoute(plan, {});
+  ASSERT_TRUE(around);
+  for (size_t k = 1; k < around->size(); ++k)
+    for (double t = 0; t <= 1.0; t += 0.01)
+    {
+      const Eigen::Vector2d p = (*around)[k - 1] + t * ((*around)[k] - (*around)[k - 1]);
+      EXPECT_GT(sim::distanceToFootprint(p, plan.obstacles[0]), 0.4);
+    }
+  plan.walkable = Eigen::AlignedBox2d(Eigen::Vector2d(0, 0), Eigen::Vector2d(0.8, 6));
+  EXPECT_FALSE(sim::planCoverageRoute(plan, {}));
+}
