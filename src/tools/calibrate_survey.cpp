@@ -21,6 +21,7 @@
 #include "insitu_calibration/lines/line_evaluation.h"
 #include "insitu_calibration/metrics.h"
 #include "insitu_calibration/ros/conversions.h"
+#include "insitu_calibration/simulation/survey.h"
 #include "insitu_calibration/simulation/true_edges.h"
 #include "insitu_calibration/survey/camera_config.h"
 #include "insitu_calibration/survey/overlay.h"
@@ -45,10 +46,17 @@ Options:
   --world-frame NAME    default map
   --min-support N       map lines seen fewer times are not used (default 2)
   --max-spread M        map lines whose observations spread more (RMS across the line, m) are not used (default 0.01)
+  --localization-sigma M,DEG[,TAU]
+                        the localiser's error behind the bag's tf (per keyframe x, y sigma in m, yaw sigma in
+                        degrees, correlation time in s): the line map is adjusted jointly with the keyframe poses and
+                        the calibration's sigma includes the map's placement (default 0.02,0.5,5; 0,0: tf is exact,
+                        no adjustment)
   --camera NAME         calibrate only this camera
   --search-starts N     distinct results of the prior search refined per camera (default 4)
   --truth-dir DIR       the simulator's truth folder (<bag>_truth): also report, per camera, how many matches pair
-                        the wrong edges and how far the matched map lines are from the true edges
+                        the wrong edges and how far the matched map lines are from the true edges, the localiser's
+                        limit (its error averaged over the keyframes, at the camera: "truth-limit" lines) and the
+                        cameras' poses relative to each other against the truth ("truth-relative" lines)
   --prior-from-truth P,D,F[,SEED]
                         with --truth-dir: replace every camera's prior by its true camera moved P m in a random
                         direction, its viewing direction turned D degrees (about a random axis across it; the
@@ -115,6 +123,49 @@ void reportAgainstTruth(const std::string& truth_dir, const std::string& name, c
       "  truth: %zu matches, %zu pair different edges, %zu image lines and %zu map lines on no true edge; "
       "matched map lines off their edge by median %.2f mm, max %.2f mm\n",
       result.matched_image_lines.size(), wrong, unknown_image, unknown_map, map_stats.median_px, map_stats.max_px);
+}
+
+// Per calibrated camera the localiser's limit at it, and per pair of calibrated cameras their relative pose's error.
+void reportMapAgainstTruth(const std::string& truth_dir, const ic::Survey& survey)
+{
+  const auto errors = ic::simulation::loadLocalizationErrors(truth_dir + "/localization.yaml");
+  std::vector<double> stamps;
+  std::vector<Eigen::Vector3d> pivots;
+  for (const auto& kf : survey.keyframes())
+  {
+    stamps.push_back(kf.stamp);
+    pivots.push_back(kf.T_map_camera.translation());
+  }
+  std::vector<std::pair<std::string, ic::CameraPose>> found, truths;
+  for (const auto& name : survey.cameraNames())
+  {
+    const auto& calibration = survey.camera(name).calibration();
+    const auto truth = ic::loadCalibrationFile(truth_dir + "/" + name + ".yaml");
+    if (!calibration || !truth)
+      continue;
+    found.push_back({name, calibration->camera.pose()});
+    truths.push_back({name, truth->camera.pose()});
+    if (errors)
+    {
+      const auto limit = ic::simulation::placementLimit(*errors, stamps, pivots, truth->camera.pose().center());
+      std::printf("truth-limit %s %.2f mm %.4f deg\n", name.c_str(), 1000.0 * limit.position_m,
+                  limit.rotation_rad * 180.0 / M_PI);
+    }
+  }
+  for (size_t i = 0; i < found.size(); ++i)
+    for (size_t j = i + 1; j < found.size(); ++j)
+    {
+      // Camera j's centre in camera i's frame, and the rotation from j to i.
+      auto relative = [&](const ic::CameraPose& a, const ic::CameraPose& b) {
+        return std::make_pair(Eigen::Vector3d(a.rotation * (b.center() - a.center())),
+                              Eigen::Matrix3d(a.rotation * b.rotation.transpose()));
+      };
+      const auto [p, r] = relative(found[i].second, found[j].second);
+      const auto [pt, rt] = relative(truths[i].second, truths[j].second);
+      const double angle = Eigen::AngleAxisd(r * rt.transpose()).angle() * 180.0 / M_PI;
+      std::printf("truth-relative %s %s %.2f mm %.4f deg\n", found[i].first.c_str(), found[j].first.c_str(),
+                  1000.0 * (p - pt).norm(), angle);
+    }
 }
 
 // Diagnostic: the image lines matched under the true camera (tight thresholds), calibrated like the pipeline does.
@@ -337,7 +388,7 @@ int main(int argc, char** argv)
   ic::quietSolverLogging();
   ic::CommandLine cli(argc, argv,
                       {"cameras", "out-dir", "world-frame", "min-support", "camera", "search-starts", "truth-dir",
-                       "prior-from-truth", "prior-sigmas", "max-spread"},
+                       "prior-from-truth", "prior-sigmas", "max-spread", "localization-sigma"},
                       {"no-refine", "no-ransac", "quiet", "oracle", "oracle-details", "trace"});
   if (cli.help())
   {
@@ -364,6 +415,19 @@ int main(int argc, char** argv)
   ic::SurveyOptions options;
   options.min_map_support = min_support;
   options.max_map_spread_m = cli.number("max-spread", options.max_map_spread_m);
+  if (cli.has("localization-sigma"))
+  {
+    const std::vector<double> v = numbers(cli.value("localization-sigma"));
+    if (v.size() < 2 || v.size() > 3)
+    {
+      std::cerr << "calibrate_survey: --localization-sigma takes M,DEG[,TAU]\n";
+      return 2;
+    }
+    options.localization_sigma_m = v[0];
+    options.localization_sigma_deg = v[1];
+    if (v.size() == 3)
+      options.localization_correlation_s = v[2];
+  }
   options.cameras.matcher.calibration.refine = !cli.flag("no-refine");
   options.cameras.matcher.calibration.ransac = !cli.flag("no-ransac");
   options.cameras.matcher.search_starts = static_cast<int>(cli.number("search-starts", 4));
@@ -502,16 +566,21 @@ int main(int argc, char** argv)
         stats.frames, stats.keyframes, stats.lines, survey.lineMap().size(), survey.mapSegments().size(), min_support,
         no_pose, survey_s);
 
-  int status = 0;
   const std::vector<ic::Segment3d> map = survey.mapSegments();
-  const std::vector<double> sigmas = survey.mapLineSigmas();
+  if (!quiet && stats.adjusted_observations > 0)
+    std::printf(
+        "map adjustment: %zu observations (%zu dropped), keyframes moved by RMS %.1f mm, %.3f deg; "
+        "%zu map lines (%zu used); %.2f s CPU\n",
+        stats.adjusted_observations, stats.dropped_observations, 1000.0 * stats.mean_correction_m,
+        stats.mean_correction_deg, survey.lineMap().size(), map.size(), 1e-3 * stats.adjustment_cpu_ms);
+  int status = 0;
   for (const auto& name : survey.cameraNames())
   {
     if ((cli.has("camera") && cli.value("camera") != name) || cli.flag("oracle"))
       continue;
     const auto calibration_start = std::chrono::steady_clock::now();
     ic::FixedCamera& camera = survey.camera(name);
-    const auto result = camera.calibrate(map, world_frame, sigmas);
+    const auto result = survey.calibrate(name, world_frame);
     if (!result)
     {
       std::printf("%s: FAILED: %s\n", name.c_str(), result.error().describe().c_str());
@@ -533,6 +602,8 @@ int main(int argc, char** argv)
     if (cli.has("truth-dir"))
       reportAgainstTruth(cli.value("truth-dir"), name, *result);
   }
+  if (cli.has("truth-dir"))
+    reportMapAgainstTruth(cli.value("truth-dir"), survey);
   if (cli.flag("oracle") && cli.has("truth-dir"))
     for (const auto& name : survey.cameraNames())
       if (!cli.has("camera") || cli.value("camera") == name)
