@@ -1,8 +1,10 @@
 // calibrate_survey: the calibration node's pipeline run offline on a recorded survey bag, without a ROS master:
 // the Xtion's frames (with the poses of /tf and /tf_static) build the line map, the fixed cameras' images their
 // medians, and every configured camera is calibrated and written like the node writes it.
+#include <algorithm>
 #include <chrono>
 #include <deque>
+#include <optional>
 #include <iostream>
 #include <random>
 #include <sstream>
@@ -51,6 +53,11 @@ Options:
                         degrees, correlation time in s): the line map is adjusted jointly with the keyframe poses and
                         the calibration's sigma includes the map's placement (default 0.02,0.5,5; 0,0: tf is exact,
                         no adjustment)
+  --odom-frame NAME     the odometry frame (default odom): consecutive keyframes are tied by their motion in it
+  --no-odometry         the map adjustment without odometry
+  --odometry-sigma M,PER_M,DEG,PER_DEG
+                        odometry's error between consecutive keyframes: M + PER_M times the distance, DEG + PER_DEG
+                        times the turn (default 0.0005,0.01,0.02,0.01: good wheel odometry)
   --camera NAME         calibrate only this camera
   --search-starts N     distinct results of the prior search refined per camera (default 4)
   --truth-dir DIR       the simulator's truth folder (<bag>_truth): also report, per camera, how many matches pair
@@ -125,6 +132,42 @@ void reportAgainstTruth(const std::string& truth_dir, const std::string& name, c
       result.matched_image_lines.size(), wrong, unknown_image, unknown_map, map_stats.median_px, map_stats.max_px);
 }
 
+// The keyframes' pose errors (x, y, yaw) before and after the map adjustment: RMS and mean (the survey's
+// placement error), from the localiser's error of the truth and the adjustment's corrections.
+void reportKeyframesAgainstTruth(const std::vector<ic::simulation::LocalizationSample>& errors,
+                                 const ic::Survey& survey)
+{
+  const auto corrections = survey.poseCorrections();
+  Eigen::Vector3d sum_before = Eigen::Vector3d::Zero(), sum_after = sum_before, sq_before = sum_before,
+                  sq_after = sum_before;
+  size_t n = 0;
+  for (size_t k = 0; k < survey.keyframes().size(); ++k)
+  {
+    const double stamp = survey.keyframes()[k].stamp;
+    const auto it = std::min_element(errors.begin(), errors.end(), [&](const auto& a, const auto& b) {
+      return std::abs(a.stamp - stamp) < std::abs(b.stamp - stamp);
+    });
+    const Eigen::Vector3d before(it->error.x, it->error.y, it->error.yaw);
+    const Eigen::Vector3d after = before + Eigen::Vector3d(corrections[k].x, corrections[k].y, corrections[k].yaw);
+    sum_before += before;
+    sum_after += after;
+    sq_before += before.cwiseAbs2();
+    sq_after += after.cwiseAbs2();
+    ++n;
+  }
+  if (n == 0)
+    return;
+  auto print = [&](const char* what, const Eigen::Vector3d& sum, const Eigen::Vector3d& sq) {
+    const Eigen::Vector3d mean = sum / n;
+    const Eigen::Vector3d spread = (sq / n - mean.cwiseAbs2()).cwiseMax(0.0).cwiseSqrt();
+    std::printf("truth-keyframes %s: mean x %+.1f y %+.1f mm yaw %+.3f deg; about it x %.1f y %.1f mm yaw %.3f deg\n",
+                what, 1000.0 * mean.x(), 1000.0 * mean.y(), mean.z() * 180.0 / M_PI, 1000.0 * spread.x(),
+                1000.0 * spread.y(), spread.z() * 180.0 / M_PI);
+  };
+  print("tf", sum_before, sq_before);
+  print("adjusted", sum_after, sq_after);
+}
+
 // Per calibrated camera the localiser's limit at it, and per pair of calibrated cameras their relative pose's error.
 void reportMapAgainstTruth(const std::string& truth_dir, const ic::Survey& survey)
 {
@@ -136,6 +179,8 @@ void reportMapAgainstTruth(const std::string& truth_dir, const ic::Survey& surve
     stamps.push_back(kf.stamp);
     pivots.push_back(kf.T_map_camera.translation());
   }
+  if (errors)
+    reportKeyframesAgainstTruth(*errors, survey);
   std::vector<std::pair<std::string, ic::CameraPose>> found, truths;
   for (const auto& name : survey.cameraNames())
   {
@@ -377,6 +422,22 @@ std::optional<ic::CameraPrior> priorFromTruth(const std::string& truth_dir, cons
   return prior;
 }
 
+// The camera in the odometry frame at stamp, when tf has it (empty frame name: odometry not used).
+std::optional<Eigen::Isometry3d> odometryPose(const tf2::BufferCore& tf, const std::string& odom_frame,
+                                              const std::string& camera_frame, const ros::Time& stamp)
+{
+  if (odom_frame.empty())
+    return std::nullopt;
+  try
+  {
+    return ic::toEigen(tf.lookupTransform(odom_frame, camera_frame, stamp).transform);
+  }
+  catch (const tf2::TransformException&)
+  {
+    return std::nullopt;
+  }
+}
+
 double seconds(std::chrono::steady_clock::time_point start)
 {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -386,10 +447,11 @@ double seconds(std::chrono::steady_clock::time_point start)
 int main(int argc, char** argv)
 {
   ic::quietSolverLogging();
-  ic::CommandLine cli(argc, argv,
-                      {"cameras", "out-dir", "world-frame", "min-support", "camera", "search-starts", "truth-dir",
-                       "prior-from-truth", "prior-sigmas", "max-spread", "localization-sigma"},
-                      {"no-refine", "no-ransac", "quiet", "oracle", "oracle-details", "trace"});
+  ic::CommandLine cli(
+      argc, argv,
+      {"cameras", "out-dir", "world-frame", "min-support", "camera", "search-starts", "truth-dir", "prior-from-truth",
+       "prior-sigmas", "max-spread", "localization-sigma", "odom-frame", "odometry-sigma"},
+      {"no-refine", "no-ransac", "quiet", "oracle", "oracle-details", "trace", "no-odometry"});
   if (cli.help())
   {
     std::cout << kUsage;
@@ -405,6 +467,7 @@ int main(int argc, char** argv)
     return 2;
   }
   const std::string world_frame = cli.value("world-frame", "map");
+  const std::string odom_frame = cli.flag("no-odometry") ? "" : cli.value("odom-frame", "odom");
   const std::string out_dir = cli.value("out-dir");
   const auto configs = ic::loadCameraConfig(cli.value("cameras"));
   if (!configs)
@@ -415,6 +478,19 @@ int main(int argc, char** argv)
   ic::SurveyOptions options;
   options.min_map_support = min_support;
   options.max_map_spread_m = cli.number("max-spread", options.max_map_spread_m);
+  if (cli.has("odometry-sigma"))
+  {
+    const std::vector<double> v = numbers(cli.value("odometry-sigma"));
+    if (v.size() != 4)
+    {
+      std::cerr << "calibrate_survey: --odometry-sigma takes M,PER_M,DEG,PER_DEG\n";
+      return 2;
+    }
+    options.adjustment.odometry_sigma_m = v[0];
+    options.adjustment.odometry_sigma_per_m = v[1];
+    options.adjustment.odometry_sigma_deg = v[2];
+    options.adjustment.odometry_sigma_per_deg = v[3];
+  }
   if (cli.has("localization-sigma"))
   {
     const std::vector<double> v = numbers(cli.value("localization-sigma"));
@@ -524,7 +600,7 @@ int main(int argc, char** argv)
     }
     const auto frame = ic::toRgbdFrame(*rgb, *depths[stamp], *infos[stamp], ic::toEigen(pose.transform));
     if (frame)
-      survey.addRgbdFrame(*frame);
+      survey.addRgbdFrame(*frame, odometryPose(tf, odom_frame, rgb->header.frame_id, stamp));
     rgbs.erase(stamp);
     depths.erase(stamp);
     infos.erase(stamp);

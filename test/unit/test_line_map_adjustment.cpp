@@ -40,7 +40,7 @@ Eigen::Isometry3d cameraPose(double x, double y, double yaw)
 // Edges 3-6 m ahead of the route (x), keyframes in twins at the same true pose with opposite localiser errors (so
 // that the priors' average, which fixes the gauge, is the truth). Noise: 2D end points (px) and depth along the
 // line of sight (m, times z^2).
-Scene makeScene(double pixel_noise, double depth_noise_per_m2, std::mt19937& rng)
+Scene makeScene(double pixel_noise, double depth_noise_per_m2, std::mt19937& rng, bool odometry = false)
 {
   Scene s;
   std::uniform_real_distribution<double> u(-1.0, 1.0);
@@ -62,6 +62,9 @@ Scene makeScene(double pixel_noise, double depth_noise_per_m2, std::mt19937& rng
       ic::Keyframe kf;
       kf.T_map_camera = error.apply(pose);
       kf.focal_px = kFocal;
+      // Odometry: the true motion, in a frame of its own (odom 1 m and 30 degrees from map).
+      kf.has_odometry = odometry;
+      kf.T_odom_camera = Eigen::Translation3d(1.0, 0.0, 0.0) * Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ()) * pose;
       s.poses.push_back(pose);
       s.errors.push_back(error);
       const Eigen::Isometry3d camera_from_map = pose.inverse();
@@ -125,6 +128,22 @@ TEST(LineMapAdjustment, NoiseFreeRecoversPosesAndLines)
   {
     EXPECT_LT(lineOffset(result->lines[j], s.truth[j]), 1e-6) << j;
     EXPECT_GT(std::abs(result->lines[j].direction.dot(s.truth[j].direction)), 1.0 - 1e-12) << j;
+  }
+}
+
+TEST(LineMapAdjustment, NoiseFreeWithOdometryRecoversPoses)
+{
+  std::mt19937 rng(kSeed + 2);
+  const Scene s = makeScene(0.0, 0.0, rng, true);
+  ic::LineMapAdjustmentOptions options;
+  options.depth_floor_m = 1e-4;
+  const auto result = ic::adjustLineMap(s.keyframes, perturbedLines(s, rng), s.observations, {}, options);
+  ASSERT_TRUE(result) << result.error().describe();
+  for (size_t k = 0; k < s.keyframes.size(); ++k)
+  {
+    const Eigen::Isometry3d corrected = result->corrections[k].apply(s.keyframes[k].T_map_camera);
+    EXPECT_LT((corrected.translation() - s.poses[k].translation()).norm(), 1e-6) << k;
+    EXPECT_LT(Eigen::AngleAxisd(corrected.linear() * s.poses[k].linear().transpose()).angle(), 1e-6) << k;
   }
 }
 

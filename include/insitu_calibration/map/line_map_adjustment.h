@@ -14,6 +14,7 @@
 //    residual leaves open;
 //  - per keyframe a prior to the pose tf gave (localization_sigma_m, localization_sigma_deg). The priors are the
 //    only absolute information, so the map's placement in the map frame is the localiser's errors averaged.
+//  - odometry between consecutive keyframes that have it (their relative motion, wheel odometry's sigmas).
 // Cauchy loss on the observations, then observations beyond outlier_sigmas are dropped and the problem solved again.
 #ifndef INSITU_CALIBRATION_MAP_LINE_MAP_ADJUSTMENT_H
 #define INSITU_CALIBRATION_MAP_LINE_MAP_ADJUSTMENT_H
@@ -43,6 +44,10 @@ struct Keyframe
   double stamp = 0.0;
   Eigen::Isometry3d T_map_camera = Eigen::Isometry3d::Identity();  // as tf gave it
   double focal_px = 0.0;                                           // of the RGB image (for the 2D residuals in px)
+  // The camera in the odometry frame (odom -> camera), when odometry is available: consecutive keyframes that both
+  // have it are tied by their relative motion.
+  bool has_odometry = false;
+  Eigen::Isometry3d T_odom_camera = Eigen::Isometry3d::Identity();
   std::vector<KeyframeLine> lines;
 };
 
@@ -80,6 +85,14 @@ struct LineMapAdjustmentOptions
   double loss_sigmas = 3.0;             // Cauchy scale, in sigmas
   double outlier_sigmas = 5.0;          // observations with a residual beyond are dropped (second solve)
   int max_iterations = 50;
+  // Odometry between consecutive keyframes: translation sigma sigma_m + per_m times the distance, rotation sigma
+  // sigma_deg + per_deg times the turn. 0 odometry_sigma_m: odometry not used.
+  // Defaults: good wheel odometry over the 0.1 m / 5 degree steps between keyframes (the simulator's odometry is
+  // exact unless --odom-drift, whose random walk needs far larger sigmas).
+  double odometry_sigma_m = 0.0005;
+  double odometry_sigma_per_m = 0.01;
+  double odometry_sigma_deg = 0.02;
+  double odometry_sigma_per_deg = 0.01;
   bool covariance = false;  // also the keyframe poses' and map lines' standard deviations (Ceres' covariance)
 };
 

@@ -6,6 +6,7 @@
 
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -35,7 +36,7 @@ struct SurveyOptions
   double localization_sigma_m = 0.02;
   double localization_sigma_deg = 0.5;
   double localization_correlation_s = 5.0;
-  int adjustment_rounds = 2;  // adjust, rebuild the map with the corrected poses (better merges), adjust again
+  int adjustment_rounds = 4;  // graduated: merge tolerances widened by the localiser's error, narrowing to the map's
   LineMapAdjustmentOptions adjustment;  // its localization sigmas are set from the two above
 };
 
@@ -68,7 +69,10 @@ public:
 
   // A frame of the robot's RGB-D camera with its pose. Returns whether it was used as a keyframe; errors describe
   // a frame that could not be used (invalid, or the extraction failed).
-  Expected<bool> addRgbdFrame(const RgbdFrame& frame);
+  // T_odom_camera: the camera in the odometry frame at the frame's stamp, when there is odometry (ties consecutive
+  // keyframes in the map adjustment).
+  Expected<bool> addRgbdFrame(const RgbdFrame& frame,
+                              const std::optional<Eigen::Isometry3d>& T_odom_camera = std::nullopt);
   // An image of a fixed camera (stamp in seconds). Returns whether it joined the median. Errors: unknown camera,
   // empty image, wrong size.
   Expected<bool> addFixedImage(const std::string& camera, const cv::Mat& image, double stamp);

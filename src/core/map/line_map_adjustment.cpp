@@ -6,6 +6,7 @@
 #include <memory>
 
 #include <ceres/ceres.h>
+#include <ceres/rotation.h>
 
 #include "insitu_calibration/cpu_time.h"
 
@@ -91,6 +92,65 @@ struct PosePrior
     return true;
   }
 };
+
+// Consecutive keyframes' relative motion (corrected poses) against odometry's: translation (m / sigma) and
+// rotation (angle-axis, rad / sigma).
+struct OdometryResidual
+{
+  const Eigen::Isometry3d* tf0;
+  const Eigen::Isometry3d* tf1;
+  Eigen::Isometry3d odometry;  // camera 1 in camera 0
+  double inverse_sigma_m, inverse_sigma_rad;
+
+  template <typename T>
+  static Eigen::Matrix<T, 3, 3> rotation(const Eigen::Isometry3d& tf, const T* pose)
+  {
+    const T c = cos(pose[2]), s = sin(pose[2]);
+    Eigen::Matrix<T, 3, 3> rz;
+    rz << c, -s, T(0), s, c, T(0), T(0), T(0), T(1);
+    return rz * tf.linear().cast<T>();
+  }
+  template <typename T>
+  bool operator()(const T* pose0, const T* pose1, T* r) const
+  {
+    const Eigen::Matrix<T, 3, 3> r0 = rotation(*tf0, pose0), r1 = rotation(*tf1, pose1);
+    Eigen::Matrix<T, 3, 1> t0 = tf0->translation().cast<T>(), t1 = tf1->translation().cast<T>();
+    t0.x() += pose0[0];
+    t0.y() += pose0[1];
+    t1.x() += pose1[0];
+    t1.y() += pose1[1];
+    const Eigen::Matrix<T, 3, 1> dt = r0.transpose() * (t1 - t0) - odometry.translation().cast<T>();
+    const Eigen::Matrix<T, 3, 3> dr = odometry.linear().transpose().cast<T>() * r0.transpose() * r1;
+    T angle_axis[3];
+    ceres::RotationMatrixToAngleAxis(ceres::ColumnMajorAdapter3x3(dr.data()), angle_axis);
+    for (int i = 0; i < 3; ++i)
+    {
+      r[i] = dt(i) * T(inverse_sigma_m);
+      r[3 + i] = angle_axis[i] * T(inverse_sigma_rad);
+    }
+    return true;
+  }
+};
+
+void addOdometry(const std::vector<Keyframe>& keyframes, const LineMapAdjustmentOptions& options,
+                 std::vector<Eigen::Vector3d>* pose, ceres::Problem* problem)
+{
+  if (!(options.odometry_sigma_m > 0.0))
+    return;
+  for (size_t k = 1; k < keyframes.size(); ++k)
+  {
+    const Keyframe &a = keyframes[k - 1], &b = keyframes[k];
+    if (!a.has_odometry || !b.has_odometry)
+      continue;
+    const Eigen::Isometry3d motion = a.T_odom_camera.inverse() * b.T_odom_camera;
+    const double turn_deg = Eigen::AngleAxisd(motion.linear()).angle() * 180.0 / M_PI;
+    const double sigma_m = options.odometry_sigma_m + options.odometry_sigma_per_m * motion.translation().norm();
+    const double sigma_deg = options.odometry_sigma_deg + options.odometry_sigma_per_deg * turn_deg;
+    problem->AddResidualBlock(new ceres::AutoDiffCostFunction<OdometryResidual, 6, 3, 3>(new OdometryResidual{
+                                  &a.T_map_camera, &b.T_map_camera, motion, 1.0 / sigma_m, 180.0 / (M_PI * sigma_deg)}),
+                              nullptr, (*pose)[k - 1].data(), (*pose)[k].data());
+  }
+}
 
 ObservationResidual makeResidual(const Keyframe& kf, const KeyframeLine& o, const LineBasis& basis,
                                  const LineMapAdjustmentOptions& options)
@@ -236,6 +296,7 @@ Expected<LineMapAdjustmentResult> adjustLineMap(const std::vector<Keyframe>& key
     for (auto& p : pose)
       problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PosePrior, 3, 3>(new PosePrior(prior)), nullptr,
                                p.data());
+    addOdometry(keyframes, options, &pose, &problem);
     for (size_t i = 0; i < observations.size(); ++i)
       if (result.inlier[i])
         problem.AddResidualBlock(

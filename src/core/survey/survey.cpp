@@ -50,7 +50,7 @@ Survey::Survey(const std::vector<FixedCameraConfig>& cameras, const SurveyOption
     cameras_.emplace(config.name, std::make_unique<FixedCamera>(config, options.cameras));
 }
 
-Expected<bool> Survey::addRgbdFrame(const RgbdFrame& frame)
+Expected<bool> Survey::addRgbdFrame(const RgbdFrame& frame, const std::optional<Eigen::Isometry3d>& T_odom_camera)
 {
   ++stats_.frames;
   if (const Status valid = validateFrame(frame); !valid)
@@ -68,6 +68,9 @@ Expected<bool> Survey::addRgbdFrame(const RgbdFrame& frame)
   }
   map_.insert(*lines);
   keyframe_data_.push_back(toKeyframe(frame, *lines));
+  keyframe_data_.back().has_odometry = T_odom_camera.has_value();
+  if (T_odom_camera)
+    keyframe_data_.back().T_odom_camera = *T_odom_camera;
   adjusted_ = false;
   ++stats_.keyframes;
   stats_.lines += lines->size();
@@ -97,30 +100,85 @@ const LineMap& Survey::lineMap() const
   return adjusted_map_;
 }
 
+namespace
+{
+// The map's merge and association tolerances widened by what the remaining pose errors (scale times the
+// localiser's: the difference of two keyframes' errors, at a typical range) can add.
+LineMapOptions widenedMapOptions(const SurveyOptions& o, double scale)
+{
+  LineMapOptions m = o.map;
+  if (scale <= 0.0)
+    return m;
+  const double typical_range_m = 3.0;
+  const double sigma_rad = o.localization_sigma_deg * M_PI / 180.0;
+  const double offset = scale * std::sqrt(2.0) * (o.localization_sigma_m + sigma_rad * typical_range_m);
+  m.max_lateral_m += scale * std::sqrt(2.0) * o.localization_sigma_m;
+  m.max_lateral_per_m += scale * std::sqrt(2.0) * sigma_rad;
+  m.max_distance_m += offset;
+  m.depth_floor_m = std::hypot(m.depth_floor_m, offset / std::max(1.0, m.depth_sigmas));
+  m.max_angle_deg += scale * std::sqrt(2.0) * o.localization_sigma_deg;
+  return m;
+}
+
+// The lines without a parallel neighbour within distance_m (stripes, a frame's two sides): while the poses are
+// centimetres off, an observation of one of them may be associated with the other, and a wrong association that
+// all of a neighbourhood's keyframes share moves them together.
+std::vector<MapLine> unambiguousLines(const std::vector<MapLine>& lines, double distance_m, double angle_deg)
+{
+  std::vector<MapLine> out;
+  const double cos_limit = std::cos(angle_deg * M_PI / 180.0);
+  for (size_t i = 0; i < lines.size(); ++i)
+  {
+    bool ambiguous = false;
+    for (size_t j = 0; j < lines.size() && !ambiguous; ++j)
+    {
+      if (i == j || std::abs(lines[i].direction.dot(lines[j].direction)) < cos_limit)
+        continue;
+      const Eigen::Vector3d r = 0.5 * (lines[j].a() + lines[j].b()) - lines[i].point;
+      const double s = r.dot(lines[i].direction);
+      const double half = 0.5 * lines[j].length();
+      ambiguous =
+          (r - s * lines[i].direction).norm() < distance_m && s + half > lines[i].s_min && s - half < lines[i].s_max;
+    }
+    if (!ambiguous)
+      out.push_back(lines[i]);
+  }
+  return out;
+}
+}  // namespace
+
 void Survey::adjustMap() const
 {
   const double start = threadCpuMs();
   std::vector<PoseCorrection> corrections(keyframe_data_.size());
-  LineMap current = map_;
   size_t used = 0, dropped = 0;
+  // Graduated: the first rounds merge and associate with tolerances widened by the pose errors that may remain
+  // (at tf's tolerances the observations of one edge from keyframes with different errors stay apart, and the
+  // adjustment cannot tie those keyframes together), the last at the map's own.
   for (int round = 0; round < options_.adjustment_rounds; ++round)
   {
-    std::vector<MapLine> lines;
-    for (const auto& line : current.lines(options_.min_map_support))
-      if (line.spread() <= options_.max_map_spread_m)
-        lines.push_back(line);
+    const double scale =
+        options_.adjustment_rounds > 1 ? 1.0 - static_cast<double>(round) / (options_.adjustment_rounds - 1) : 0.0;
+    const LineMapOptions widened = widenedMapOptions(options_, scale);
+    const LineMap current = rebuildLineMap(keyframe_data_, corrections, widened);
+    // Every line seen twice, whatever its spread: the lines whose observations disagree because the poses do are
+    // the ones that tell the poses apart (the robust loss and the outlier test keep wrong merges out).
+    std::vector<MapLine> lines = current.lines(options_.min_map_support);
+    if (scale > 0.0)
+      lines = unambiguousLines(lines, 2.0 * (widened.max_lateral_m + 3.0 * widened.max_lateral_per_m),
+                               widened.max_angle_deg);
     std::vector<AdjustedLine> starts;
     for (const auto& line : lines)
       starts.push_back({line.point, line.direction});
-    const auto observations = associateObservations(keyframe_data_, corrections, lines, options_.map);
+    const auto observations = associateObservations(keyframe_data_, corrections, lines, widened);
     const auto result = adjustLineMap(keyframe_data_, starts, observations, corrections, options_.adjustment);
     if (!result)
       break;  // nothing to adjust: the map stays as tf put it
     corrections = result->corrections;
     used = observations.size();
     dropped = result->dropped;
-    current = rebuildLineMap(keyframe_data_, corrections, options_.map);
   }
+  const LineMap current = rebuildLineMap(keyframe_data_, corrections, options_.map);
   adjusted_map_ = current;
   corrections_ = corrections;
   adjusted_ = true;
