@@ -306,11 +306,10 @@ bool CalibrationServer::calibrateService(Calibrate::Request& request, Calibrate:
     response.message = error;
     return true;
   }
-  const std::vector<Segment3d> map = survey_->mapSegments();
   response.success = true;
   for (const auto& name : names)
   {
-    const auto result = survey_->camera(name).calibrate(map, world_frame_, survey_->mapLineSigmas());
+    const auto result = survey_->calibrate(name, world_frame_);
     if (!result)
     {
       insitu_calibration::CalibrationResult failed;

@@ -1,8 +1,10 @@
 // calibrate_survey: the calibration node's pipeline run offline on a recorded survey bag, without a ROS master:
 // the Xtion's frames (with the poses of /tf and /tf_static) build the line map, the fixed cameras' images their
 // medians, and every configured camera is calibrated and written like the node writes it.
+#include <algorithm>
 #include <chrono>
 #include <deque>
+#include <optional>
 #include <iostream>
 #include <random>
 #include <sstream>
@@ -21,6 +23,7 @@
 #include "insitu_calibration/lines/line_evaluation.h"
 #include "insitu_calibration/metrics.h"
 #include "insitu_calibration/ros/conversions.h"
+#include "insitu_calibration/simulation/survey.h"
 #include "insitu_calibration/simulation/true_edges.h"
 #include "insitu_calibration/survey/camera_config.h"
 #include "insitu_calibration/survey/overlay.h"
@@ -45,10 +48,22 @@ Options:
   --world-frame NAME    default map
   --min-support N       map lines seen fewer times are not used (default 2)
   --max-spread M        map lines whose observations spread more (RMS across the line, m) are not used (default 0.01)
+  --localization-sigma M,DEG[,TAU]
+                        the localiser's error behind the bag's tf (per keyframe x, y sigma in m, yaw sigma in
+                        degrees, correlation time in s): the line map is adjusted jointly with the keyframe poses and
+                        the calibration's sigma includes the map's placement (default 0.02,0.5,5; 0,0: tf is exact,
+                        no adjustment)
+  --odom-frame NAME     the odometry frame (default odom): consecutive keyframes are tied by their motion in it
+  --no-odometry         the map adjustment without odometry
+  --odometry-sigma M,PER_M,DEG,PER_DEG
+                        odometry's error between consecutive keyframes: M + PER_M times the distance, DEG + PER_DEG
+                        times the turn (default 0.0005,0.01,0.02,0.01: good wheel odometry)
   --camera NAME         calibrate only this camera
   --search-starts N     distinct results of the prior search refined per camera (default 4)
   --truth-dir DIR       the simulator's truth folder (<bag>_truth): also report, per camera, how many matches pair
-                        the wrong edges and how far the matched map lines are from the true edges
+                        the wrong edges and how far the matched map lines are from the true edges, the localiser's
+                        limit (its error averaged over the keyframes, at the camera: "truth-limit" lines) and the
+                        cameras' poses relative to each other against the truth ("truth-relative" lines)
   --prior-from-truth P,D,F[,SEED]
                         with --truth-dir: replace every camera's prior by its true camera moved P m in a random
                         direction, its viewing direction turned D degrees (about a random axis across it; the
@@ -127,6 +142,87 @@ void reportRefusedAgainstTruth(const std::string& truth_dir, const std::string& 
   const ic::CameraErrors e = ic::compareCameras(truth->camera, refused.calibration.camera);
   std::printf("  truth of the refused result: focal %+.3f %%, rotation %.3f deg, position %.1f mm\n",
               100.0 * e.focal_relative, e.rotation_rad * 180.0 / M_PI, 1000.0 * e.center_m);
+}
+
+// The keyframes' pose errors (x, y, yaw) before and after the map adjustment: RMS and mean (the survey's
+// placement error), from the localiser's error of the truth and the adjustment's corrections.
+void reportKeyframesAgainstTruth(const std::vector<ic::simulation::LocalizationSample>& errors,
+                                 const ic::Survey& survey)
+{
+  const auto corrections = survey.poseCorrections();
+  Eigen::Vector3d sum_before = Eigen::Vector3d::Zero(), sum_after = sum_before, sq_before = sum_before,
+                  sq_after = sum_before;
+  size_t n = 0;
+  for (size_t k = 0; k < survey.keyframes().size(); ++k)
+  {
+    const double stamp = survey.keyframes()[k].stamp;
+    const auto it = std::min_element(errors.begin(), errors.end(), [&](const auto& a, const auto& b) {
+      return std::abs(a.stamp - stamp) < std::abs(b.stamp - stamp);
+    });
+    const Eigen::Vector3d before(it->error.x, it->error.y, it->error.yaw);
+    const Eigen::Vector3d after = before + Eigen::Vector3d(corrections[k].x, corrections[k].y, corrections[k].yaw);
+    sum_before += before;
+    sum_after += after;
+    sq_before += before.cwiseAbs2();
+    sq_after += after.cwiseAbs2();
+    ++n;
+  }
+  if (n == 0)
+    return;
+  auto print = [&](const char* what, const Eigen::Vector3d& sum, const Eigen::Vector3d& sq) {
+    const Eigen::Vector3d mean = sum / n;
+    const Eigen::Vector3d spread = (sq / n - mean.cwiseAbs2()).cwiseMax(0.0).cwiseSqrt();
+    std::printf("truth-keyframes %s: mean x %+.1f y %+.1f mm yaw %+.3f deg; about it x %.1f y %.1f mm yaw %.3f deg\n",
+                what, 1000.0 * mean.x(), 1000.0 * mean.y(), mean.z() * 180.0 / M_PI, 1000.0 * spread.x(),
+                1000.0 * spread.y(), spread.z() * 180.0 / M_PI);
+  };
+  print("tf", sum_before, sq_before);
+  print("adjusted", sum_after, sq_after);
+}
+
+// Per calibrated camera the localiser's limit at it, and per pair of calibrated cameras their relative pose's error.
+void reportMapAgainstTruth(const std::string& truth_dir, const ic::Survey& survey)
+{
+  const auto errors = ic::simulation::loadLocalizationErrors(truth_dir + "/localization.yaml");
+  std::vector<double> stamps;
+  std::vector<Eigen::Vector3d> pivots;
+  for (const auto& kf : survey.keyframes())
+  {
+    stamps.push_back(kf.stamp);
+    pivots.push_back(kf.T_map_camera.translation());
+  }
+  if (errors)
+    reportKeyframesAgainstTruth(*errors, survey);
+  std::vector<std::pair<std::string, ic::CameraPose>> found, truths;
+  for (const auto& name : survey.cameraNames())
+  {
+    const auto& calibration = survey.camera(name).calibration();
+    const auto truth = ic::loadCalibrationFile(truth_dir + "/" + name + ".yaml");
+    if (!calibration || !truth)
+      continue;
+    found.push_back({name, calibration->camera.pose()});
+    truths.push_back({name, truth->camera.pose()});
+    if (errors)
+    {
+      const auto limit = ic::simulation::placementLimit(*errors, stamps, pivots, truth->camera.pose().center());
+      std::printf("truth-limit %s %.2f mm %.4f deg\n", name.c_str(), 1000.0 * limit.position_m,
+                  limit.rotation_rad * 180.0 / M_PI);
+    }
+  }
+  for (size_t i = 0; i < found.size(); ++i)
+    for (size_t j = i + 1; j < found.size(); ++j)
+    {
+      // Camera j's centre in camera i's frame, and the rotation from j to i.
+      auto relative = [&](const ic::CameraPose& a, const ic::CameraPose& b) {
+        return std::make_pair(Eigen::Vector3d(a.rotation * (b.center() - a.center())),
+                              Eigen::Matrix3d(a.rotation * b.rotation.transpose()));
+      };
+      const auto [p, r] = relative(found[i].second, found[j].second);
+      const auto [pt, rt] = relative(truths[i].second, truths[j].second);
+      const double angle = Eigen::AngleAxisd(r * rt.transpose()).angle() * 180.0 / M_PI;
+      std::printf("truth-relative %s %s %.2f mm %.4f deg\n", found[i].first.c_str(), found[j].first.c_str(),
+                  1000.0 * (p - pt).norm(), angle);
+    }
 }
 
 // Diagnostic: the image lines matched under the true camera (tight thresholds), calibrated like the pipeline does.
@@ -338,6 +434,22 @@ std::optional<ic::CameraPrior> priorFromTruth(const std::string& truth_dir, cons
   return prior;
 }
 
+// The camera in the odometry frame at stamp, when tf has it (empty frame name: odometry not used).
+std::optional<Eigen::Isometry3d> odometryPose(const tf2::BufferCore& tf, const std::string& odom_frame,
+                                              const std::string& camera_frame, const ros::Time& stamp)
+{
+  if (odom_frame.empty())
+    return std::nullopt;
+  try
+  {
+    return ic::toEigen(tf.lookupTransform(odom_frame, camera_frame, stamp).transform);
+  }
+  catch (const tf2::TransformException&)
+  {
+    return std::nullopt;
+  }
+}
+
 double seconds(std::chrono::steady_clock::time_point start)
 {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -347,10 +459,11 @@ double seconds(std::chrono::steady_clock::time_point start)
 int main(int argc, char** argv)
 {
   ic::quietSolverLogging();
-  ic::CommandLine cli(argc, argv,
-                      {"cameras", "out-dir", "world-frame", "min-support", "camera", "search-starts", "truth-dir",
-                       "prior-from-truth", "prior-sigmas", "max-spread"},
-                      {"no-refine", "no-ransac", "quiet", "oracle", "oracle-details", "trace"});
+  ic::CommandLine cli(
+      argc, argv,
+      {"cameras", "out-dir", "world-frame", "min-support", "camera", "search-starts", "truth-dir", "prior-from-truth",
+       "prior-sigmas", "max-spread", "localization-sigma", "odom-frame", "odometry-sigma"},
+      {"no-refine", "no-ransac", "quiet", "oracle", "oracle-details", "trace", "no-odometry"});
   if (cli.help())
   {
     std::cout << kUsage;
@@ -366,6 +479,7 @@ int main(int argc, char** argv)
     return 2;
   }
   const std::string world_frame = cli.value("world-frame", "map");
+  const std::string odom_frame = cli.flag("no-odometry") ? "" : cli.value("odom-frame", "odom");
   const std::string out_dir = cli.value("out-dir");
   const auto configs = ic::loadCameraConfig(cli.value("cameras"));
   if (!configs)
@@ -376,6 +490,32 @@ int main(int argc, char** argv)
   ic::SurveyOptions options;
   options.min_map_support = min_support;
   options.max_map_spread_m = cli.number("max-spread", options.max_map_spread_m);
+  if (cli.has("odometry-sigma"))
+  {
+    const std::vector<double> v = numbers(cli.value("odometry-sigma"));
+    if (v.size() != 4)
+    {
+      std::cerr << "calibrate_survey: --odometry-sigma takes M,PER_M,DEG,PER_DEG\n";
+      return 2;
+    }
+    options.adjustment.odometry_sigma_m = v[0];
+    options.adjustment.odometry_sigma_per_m = v[1];
+    options.adjustment.odometry_sigma_deg = v[2];
+    options.adjustment.odometry_sigma_per_deg = v[3];
+  }
+  if (cli.has("localization-sigma"))
+  {
+    const std::vector<double> v = numbers(cli.value("localization-sigma"));
+    if (v.size() < 2 || v.size() > 3)
+    {
+      std::cerr << "calibrate_survey: --localization-sigma takes M,DEG[,TAU]\n";
+      return 2;
+    }
+    options.localization_sigma_m = v[0];
+    options.localization_sigma_deg = v[1];
+    if (v.size() == 3)
+      options.localization_correlation_s = v[2];
+  }
   options.cameras.matcher.calibration.refine = !cli.flag("no-refine");
   options.cameras.matcher.calibration.ransac = !cli.flag("no-ransac");
   options.cameras.matcher.search_starts = static_cast<int>(cli.number("search-starts", 4));
@@ -472,7 +612,7 @@ int main(int argc, char** argv)
     }
     const auto frame = ic::toRgbdFrame(*rgb, *depths[stamp], *infos[stamp], ic::toEigen(pose.transform));
     if (frame)
-      survey.addRgbdFrame(*frame);
+      survey.addRgbdFrame(*frame, odometryPose(tf, odom_frame, rgb->header.frame_id, stamp));
     rgbs.erase(stamp);
     depths.erase(stamp);
     infos.erase(stamp);
@@ -514,16 +654,21 @@ int main(int argc, char** argv)
         stats.frames, stats.keyframes, stats.lines, survey.lineMap().size(), survey.mapSegments().size(), min_support,
         no_pose, survey_s);
 
-  int status = 0;
   const std::vector<ic::Segment3d> map = survey.mapSegments();
-  const std::vector<double> sigmas = survey.mapLineSigmas();
+  if (!quiet && stats.adjusted_observations > 0)
+    std::printf(
+        "map adjustment: %zu observations (%zu dropped), keyframes moved by RMS %.1f mm, %.3f deg; "
+        "%zu map lines (%zu used); %.2f s CPU\n",
+        stats.adjusted_observations, stats.dropped_observations, 1000.0 * stats.mean_correction_m,
+        stats.mean_correction_deg, survey.lineMap().size(), map.size(), 1e-3 * stats.adjustment_cpu_ms);
+  int status = 0;
   for (const auto& name : survey.cameraNames())
   {
     if ((cli.has("camera") && cli.value("camera") != name) || cli.flag("oracle"))
       continue;
     const auto calibration_start = std::chrono::steady_clock::now();
     ic::FixedCamera& camera = survey.camera(name);
-    const auto result = camera.calibrate(map, world_frame, sigmas);
+    const auto result = survey.calibrate(name, world_frame);
     if (!result)
     {
       std::printf("%s: FAILED: %s\n", name.c_str(), result.error().describe().c_str());
@@ -547,6 +692,8 @@ int main(int argc, char** argv)
     if (cli.has("truth-dir"))
       reportAgainstTruth(cli.value("truth-dir"), name, *result);
   }
+  if (cli.has("truth-dir"))
+    reportMapAgainstTruth(cli.value("truth-dir"), survey);
   if (cli.flag("oracle") && cli.has("truth-dir"))
     for (const auto& name : survey.cameraNames())
       if (!cli.has("camera") || cli.value("camera") == name)

@@ -1,7 +1,9 @@
 // simulate_survey: records a simulated survey of a world into a rosbag, with the ground truth beside it.
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
+#include <sstream>
 
 #include "command_line.h"
 #include "insitu_calibration/ros/survey_bag_writer.h"
@@ -37,6 +39,11 @@ Options:
   --no-depth-noise    exact depth (rounded to mm; no-return rules kept)
   --no-image-noise    no sensor noise on the fixed cameras (and the Xtion RGB)
   --odom-drift        odom -> base_link drifts (random walk), map -> odom compensates it
+  --localization-error SIGMA_M,SIGMA_DEG[,TAU_S]
+                      the localiser errs: map -> base_link in /tf is the true pose moved by a smooth random error
+                      in x, y (sigma SIGMA_M) and yaw (SIGMA_DEG), correlation time TAU_S (default 5 s), as an
+                      AMCL-like 2D-lidar localiser wanders (on map -> odom). The truth keeps the true poses;
+                      <bag>_truth/localization.yaml has the error at every RGB-D frame. E.g. 0.02,0.5
   --benchmark         render the survey without writing anything, and print the time per frame
   --quiet             print only errors
   -h, --help          this text
@@ -70,7 +77,8 @@ void printTimings(const sim::SurveySimulator& survey, double wall_s)
 
 int main(int argc, char** argv)
 {
-  ic::CommandLine cli(argc, argv, {"world", "out", "seed", "duration", "rate", "fixed-rate", "start-time"},
+  ic::CommandLine cli(argc, argv,
+                      {"world", "out", "seed", "duration", "rate", "fixed-rate", "start-time", "localization-error"},
                       {"no-depth-noise", "no-image-noise", "odom-drift", "benchmark", "quiet"});
   if (cli.help())
   {
@@ -87,6 +95,19 @@ int main(int argc, char** argv)
   options.depth_noise = !cli.flag("no-depth-noise");
   options.image_noise = !cli.flag("no-image-noise");
   options.odom_drift = cli.flag("odom-drift");
+  if (cli.has("localization-error"))
+  {
+    std::vector<double> v;
+    std::stringstream list(cli.value("localization-error"));
+    for (std::string item; std::getline(list, item, ',');)
+      v.push_back(std::atof(item.c_str()));
+    if (v.size() < 2 || v.size() > 3)
+      return fail("--localization-error takes SIGMA_M,SIGMA_DEG[,TAU_S]\n\n" + std::string(kUsage), 2);
+    options.localization_sigma_m = v[0];
+    options.localization_sigma_deg = v[1];
+    if (v.size() == 3)
+      options.localization_tau_s = v[2];
+  }
   const bool benchmark = cli.flag("benchmark");
   if (!cli.error().empty() || !cli.positional().empty() || !cli.has("world") || !cli.has("seed") ||
       (!benchmark && !cli.has("out")))

@@ -40,6 +40,12 @@ struct SurveyOptions
   bool odom_drift = false;              // odom -> base_link drifts (random walk), map -> odom compensates
   double odom_drift_xy = 0.02;          // m per sqrt(s)
   double odom_drift_yaw_deg = 0.5;      // deg per sqrt(s)
+  // The localiser's error (AMCL-like): the map -> base_link of /tf is the true pose moved by a smooth random error
+  // in x, y and yaw (each a stationary Gauss-Markov process of this standard deviation and correlation time; the
+  // error lands on map -> odom, odom -> base_link stays the odometry). 0: exact localisation.
+  double localization_sigma_m = 0.0;
+  double localization_sigma_deg = 0.0;
+  double localization_tau_s = 5.0;
   int64_t start_time_ns = 1700000000LL * 1000000000LL;  // stamp of the start (fixed: same seed, same bag)
 };
 
@@ -104,7 +110,13 @@ public:
   std::vector<NamedTransform> staticTransforms() const;
   // map -> odom and odom -> base_link at a stamp (their product is the true map -> base_link).
   std::vector<NamedTransform> dynamicTransforms(int64_t stamp_ns) const;
+  // The true map -> base_link (the truth; /tf carries localizedMapFromBase).
   Eigen::Isometry3d mapFromBase(int64_t stamp_ns) const;
+  // The localiser's error at a stamp (x, y in the map frame, yaw; zero without --localization-error) and the
+  // map -> base_link it believes: the true pose moved by it.
+  Pose2d localizationError(int64_t stamp_ns) const;
+  Eigen::Isometry3d localizedMapFromBase(int64_t stamp_ns) const;
+  const std::vector<int64_t>& xtionStamps() const { return xtion_stamps_; }
 
   ViewCamera xtionCamera(int64_t stamp_ns) const;
   ViewCamera fixedCamera(int camera) const;
@@ -132,7 +144,8 @@ private:
   std::vector<int64_t> tf_stamps_;
   std::vector<std::vector<int64_t>> fixed_stamps_;
   std::vector<SurveyEvent> events_;
-  std::vector<Pose2d> drift_;  // per tf stamp, when odom drift is on
+  std::vector<Pose2d> drift_;         // per tf stamp, when odom drift is on
+  std::vector<Pose2d> localization_;  // per tf stamp, when the localiser errs
   mutable std::vector<cv::Mat> fixed_clean_;
   mutable SurveyTimings timings_;
 };
@@ -144,9 +157,30 @@ void renderWholeSurvey(const SurveySimulator& survey);
 std::string truthDirectoryFor(const std::string& bag_path);
 
 // Writes into directory: <camera>.yaml for every fixed camera (saveCalibrationFile), edges.yaml (the true 3D
-// edges) and survey.yaml (world, seed, duration, rates, the Xtion's intrinsics, topics and frames).
+// edges), survey.yaml (world, seed, duration, rates, the Xtion's intrinsics, topics and frames) and
+// localization.yaml (per RGB-D frame its stamp and the localiser's error x, y in m and yaw in degrees).
 Status writeGroundTruth(const SurveySimulator& survey, const std::string& directory,
                         const std::vector<std::string>& topics);
+
+// The localiser's error at one RGB-D frame, as localization.yaml holds it.
+struct LocalizationSample
+{
+  double stamp = 0.0;  // seconds since the epoch
+  Pose2d error;        // x, y in m, yaw in rad
+};
+// Reads <truth>/localization.yaml. Errors: unreadable or malformed file.
+Expected<std::vector<LocalizationSample>> loadLocalizationErrors(const std::string& path);
+
+// The best any method can place a survey: the localiser's errors at the keyframes (stamps, tf positions as pivots)
+// averaged, applied to a point: how far it moves (m) and the mean yaw (rad). No method can place the map better
+// than this mean error (the localiser is the only absolute reference).
+struct PlacementLimit
+{
+  double position_m = 0.0;
+  double rotation_rad = 0.0;
+};
+PlacementLimit placementLimit(const std::vector<LocalizationSample>& errors, const std::vector<double>& stamps,
+                              const std::vector<Eigen::Vector3d>& pivots, const Eigen::Vector3d& point);
 
 }  // namespace simulation
 }  // namespace insitu_calibration

@@ -6,11 +6,13 @@
 
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "insitu_calibration/lines/line_map.h"
 #include "insitu_calibration/lines/rgbd_lines.h"
+#include "insitu_calibration/map/line_map_adjustment.h"
 #include "insitu_calibration/survey/fixed_camera.h"
 #include "insitu_calibration/survey/keyframe_selector.h"
 
@@ -26,6 +28,24 @@ struct SurveyOptions
   double max_map_spread_m = 0.01;        // nor map lines whose observations disagree more (MapLine::spread)
   double min_map_line_sigma_m = 0.0005;  // added (in quadrature) to a map line's predicted error (mapLineSigmas)
   double fixed_image_period_s = 0.5;     // one image per period per camera goes into its median
+  // The localiser behind the keyframes' poses (tf): its error's standard deviation in x, y and yaw, and its
+  // correlation time. With a sigma above 0 the map is adjusted jointly with the keyframe poses
+  // (line_map_adjustment.h) before it is used, and a calibration's uncertainty includes the map's placement (the
+  // localiser's error averaged over the survey: sigma * sqrt(2 correlation / survey time), at most sigma).
+  // 0: tf is trusted as exact (the map as inserted, no placement uncertainty).
+  double localization_sigma_m = 0.02;
+  double localization_sigma_deg = 0.5;
+  double localization_correlation_s = 5.0;
+  int adjustment_rounds = 4;  // graduated: merge tolerances widened by the localiser's error, narrowing to the map's
+  LineMapAdjustmentOptions adjustment;  // its localization sigmas are set from the two above
+};
+
+// The map's placement in the map frame: how far the whole survey may be off, as a shift and a turn about centre.
+struct MapPlacementUncertainty
+{
+  double sigma_m = 0.0;                              // per horizontal axis
+  double sigma_deg = 0.0;                            // yaw
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();  // the keyframes' mean position
 };
 
 struct SurveyStats
@@ -34,6 +54,12 @@ struct SurveyStats
   size_t keyframes = 0;  // used
   size_t skipped = 0;    // refused (invalid frame or extraction error)
   size_t lines = 0;      // 3D lines extracted in keyframes
+  // The last map adjustment (0 when none ran).
+  size_t adjusted_observations = 0;
+  size_t dropped_observations = 0;
+  double adjustment_cpu_ms = 0.0;
+  double mean_correction_m = 0.0;  // RMS of the keyframes' x, y corrections
+  double mean_correction_deg = 0.0;
 };
 
 class Survey
@@ -43,7 +69,10 @@ public:
 
   // A frame of the robot's RGB-D camera with its pose. Returns whether it was used as a keyframe; errors describe
   // a frame that could not be used (invalid, or the extraction failed).
-  Expected<bool> addRgbdFrame(const RgbdFrame& frame);
+  // T_odom_camera: the camera in the odometry frame at the frame's stamp, when there is odometry (ties consecutive
+  // keyframes in the map adjustment).
+  Expected<bool> addRgbdFrame(const RgbdFrame& frame,
+                              const std::optional<Eigen::Isometry3d>& T_odom_camera = std::nullopt);
   // An image of a fixed camera (stamp in seconds). Returns whether it joined the median. Errors: unknown camera,
   // empty image, wrong size.
   Expected<bool> addFixedImage(const std::string& camera, const cv::Mat& image, double stamp);
@@ -55,8 +84,18 @@ public:
   // Per map segment (same order) how far off it may be, m: its predicted standard error (MapLine::sigma) and
   // min_map_line_sigma_m in quadrature (its spread, at least min_map_line_sigma_m, when nothing is predicted).
   std::vector<double> mapLineSigmas() const;
-  const LineMap& lineMap() const { return map_; }
+  // The map in use: adjusted with the keyframe poses when the localiser has an error (computed on first use after
+  // new keyframes), else the map as inserted.
+  const LineMap& lineMap() const;
   const SurveyStats& stats() const { return stats_; }
+  const std::vector<Keyframe>& keyframes() const { return keyframe_data_; }
+  // Per keyframe the adjustment's correction of the pose tf gave (zeros without an adjustment).
+  std::vector<PoseCorrection> poseCorrections() const;
+  MapPlacementUncertainty mapPlacement() const;
+
+  // Calibrates one camera against the map in use (FixedCamera::calibrate with the map's segments and sigmas) and
+  // adds the map's placement uncertainty to the result's pose sigmas. Errors as FixedCamera::calibrate.
+  Expected<FixedCameraResult> calibrate(const std::string& name, const std::string& world_frame);
 
   bool hasCamera(const std::string& name) const { return cameras_.count(name) > 0; }
   std::vector<std::string> cameraNames() const;
@@ -71,13 +110,20 @@ public:
   const SurveyOptions& options() const { return options_; }
 
 private:
+  void adjustMap() const;
+
   SurveyOptions options_;
   RgbdLineExtractor extractor_;
   LineMap map_;
   KeyframeSelector keyframes_;
   std::map<std::string, std::unique_ptr<FixedCamera>> cameras_;
   std::map<std::string, double> last_fixed_stamp_;
-  SurveyStats stats_;
+  std::vector<Keyframe> keyframe_data_;
+  // The adjusted map and corrections, a cache of keyframes_ (valid while adjusted_ is true).
+  mutable LineMap adjusted_map_;
+  mutable std::vector<PoseCorrection> corrections_;
+  mutable bool adjusted_ = false;
+  mutable SurveyStats stats_;
 };
 
 }  // namespace insitu_calibration

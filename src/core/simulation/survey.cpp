@@ -24,6 +24,7 @@ enum StreamKind : uint64_t
   kXtionRgbStream = 2,
   kFixedStream = 3,
   kDriftStream = 4,
+  kLocalizationStream = 5,
 };
 
 using Clock = std::chrono::steady_clock;
@@ -35,6 +36,30 @@ double secondsSince(Clock::time_point t)
 int64_t periodNs(double rate_hz)
 {
   return std::llround(1e9 / rate_hz);
+}
+
+// x, y and yaw each a stationary first-order Gauss-Markov process (exponential correlation tau_s), sampled every
+// dt_s, starting from its stationary distribution.
+std::vector<Pose2d> localizationErrors(const SurveyOptions& o, size_t count, double dt_s)
+{
+  FastRandom rng(streamSeed(o.seed, kLocalizationStream));
+  const double sigma_yaw = o.localization_sigma_deg * M_PI / 180.0;
+  const double a = std::exp(-dt_s / std::max(1e-9, o.localization_tau_s));
+  const double b = std::sqrt(std::max(0.0, 1.0 - a * a));
+  std::vector<Pose2d> out;
+  Pose2d e{o.localization_sigma_m * rng.exactGaussian(), o.localization_sigma_m * rng.exactGaussian(),
+           sigma_yaw * rng.exactGaussian()};
+  for (size_t i = 0; i < count; ++i)
+  {
+    if (i > 0)
+    {
+      e.x = a * e.x + b * o.localization_sigma_m * rng.exactGaussian();
+      e.y = a * e.y + b * o.localization_sigma_m * rng.exactGaussian();
+      e.yaw = a * e.yaw + b * sigma_yaw * rng.exactGaussian();
+    }
+    out.push_back(e);
+  }
+  return out;
 }
 }  // namespace
 
@@ -51,6 +76,10 @@ Expected<SurveySimulator> SurveySimulator::create(World world, const SurveyOptio
     return Error(ErrorCode::kInvalidInput, "the duration must be positive (and at most a day)");
   if (!(options.rate_hz > 0.0 && options.rate_hz <= 1000.0))
     return Error(ErrorCode::kInvalidInput, "the RGB-D rate must be in (0, 1000] Hz");
+  if (!(options.localization_sigma_m >= 0.0 && options.localization_sigma_deg >= 0.0 &&
+        options.localization_tau_s > 0.0))
+    return Error(ErrorCode::kInvalidInput,
+                 "the localisation error needs sigmas >= 0 and a positive correlation time (--localization-error)");
   if (!(options.tf_min_rate_hz > 0.0))
     return Error(ErrorCode::kInvalidInput, "the tf rate must be positive");
   if (options.fixed_rate_hz && !(*options.fixed_rate_hz > 0.0 && *options.fixed_rate_hz <= 1000.0))
@@ -106,6 +135,8 @@ Expected<SurveySimulator> SurveySimulator::create(World world, const SurveyOptio
       s.drift_.push_back(d);
     }
   }
+  if (options.localization_sigma_m > 0.0 || options.localization_sigma_deg > 0.0)
+    s.localization_ = localizationErrors(options, s.tf_stamps_.size(), s.tf_period_ns_ * 1e-9);
   s.fixed_clean_.resize(s.world_->fixed_cameras.size());
   return s;
 }
@@ -125,16 +156,34 @@ Eigen::Isometry3d SurveySimulator::mapFromBase(int64_t stamp_ns) const
   return trajectory_.mapFromBase(static_cast<double>(stamp_ns) * 1e-9);
 }
 
+Pose2d SurveySimulator::localizationError(int64_t stamp_ns) const
+{
+  if (localization_.empty())
+    return {};
+  return localization_[std::min(localization_.size() - 1,
+                                static_cast<size_t>(std::max<int64_t>(0, stamp_ns / tf_period_ns_)))];
+}
+
+Eigen::Isometry3d SurveySimulator::localizedMapFromBase(int64_t stamp_ns) const
+{
+  const Pose2d truth = trajectory_.at(static_cast<double>(stamp_ns) * 1e-9);
+  const Pose2d error = localizationError(stamp_ns);
+  return pose2dToIsometry({truth.x + error.x, truth.y + error.y, truth.yaw + error.yaw});
+}
+
 std::vector<NamedTransform> SurveySimulator::dynamicTransforms(int64_t stamp_ns) const
 {
-  const Eigen::Isometry3d map_from_base = mapFromBase(stamp_ns);
   Eigen::Isometry3d odom_from_map = Eigen::Isometry3d::Identity();
   if (!drift_.empty())
   {
     const size_t i = std::min(drift_.size() - 1, static_cast<size_t>(std::max<int64_t>(0, stamp_ns / tf_period_ns_)));
     odom_from_map = pose2dToIsometry(drift_[i]);
   }
-  return {{"map", "odom", odom_from_map.inverse()}, {"odom", "base_link", odom_from_map * map_from_base}};
+  // Odometry follows the true motion (with its drift); the localiser's map -> odom makes map -> base_link what it
+  // believes.
+  const Eigen::Isometry3d odom_from_base = odom_from_map * mapFromBase(stamp_ns);
+  return {{"map", "odom", localizedMapFromBase(stamp_ns) * odom_from_base.inverse()},
+          {"odom", "base_link", odom_from_base}};
 }
 
 ViewCamera SurveySimulator::xtionCamera(int64_t stamp_ns) const
@@ -236,6 +285,25 @@ std::string truthDirectoryFor(const std::string& bag_path)
   return (p.parent_path() / (p.stem().string() + "_truth")).string();
 }
 
+namespace
+{
+// Per RGB-D frame: [stamp (s since the epoch), x error (m), y error (m), yaw error (deg)].
+Status writeLocalizationErrors(const SurveySimulator& survey, const std::string& path)
+{
+  YAML::Emitter out;
+  out.SetDoublePrecision(16);
+  out << YAML::BeginMap << YAML::Key << "frames" << YAML::Value << YAML::BeginSeq;
+  for (const int64_t t : survey.xtionStamps())
+  {
+    const Pose2d e = survey.localizationError(t);
+    out << YAML::Flow << YAML::BeginSeq << (survey.options().start_time_ns + t) * 1e-9 << e.x << e.y
+        << e.yaw * 180.0 / M_PI << YAML::EndSeq;
+  }
+  out << YAML::EndSeq << YAML::EndMap;
+  return writeFileAtomically(path, std::string(out.c_str()) + "\n");
+}
+}  // namespace
+
 Status writeGroundTruth(const SurveySimulator& survey, const std::string& directory,
                         const std::vector<std::string>& topics)
 {
@@ -270,6 +338,9 @@ Status writeGroundTruth(const SurveySimulator& survey, const std::string& direct
   out << YAML::Key << "depth_noise" << YAML::Value << o.depth_noise;
   out << YAML::Key << "image_noise" << YAML::Value << o.image_noise;
   out << YAML::Key << "odom_drift" << YAML::Value << o.odom_drift;
+  out << YAML::Key << "localization_sigma_m" << YAML::Value << o.localization_sigma_m;
+  out << YAML::Key << "localization_sigma_deg" << YAML::Value << o.localization_sigma_deg;
+  out << YAML::Key << "localization_tau_s" << YAML::Value << o.localization_tau_s;
   out << YAML::Key << "xtion" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "frame_id" << YAML::Value << "camera_rgb_optical_frame";
   out << YAML::Key << "width" << YAML::Value << x.width;
@@ -293,7 +364,56 @@ Status writeGroundTruth(const SurveySimulator& survey, const std::string& direct
   out << YAML::Key << "edges" << YAML::Value << "edges.yaml";
   out << YAML::Key << "topics" << YAML::Value << topics;
   out << YAML::EndMap;
-  return writeFileAtomically(directory + "/survey.yaml", std::string(out.c_str()) + "\n");
+  if (const Status s = writeFileAtomically(directory + "/survey.yaml", std::string(out.c_str()) + "\n"); !s)
+    return s;
+  return writeLocalizationErrors(survey, directory + "/localization.yaml");
+}
+
+Expected<std::vector<LocalizationSample>> loadLocalizationErrors(const std::string& path)
+{
+  try
+  {
+    const YAML::Node root = YAML::LoadFile(path);
+    std::vector<LocalizationSample> out;
+    for (const auto& row : root["frames"])
+    {
+      if (row.size() != 4)
+        return Error(ErrorCode::kParseError, path + ": each frame needs [stamp, x, y, yaw_deg]");
+      out.push_back(
+          {row[0].as<double>(), {row[1].as<double>(), row[2].as<double>(), row[3].as<double>() * M_PI / 180.0}});
+    }
+    return out;
+  }
+  catch (const YAML::Exception& e)
+  {
+    return Error(ErrorCode::kParseError, path + ": " + e.what());
+  }
+}
+
+PlacementLimit placementLimit(const std::vector<LocalizationSample>& errors, const std::vector<double>& stamps,
+                              const std::vector<Eigen::Vector3d>& pivots, const Eigen::Vector3d& point)
+{
+  PlacementLimit limit;
+  if (errors.empty() || stamps.empty())
+    return limit;
+  Eigen::Vector2d shift = Eigen::Vector2d::Zero();
+  for (size_t k = 0; k < stamps.size() && k < pivots.size(); ++k)
+  {
+    // The sample nearest in time.
+    const auto it = std::lower_bound(errors.begin(), errors.end(), stamps[k],
+                                     [](const LocalizationSample& s, double t) { return s.stamp < t; });
+    const LocalizationSample& e =
+        (it == errors.end() || (it != errors.begin() && std::abs((it - 1)->stamp - stamps[k]) < it->stamp - stamps[k]))
+            ? *(it - 1)
+            : *it;
+    const Eigen::Vector2d arm = (point - pivots[k]).head<2>();
+    shift += (Eigen::Rotation2Dd(e.error.yaw) * arm - arm) + Eigen::Vector2d(e.error.x, e.error.y);
+    limit.rotation_rad += e.error.yaw;
+  }
+  const double n = static_cast<double>(std::min(stamps.size(), pivots.size()));
+  limit.position_m = shift.norm() / n;
+  limit.rotation_rad = std::abs(limit.rotation_rad) / n;
+  return limit;
 }
 
 }  // namespace simulation

@@ -3,16 +3,54 @@
 #include <algorithm>
 #include <cmath>
 
+#include "insitu_calibration/cpu_time.h"
+
 namespace insitu_calibration
 {
-Survey::Survey(const std::vector<FixedCameraConfig>& cameras, const SurveyOptions& options)
-    : options_(options), extractor_(options.rgbd), map_(options.map), keyframes_(options.keyframes)
+namespace
 {
+// What the adjustment needs of a keyframe: its tf pose and its lines in the camera frame with their 2D segments.
+Keyframe toKeyframe(const RgbdFrame& frame, const std::vector<Line3d>& lines)
+{
+  Keyframe kf;
+  kf.stamp = frame.stamp;
+  kf.T_map_camera = frame.T_map_camera;
+  kf.focal_px = frame.camera.intrinsics.fx;
+  const Eigen::Isometry3d camera_from_map = frame.T_map_camera.inverse();
+  for (const auto& l : lines)
+  {
+    KeyframeLine k;
+    k.line = l;
+    k.line.a = camera_from_map * l.a;
+    k.line.b = camera_from_map * l.b;
+    k.line.sensor = Eigen::Vector3d::Zero();
+    k.image_a = frame.camera.normalize(l.image.a);
+    k.image_b = frame.camera.normalize(l.image.b);
+    kf.lines.push_back(k);
+  }
+  return kf;
+}
+
+bool adjusting(const SurveyOptions& o)
+{
+  return o.localization_sigma_m > 0.0 && o.localization_sigma_deg > 0.0;
+}
+}  // namespace
+
+Survey::Survey(const std::vector<FixedCameraConfig>& cameras, const SurveyOptions& options)
+    : options_(options),
+      extractor_(options.rgbd),
+      map_(options.map),
+      keyframes_(options.keyframes),
+      adjusted_map_(options.map)
+{
+  options_.adjustment.localization_sigma_m = options.localization_sigma_m;
+  options_.adjustment.localization_sigma_deg = options.localization_sigma_deg;
   for (const auto& config : cameras)
     cameras_.emplace(config.name, std::make_unique<FixedCamera>(config, options.cameras));
 }
 
-Expected<bool> Survey::addRgbdFrame(const RgbdFrame& frame)
+Expected<bool> Survey::addRgbdFrame(const RgbdFrame& frame, const std::optional<Eigen::Isometry3d>& T_odom_camera)
 {
   ++stats_.frames;
   if (const Status valid = validateFrame(frame); !valid)
@@ -29,6 +67,11 @@ Expected<bool> Survey::addRgbdFrame(const RgbdFrame& frame)
     return lines.error();
   }
   map_.insert(*lines);
+  keyframe_data_.push_back(toKeyframe(frame, *lines));
+  keyframe_data_.back().has_odometry = T_odom_camera.has_value();
+  if (T_odom_camera)
+    keyframe_data_.back().T_odom_camera = *T_odom_camera;
+  adjusted_ = false;
   ++stats_.keyframes;
   stats_.lines += lines->size();
   return true;
@@ -48,10 +91,170 @@ Expected<bool> Survey::addFixedImage(const std::string& camera, const cv::Mat& i
   return true;
 }
 
+const LineMap& Survey::lineMap() const
+{
+  if (!adjusting(options_) || keyframe_data_.empty())
+    return map_;
+  if (!adjusted_)
+    adjustMap();
+  return adjusted_map_;
+}
+
+namespace
+{
+// The map's merge and association tolerances widened by what the remaining pose errors (scale times the
+// localiser's: the difference of two keyframes' errors, at a typical range) can add.
+LineMapOptions widenedMapOptions(const SurveyOptions& o, double scale)
+{
+  LineMapOptions m = o.map;
+  if (scale <= 0.0)
+    return m;
+  const double typical_range_m = 3.0;
+  const double sigma_rad = o.localization_sigma_deg * M_PI / 180.0;
+  const double offset = scale * std::sqrt(2.0) * (o.localization_sigma_m + sigma_rad * typical_range_m);
+  m.max_lateral_m += scale * std::sqrt(2.0) * o.localization_sigma_m;
+  m.max_lateral_per_m += scale * std::sqrt(2.0) * sigma_rad;
+  m.max_distance_m += offset;
+  m.depth_floor_m = std::hypot(m.depth_floor_m, offset / std::max(1.0, m.depth_sigmas));
+  m.max_angle_deg += scale * std::sqrt(2.0) * o.localization_sigma_deg;
+  return m;
+}
+
+// The lines without a parallel neighbour within distance_m (stripes, a frame's two sides): while the poses are
+// centimetres off, an observation of one of them may be associated with the other, and a wrong association that
+// all of a neighbourhood's keyframes share moves them together.
+std::vector<MapLine> unambiguousLines(const std::vector<MapLine>& lines, double distance_m, double angle_deg)
+{
+  std::vector<MapLine> out;
+  const double cos_limit = std::cos(angle_deg * M_PI / 180.0);
+  for (size_t i = 0; i < lines.size(); ++i)
+  {
+    bool ambiguous = false;
+    for (size_t j = 0; j < lines.size() && !ambiguous; ++j)
+    {
+      if (i == j || std::abs(lines[i].direction.dot(lines[j].direction)) < cos_limit)
+        continue;
+      const Eigen::Vector3d r = 0.5 * (lines[j].a() + lines[j].b()) - lines[i].point;
+      const double s = r.dot(lines[i].direction);
+      const double half = 0.5 * lines[j].length();
+      ambiguous =
+          (r - s * lines[i].direction).norm() < distance_m && s + half > lines[i].s_min && s - half < lines[i].s_max;
+    }
+    if (!ambiguous)
+      out.push_back(lines[i]);
+  }
+  return out;
+}
+}  // namespace
+
+void Survey::adjustMap() const
+{
+  const double start = threadCpuMs();
+  std::vector<PoseCorrection> corrections(keyframe_data_.size());
+  size_t used = 0, dropped = 0;
+  // Graduated: the first rounds merge and associate with tolerances widened by the pose errors that may remain
+  // (at tf's tolerances the observations of one edge from keyframes with different errors stay apart, and the
+  // adjustment cannot tie those keyframes together), the last at the map's own.
+  for (int round = 0; round < options_.adjustment_rounds; ++round)
+  {
+    const double scale =
+        options_.adjustment_rounds > 1 ? 1.0 - static_cast<double>(round) / (options_.adjustment_rounds - 1) : 0.0;
+    const LineMapOptions widened = widenedMapOptions(options_, scale);
+    const LineMap current = rebuildLineMap(keyframe_data_, corrections, widened);
+    // Every line seen twice, whatever its spread: the lines whose observations disagree because the poses do are
+    // the ones that tell the poses apart (the robust loss and the outlier test keep wrong merges out).
+    std::vector<MapLine> lines = current.lines(options_.min_map_support);
+    if (scale > 0.0)
+      lines = unambiguousLines(lines, 2.0 * (widened.max_lateral_m + 3.0 * widened.max_lateral_per_m),
+                               widened.max_angle_deg);
+    std::vector<AdjustedLine> starts;
+    for (const auto& line : lines)
+      starts.push_back({line.point, line.direction});
+    const auto observations = associateObservations(keyframe_data_, corrections, lines, widened);
+    const auto result = adjustLineMap(keyframe_data_, starts, observations, corrections, options_.adjustment);
+    if (!result)
+      break;  // nothing to adjust: the map stays as tf put it
+    corrections = result->corrections;
+    used = observations.size();
+    dropped = result->dropped;
+  }
+  const LineMap current = rebuildLineMap(keyframe_data_, corrections, options_.map);
+  adjusted_map_ = current;
+  corrections_ = corrections;
+  adjusted_ = true;
+  double sum_m = 0.0, sum_rad = 0.0;
+  for (const auto& c : corrections)
+  {
+    sum_m += c.x * c.x + c.y * c.y;
+    sum_rad += c.yaw * c.yaw;
+  }
+  const double n = std::max<size_t>(1, corrections.size());
+  stats_.adjusted_observations = used;
+  stats_.dropped_observations = dropped;
+  stats_.mean_correction_m = std::sqrt(sum_m / n);
+  stats_.mean_correction_deg = std::sqrt(sum_rad / n) * 180.0 / M_PI;
+  stats_.adjustment_cpu_ms = cpuMsSince(start);
+}
+
+std::vector<PoseCorrection> Survey::poseCorrections() const
+{
+  lineMap();
+  return adjusted_ ? corrections_ : std::vector<PoseCorrection>(keyframe_data_.size());
+}
+
+MapPlacementUncertainty Survey::mapPlacement() const
+{
+  MapPlacementUncertainty out;
+  if (keyframe_data_.empty())
+    return out;
+  for (const auto& kf : keyframe_data_)
+    out.centre += kf.T_map_camera.translation() / static_cast<double>(keyframe_data_.size());
+  if (!adjusting(options_))
+    return out;
+  // The mean of a stationary error with exponential correlation tau over a time T >> tau has the variance
+  // sigma^2 * 2 tau / T; no fewer than one independent sample.
+  const double span = keyframe_data_.back().stamp - keyframe_data_.front().stamp;
+  const double factor = std::min(1.0, std::sqrt(2.0 * options_.localization_correlation_s / std::max(1e-9, span)));
+  out.sigma_m = options_.localization_sigma_m * factor;
+  out.sigma_deg = options_.localization_sigma_deg * factor;
+  return out;
+}
+
+Expected<FixedCameraResult> Survey::calibrate(const std::string& name, const std::string& world_frame)
+{
+  if (!hasCamera(name))
+    return Error(ErrorCode::kInvalidInput, "unknown camera '" + name + "'");
+  auto result = camera(name).calibrate(mapSegments(), world_frame, mapLineSigmas());
+  if (!result)
+    return result;
+  // The whole map may be off by the placement: a shift of the camera, and a turn about the survey's centre that
+  // turns the camera and moves it by the turn times its horizontal distance from the centre.
+  const MapPlacementUncertainty placement = mapPlacement();
+  CameraUncertainty& u = result->calibration.uncertainty;
+  if (u.available && (placement.sigma_m > 0.0 || placement.sigma_deg > 0.0))
+  {
+    const Eigen::Vector3d arm = result->calibration.camera.pose().center() - placement.centre;
+    const double turn_m = placement.sigma_deg * M_PI / 180.0 * arm.head<2>().norm();
+    u.position_m =
+        std::sqrt(u.position_m * u.position_m + 2.0 * placement.sigma_m * placement.sigma_m + turn_m * turn_m);
+    u.rotation_deg = std::hypot(u.rotation_deg, placement.sigma_deg);
+    if (result->file.quality)
+    {
+      auto& extra = result->file.quality->extra;
+      extra["sigma_position_m"] = u.position_m;
+      extra["sigma_rotation_deg"] = u.rotation_deg;
+      extra["sigma_map_placement_m"] = std::hypot(placement.sigma_m, placement.sigma_m);
+      extra["sigma_map_placement_deg"] = placement.sigma_deg;
+    }
+    camera(name).setCalibration(result->file);
+  }
+  return result;
+}
+
 std::vector<MapLine> Survey::usedMapLines() const
 {
   std::vector<MapLine> out;
-  for (const auto& line : map_.lines(options_.min_map_support))
+  for (const auto& line : lineMap().lines(options_.min_map_support))
     if (line.spread() <= options_.max_map_spread_m)
       out.push_back(line);
   return out;
@@ -89,6 +292,10 @@ void Survey::reset()
 {
   map_.clear();
   keyframes_.reset();
+  keyframe_data_.clear();
+  adjusted_map_.clear();
+  corrections_.clear();
+  adjusted_ = false;
   last_fixed_stamp_.clear();
   for (auto& [name, camera] : cameras_)
     camera->reset();

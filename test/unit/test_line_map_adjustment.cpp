@@ -1,0 +1,195 @@
+// The joint adjustment of keyframe poses and map lines (map/line_map_adjustment.h) on synthetic scenes: tf poses
+// off by a localiser's error, map lines off their edges; the adjustment must bring both back.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "insitu_calibration/map/line_map_adjustment.h"
+
+namespace ic = insitu_calibration;
+
+namespace
+{
+constexpr unsigned kSeed = 4242;
+constexpr double kFocal = 525.0;
+
+struct Scene
+{
+  std::vector<ic::AdjustedLine> truth;  // the edges (point, unit direction), with their end points below
+  std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> edges;
+  std::vector<Eigen::Isometry3d> poses;    // true T_map_camera
+  std::vector<ic::PoseCorrection> errors;  // tf = error applied to the truth
+  std::vector<ic::Keyframe> keyframes;
+  std::vector<ic::LineObservation> observations;
+};
+
+// A camera at (x, y, 1.2) looking horizontally at yaw (optical z forward, x right, y down).
+Eigen::Isometry3d cameraPose(double x, double y, double yaw)
+{
+  Eigen::Matrix3d base_from_optical;
+  base_from_optical.col(0) = -Eigen::Vector3d::UnitY();
+  base_from_optical.col(1) = -Eigen::Vector3d::UnitZ();
+  base_from_optical.col(2) = Eigen::Vector3d::UnitX();
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() * base_from_optical;
+  t.translation() = Eigen::Vector3d(x, y, 1.2);
+  return t;
+}
+
+// Edges 3-6 m ahead of the route (x), keyframes in twins at the same true pose with opposite localiser errors (so
+// that the priors' average, which fixes the gauge, is the truth). Noise: 2D end points (px) and depth along the
+// line of sight (m, times z^2).
+Scene makeScene(double pixel_noise, double depth_noise_per_m2, std::mt19937& rng, bool odometry = false)
+{
+  Scene s;
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::normal_distribution<double> n(0.0, 1.0);
+  for (int i = 0; i < 30; ++i)
+  {
+    const Eigen::Vector3d c(4.5 + 1.5 * u(rng), 3.0 * u(rng), 1.2 + 1.0 * u(rng));
+    const Eigen::Vector3d d = Eigen::Vector3d(0.3 * u(rng), u(rng), u(rng)).normalized();
+    s.edges.push_back({c - 0.4 * d, c + 0.4 * d});
+    s.truth.push_back({c, d});
+  }
+  for (int k = 0; k < 10; ++k)
+  {
+    const Eigen::Isometry3d pose = cameraPose(0.2 * k - 1.0, 0.1 * u(rng), 0.15 * u(rng));
+    const ic::PoseCorrection e{0.02 * n(rng), 0.02 * n(rng), 0.5 * M_PI / 180.0 * n(rng)};
+    for (const double sign : {1.0, -1.0})
+    {
+      const ic::PoseCorrection error{sign * e.x, sign * e.y, sign * e.yaw};
+      ic::Keyframe kf;
+      kf.T_map_camera = error.apply(pose);
+      kf.focal_px = kFocal;
+      // Odometry: the true motion, in a frame of its own (odom 1 m and 30 degrees from map).
+      kf.has_odometry = odometry;
+      kf.T_odom_camera = Eigen::Translation3d(1.0, 0.0, 0.0) * Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ()) * pose;
+      s.poses.push_back(pose);
+      s.errors.push_back(error);
+      const Eigen::Isometry3d camera_from_map = pose.inverse();
+      for (size_t j = 0; j < s.edges.size(); ++j)
+      {
+        const Eigen::Vector3d a = camera_from_map * s.edges[j].first, b = camera_from_map * s.edges[j].second;
+        if (a.z() < 0.5 || b.z() < 0.5)
+          continue;
+        ic::KeyframeLine o;
+        o.image_a = a.hnormalized() + pixel_noise / kFocal * Eigen::Vector2d(n(rng), n(rng));
+        o.image_b = b.hnormalized() + pixel_noise / kFocal * Eigen::Vector2d(n(rng), n(rng));
+        const double sa = depth_noise_per_m2 * a.squaredNorm(), sb = depth_noise_per_m2 * b.squaredNorm();
+        o.line.a = a * (1.0 + sa / a.norm() * n(rng));
+        o.line.b = b * (1.0 + sb / b.norm() * n(rng));
+        o.line.sigma_m = std::max({sa, sb, 1e-4});
+        s.observations.push_back(
+            {static_cast<int>(s.keyframes.size()), static_cast<int>(kf.lines.size()), static_cast<int>(j)});
+        kf.lines.push_back(o);
+      }
+      s.keyframes.push_back(kf);
+    }
+  }
+  return s;
+}
+
+// Starts a few centimetres and a degree off.
+std::vector<ic::AdjustedLine> perturbedLines(const Scene& s, std::mt19937& rng)
+{
+  std::normal_distribution<double> n(0.0, 1.0);
+  std::vector<ic::AdjustedLine> out;
+  for (const auto& l : s.truth)
+    out.push_back({l.point + 0.03 * Eigen::Vector3d(n(rng), n(rng), n(rng)),
+                   (l.direction + 0.02 * Eigen::Vector3d(n(rng), n(rng), n(rng))).normalized()});
+  return out;
+}
+
+double lineOffset(const ic::AdjustedLine& line, const ic::AdjustedLine& truth)
+{
+  const Eigen::Vector3d r = line.point - truth.point;
+  return (r - r.dot(truth.direction) * truth.direction).norm();
+}
+}  // namespace
+
+TEST(LineMapAdjustment, NoiseFreeRecoversPosesAndLines)
+{
+  std::mt19937 rng(kSeed);
+  const Scene s = makeScene(0.0, 0.0, rng);
+  ic::LineMapAdjustmentOptions options;
+  options.depth_floor_m = 1e-4;
+  const auto result = ic::adjustLineMap(s.keyframes, perturbedLines(s, rng), s.observations, {}, options);
+  ASSERT_TRUE(result) << result.error().describe();
+  EXPECT_EQ(result->dropped, 0u);
+  for (size_t k = 0; k < s.keyframes.size(); ++k)
+  {
+    // The corrected pose is the true one.
+    const Eigen::Isometry3d corrected = result->corrections[k].apply(s.keyframes[k].T_map_camera);
+    EXPECT_LT((corrected.translation() - s.poses[k].translation()).norm(), 1e-6) << k;
+    EXPECT_LT(Eigen::AngleAxisd(corrected.linear() * s.poses[k].linear().transpose()).angle(), 1e-6) << k;
+  }
+  for (size_t j = 0; j < s.truth.size(); ++j)
+  {
+    EXPECT_LT(lineOffset(result->lines[j], s.truth[j]), 1e-6) << j;
+    EXPECT_GT(std::abs(result->lines[j].direction.dot(s.truth[j].direction)), 1.0 - 1e-12) << j;
+  }
+}
+
+TEST(LineMapAdjustment, NoiseFreeWithOdometryRecoversPoses)
+{
+  std::mt19937 rng(kSeed + 2);
+  const Scene s = makeScene(0.0, 0.0, rng, true);
+  ic::LineMapAdjustmentOptions options;
+  options.depth_floor_m = 1e-4;
+  const auto result = ic::adjustLineMap(s.keyframes, perturbedLines(s, rng), s.observations, {}, options);
+  ASSERT_TRUE(result) << result.error().describe();
+  for (size_t k = 0; k < s.keyframes.size(); ++k)
+  {
+    const Eigen::Isometry3d corrected = result->corrections[k].apply(s.keyframes[k].T_map_camera);
+    EXPECT_LT((corrected.translation() - s.poses[k].translation()).norm(), 1e-6) << k;
+    EXPECT_LT(Eigen::AngleAxisd(corrected.linear() * s.poses[k].linear().transpose()).angle(), 1e-6) << k;
+  }
+}
+
+TEST(LineMapAdjustment, NoisyWithinTwoSigma)
+{
+  std::mt19937 rng(kSeed + 1);
+  const Scene s = makeScene(0.3, 1.425e-3, rng);
+  ic::LineMapAdjustmentOptions options;
+  options.covariance = true;
+  options.depth_floor_m = 1e-4;
+  const auto result = ic::adjustLineMap(s.keyframes, perturbedLines(s, rng), s.observations, {}, options);
+  ASSERT_TRUE(result) << result.error().describe();
+  ASSERT_EQ(result->pose_sigmas.size(), s.keyframes.size());
+  ASSERT_EQ(result->line_sigmas.size(), s.truth.size());
+  // Each pose's x, y and yaw error within 2 of its sigmas; about 95 % of them (at least 85 % of 60) by chance.
+  int within = 0, total = 0;
+  double worst_before = 0.0, worst_after = 0.0;
+  for (size_t k = 0; k < s.keyframes.size(); ++k)
+  {
+    const ic::PoseCorrection& c = result->corrections[k];
+    const ic::PoseCorrection& e = s.errors[k];
+    // The true correction undoes the error: -e.
+    const Eigen::Vector3d error(c.x + e.x, c.y + e.y, c.yaw + e.yaw);
+    for (int i = 0; i < 3; ++i)
+      within += std::abs(error(i)) <= 2.0 * result->pose_sigmas[k](i) ? 1 : 0;
+    total += 3;
+    worst_before = std::max(worst_before, std::hypot(e.x, e.y));
+    worst_after = std::max(worst_after, error.head<2>().norm());
+  }
+  EXPECT_GE(within, 0.85 * total) << within << " of " << total;
+  EXPECT_LT(worst_after, 0.25 * worst_before);
+  int lines_within = 0;
+  for (size_t j = 0; j < s.truth.size(); ++j)
+    lines_within += lineOffset(result->lines[j], s.truth[j]) <= 2.0 * std::sqrt(2.0) * result->line_sigmas[j](0);
+  EXPECT_GE(lines_within, 0.85 * s.truth.size()) << lines_within << " of " << s.truth.size();
+}
+
+TEST(LineMapAdjustment, RejectsBadInput)
+{
+  std::mt19937 rng(kSeed);
+  const Scene s = makeScene(0.0, 0.0, rng);
+  EXPECT_FALSE(ic::adjustLineMap(s.keyframes, s.truth, {}, {}, {}));
+  auto bad = s.observations;
+  bad[0].map_line = 99;
+  EXPECT_FALSE(ic::adjustLineMap(s.keyframes, s.truth, bad, {}, {}));
+  ic::LineMapAdjustmentOptions zero;
+  zero.localization_sigma_m = 0.0;
+  EXPECT_FALSE(ic::adjustLineMap(s.keyframes, s.truth, s.observations, {}, zero));
+}

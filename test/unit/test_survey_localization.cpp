@@ -1,0 +1,163 @@
+// End to end without ROS, with a localiser that errs: the default world surveyed while the pose tf gives (map ->
+// base_link) wanders by 2 cm / 0.5 degrees (correlation 5 s) around the truth and odometry follows the true motion,
+// as simulate_survey --localization-error 0.02,0.5 records it. The map is adjusted with the keyframe poses
+// (Survey's default localiser sigmas) and every fixed camera calibrated. Asserts against the truth: the cameras'
+// poses relative to each other (the map is internally consistent whatever the localiser does), the absolute pose
+// within the localiser's limit (its error averaged over the keyframes) plus the camera's own error, the intrinsics,
+// and that each error is within 3 reported sigmas (which include the map's placement). Before the adjustment
+// (tf taken as exact) the relative poses were 0.6-0.8 m and 2.5-5 degrees off on seed 2. The seed is one not used
+// while tuning (2 was).
+#include <gtest/gtest.h>
+
+#include <cstdio>
+
+#include <opencv2/imgproc.hpp>
+
+#include "insitu_calibration/metrics.h"
+#include "insitu_calibration/simulation/survey.h"
+#include "insitu_calibration/simulation/world.h"
+#include "insitu_calibration/survey/camera_config.h"
+#include "insitu_calibration/survey/survey.h"
+
+namespace ic = insitu_calibration;
+namespace sim = insitu_calibration::simulation;
+
+namespace
+{
+const std::string kSource = INSITU_SOURCE_DIR;
+constexpr uint64_t kSeed = 13;
+
+// Camera b's centre in camera a's frame and the rotation from b to a.
+std::pair<Eigen::Vector3d, Eigen::Matrix3d> relativePose(const ic::CameraPose& a, const ic::CameraPose& b)
+{
+  return {a.rotation * (b.center() - a.center()), a.rotation * b.rotation.transpose()};
+}
+
+// Feeds the whole survey: RGB-D frames posed as the erring localiser says, with odometry (exact: odom = map
+// without drift), and the fixed cameras' images.
+void feedSurvey(const sim::SurveySimulator& simulator, ic::Survey* survey, std::vector<double>* stamps,
+                std::vector<Eigen::Vector3d>* pivots)
+{
+  const Eigen::Isometry3d base_from_optical = sim::baseFromRgbOptical(simulator.world().xtion);
+  for (const sim::SurveyEvent& event : simulator.events())
+  {
+    const double stamp = 1e-9 * static_cast<double>(event.stamp_ns);
+    if (event.kind == sim::SurveyEventKind::kXtion)
+    {
+      const sim::XtionFrame x = simulator.xtionFrame(event.index);
+      const sim::ViewCamera view = simulator.xtionCamera(x.stamp_ns);
+      ic::RgbdFrame frame;
+      cv::cvtColor(x.rgb, frame.rgb, cv::COLOR_RGB2BGR);
+      frame.depth = x.depth_mm;
+      frame.camera.width = view.width;
+      frame.camera.height = view.height;
+      frame.camera.intrinsics = view.intrinsics;
+      frame.T_map_camera = simulator.localizedMapFromBase(x.stamp_ns) * base_from_optical;
+      frame.stamp = stamp;
+      const auto used = survey->addRgbdFrame(frame, x.map_from_optical);
+      if (used && *used)
+      {
+        stamps->push_back(stamp);
+        pivots->push_back(frame.T_map_camera.translation());
+      }
+    }
+    else if (event.kind == sim::SurveyEventKind::kFixed)
+    {
+      const sim::FixedFrame f = simulator.fixedFrame(event.camera, event.index);
+      cv::Mat grey;
+      cv::cvtColor(f.image, grey, cv::COLOR_RGB2GRAY);
+      survey->addFixedImage(simulator.world().fixed_cameras[event.camera].name, grey, stamp);
+    }
+  }
+}
+}  // namespace
+
+TEST(SurveyLocalization, AdjustedMapKeepsTheCamerasConsistent)
+{
+  auto world = sim::loadWorldFile(kSource + "/config/worlds/waiting_room.yaml");
+  ASSERT_TRUE(world) << world.error().describe();
+  const auto configs = ic::loadCameraConfig(kSource + "/config/cameras.yaml");
+  ASSERT_TRUE(configs) << configs.error().describe();
+  sim::SurveyOptions sim_options;
+  sim_options.seed = kSeed;
+  sim_options.localization_sigma_m = 0.02;
+  sim_options.localization_sigma_deg = 0.5;
+  auto simulator = sim::SurveySimulator::create(*world, sim_options);
+  ASSERT_TRUE(simulator) << simulator.error().describe();
+
+  std::vector<ic::FixedCameraConfig> cameras;
+  for (const auto& entry : *configs)
+    cameras.push_back(entry.camera);
+  ic::Survey survey(cameras);
+  std::vector<double> stamps;
+  std::vector<Eigen::Vector3d> pivots;
+  feedSurvey(*simulator, &survey, &stamps, &pivots);
+  ASSERT_GT(survey.mapSegments().size(), 50u);
+  const ic::SurveyStats& stats = survey.stats();
+  std::printf(
+      "seed %llu: %zu keyframes, %zu map lines used; adjustment %.2f s CPU, keyframes moved by %.1f mm, "
+      "%.3f deg\n",
+      static_cast<unsigned long long>(kSeed), stats.keyframes, survey.mapSegments().size(),
+      1e-3 * stats.adjustment_cpu_ms, 1e3 * stats.mean_correction_m, stats.mean_correction_deg);
+  EXPECT_LT(stats.adjustment_cpu_ms, 5000.0);  // the goal for a 40 s survey
+
+  std::vector<ic::CameraPose> found, truths;
+  const std::vector<sim::LocalizationSample> errors = [&] {
+    std::vector<sim::LocalizationSample> out;
+    for (const int64_t t : simulator->xtionStamps())
+      out.push_back({1e-9 * static_cast<double>(t), simulator->localizationError(t)});
+    return out;
+  }();
+  // The keyframes' remaining pose errors about their mean (the map's internal consistency).
+  const auto corrections = survey.poseCorrections();
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero(), squares = sum;
+  for (size_t k = 0; k < corrections.size(); ++k)
+  {
+    const sim::Pose2d e = simulator->localizationError(std::llround(stamps[k] * 1e9));
+    const Eigen::Vector3d after(e.x + corrections[k].x, e.y + corrections[k].y, e.yaw + corrections[k].yaw);
+    sum += after;
+    squares += after.cwiseAbs2();
+  }
+  const Eigen::Vector3d mean = sum / corrections.size();
+  const Eigen::Vector3d spread = (squares / corrections.size() - mean.cwiseAbs2()).cwiseMax(0.0).cwiseSqrt();
+  std::printf("keyframes after the adjustment, about their mean: x %.1f mm, y %.1f mm, yaw %.3f deg\n",
+              1e3 * spread.x(), 1e3 * spread.y(), spread.z() * 180.0 / M_PI);
+  for (size_t c = 0; c < simulator->world().fixed_cameras.size(); ++c)
+  {
+    const std::string& name = simulator->world().fixed_cameras[c].name;
+    const auto result = survey.calibrate(name, "map");
+    ASSERT_TRUE(result) << name << ": " << result.error().describe();
+    const ic::CalibrationFile truth = simulator->groundTruth(static_cast<int>(c));
+    const ic::CameraErrors e = ic::compareCameras(truth.camera, result->calibration.camera);
+    const ic::CameraUncertainty& u = result->calibration.uncertainty;
+    const double rotation_deg = e.rotation_rad * 180.0 / M_PI;
+    const auto limit = sim::placementLimit(errors, stamps, pivots, truth.camera.pose().center());
+    std::printf(
+        "%s: focal %+.3f %%, rotation %.4f deg (sigma %.4f, limit %.4f), position %.2f mm (sigma %.2f, "
+        "limit %.2f), lambda %.2f %%\n",
+        name.c_str(), 100.0 * e.focal_relative, rotation_deg, u.rotation_deg, limit.rotation_rad * 180.0 / M_PI,
+        1e3 * e.center_m, 1e3 * u.position_m, 1e3 * limit.position_m, 100.0 * e.lambda_relative);
+    // Loose bounds (seed 13 is among the worst seen: cam_wide 75 mm, 0.87 deg): the goals (10 mm and
+    // 0.1 degrees relative, 1.5 times the limit absolute) are not reached on every seed yet.
+    EXPECT_LT(std::abs(e.focal_relative), 0.005) << name;
+    EXPECT_LT(e.lambda_relative, 0.10) << name;
+    EXPECT_LT(e.center_m, 0.1 + 1.5 * limit.position_m) << name;
+    EXPECT_LT(rotation_deg, 1.2) << name;
+    ASSERT_TRUE(u.available) << name;
+    EXPECT_LT(e.center_m, 3.0 * u.position_m) << name;
+    EXPECT_LT(rotation_deg, 3.0 * u.rotation_deg) << name;
+    found.push_back(result->calibration.camera.pose());
+    truths.push_back(truth.camera.pose());
+  }
+  for (size_t i = 0; i < found.size(); ++i)
+    for (size_t j = i + 1; j < found.size(); ++j)
+    {
+      const auto [p, r] = relativePose(found[i], found[j]);
+      const auto [pt, rt] = relativePose(truths[i], truths[j]);
+      const double position_mm = 1e3 * (p - pt).norm();
+      const double rotation_deg = Eigen::AngleAxisd(r * rt.transpose()).angle() * 180.0 / M_PI;
+      std::printf("relative %zu-%zu: %.2f mm, %.4f deg\n", i, j, position_mm, rotation_deg);
+      EXPECT_LT(position_mm, 200.0) << i << "-" << j;
+      EXPECT_LT(rotation_deg, 1.2) << i << "-" << j;
+    }
+}
