@@ -223,8 +223,9 @@ std::vector<CameraModel> searchPrior(const std::vector<Segment3d>& map_lines, co
       }
   std::sort(grid.begin(), grid.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   std::vector<SearchState> seeds;
-  for (const auto& [score, s] : grid)
+  for (const auto& scored : grid)
   {
+    const SearchState& s = scored.second;  // not a structured binding: clang 14 cannot capture those
     const bool distinct = std::all_of(seeds.begin(), seeds.end(), [&](const SearchState& t) {
       return std::abs(s.yaw - t.yaw) > 1.5 * angle_step || std::abs(s.pitch - t.pitch) > 1.5 * angle_step ||
              std::abs(s.fov_scale - t.fov_scale) > 1.5 * fov_step;
