@@ -1,24 +1,20 @@
 // calibration_node restarted over hostile saved calibrations (calibration_restart.test, issue 16).
 #include <gtest/gtest.h>
 
-#include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
-#include <spawn.h>
 #include <std_srvs/Trigger.h>
-#include <sys/wait.h>
 
 #include "insitu_calibration/CalibrationStatus.h"
 #include "insitu_calibration/io/calibration_file.h"
+#include "node_process.h"
 
 namespace ic = insitu_calibration;
 namespace fs = std::filesystem;
-
-extern char** environ;
 
 namespace
 {
@@ -41,38 +37,6 @@ std::string replaced(std::string text, const std::string& from, const std::strin
   EXPECT_NE(at, std::string::npos) << from;
   return at == std::string::npos ? text : text.replace(at, from.size(), to);
 }
-
-// The node as a child process; stopped with SIGINT (as roslaunch does) when the object goes.
-class NodeProcess
-{
-public:
-  NodeProcess()
-  {
-    std::string executable = std::string(INSITU_NODE_DIR) + "/calibration_node";
-    std::string name = "__name:=restart_node";
-    char* argv[] = {executable.data(), name.data(), nullptr};
-    started_ = posix_spawn(&pid_, executable.c_str(), nullptr, nullptr, argv, environ) == 0;
-  }
-  ~NodeProcess() { stop(); }
-  bool started() const { return started_; }
-  // The exit status: 0 when the node shut down cleanly.
-  int stop()
-  {
-    if (!started_)
-      return exit_status_;
-    kill(pid_, SIGINT);
-    int status = 0;
-    waitpid(pid_, &status, 0);
-    started_ = false;
-    exit_status_ = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    return exit_status_;
-  }
-
-private:
-  pid_t pid_ = 0;
-  bool started_ = false;
-  int exit_status_ = -1;
-};
 
 std::map<std::string, bool> calibratedCameras()
 {
