@@ -13,6 +13,7 @@
 #include "insitu_calibration/ros/conversions.h"
 #include "insitu_calibration/survey/camera_config.h"
 #include "insitu_calibration/survey/overlay.h"
+#include "insitu_calibration/io/calibration_store.h"
 
 namespace insitu_calibration
 {
@@ -280,19 +281,16 @@ Status CalibrationServer::saveCalibration(const std::string& name)
 {
   if (!survey_->camera(name).calibration())
     return Error(ErrorCode::kNotEnoughData, "camera '" + name + "' is not calibrated");
-  if (const Status saved = saveCalibrationFile(calibrationPath(name), *survey_->camera(name).calibration()); !saved)
-    return saved;
-  // The overlay beside the YAML, for people.
+  // The overlay beside the YAML, for people; none after a restart (the image it was drawn on is gone): the store
+  // then keeps the PNG already saved instead of replacing it by a blank one.
   const CalibrationFile& file = *survey_->camera(name).calibration();
+  const cv::Mat image = survey_->camera(name).medianImage();
   const auto last = survey_->camera(name).lastResult();
-  const cv::Mat overlay = drawOverlay(survey_->camera(name).medianImage(), file.image_width, file.image_height,
-                                      file.camera, survey_->mapSegments(),
-                                      last ? last->matched_image_lines : std::vector<std::vector<Eigen::Vector2d>>{});
-  const std::string png = output_directory_ + "/" + name + "_overlay.png";
-  const std::string temp = output_directory_ + "/." + name + "_overlay.tmp.png";
-  if (!cv::imwrite(temp, overlay) || std::rename(temp.c_str(), png.c_str()) != 0)
-    return Error(ErrorCode::kIoError, "cannot write " + png);
-  return Success{};
+  const cv::Mat overlay =
+      image.empty() ? cv::Mat()
+                    : drawOverlay(image, file.image_width, file.image_height, file.camera, survey_->mapSegments(),
+                                  last ? last->matched_image_lines : std::vector<std::vector<Eigen::Vector2d>>{});
+  return CalibrationStore(output_directory_).save(name, file, overlay);
 }
 
 bool CalibrationServer::calibrateService(Calibrate::Request& request, Calibrate::Response& response)
@@ -488,32 +486,25 @@ void CalibrationServer::publishMarkers()
 
 void CalibrationServer::loadSavedCalibrations()
 {
+  const CalibrationStore store(output_directory_);
+  std::vector<std::string> names;
+  for (const auto& entry : cameras_)
+    names.push_back(entry.first);
+  for (const std::string& removed : store.removeStaleTemporaries(names))
+    ROS_WARN_STREAM("calibration_node: removed " << removed << ", left by a save that was interrupted");
   size_t loaded = 0;
-  for (auto& [name, camera] : cameras_)
+  for (const std::string& name : names)
   {
-    const std::string path = calibrationPath(name);
-    std::error_code ec;
-    if (!std::filesystem::exists(path, ec))
+    const FixedCameraConfig& config = survey_->camera(name).config();
+    const CalibrationStore::Loaded saved = store.load(name, config.image_width, config.image_height);
+    if (!saved.problem.empty())
+      ROS_ERROR_STREAM("calibration_node: not using the saved calibration of '" << name << "': " << saved.problem);
+    if (!saved.calibration)
       continue;
-    const auto file = loadCalibrationFile(path);
-    if (!file)
-    {
-      ROS_WARN_STREAM("calibration_node: ignoring the saved calibration of '" << name
-                                                                              << "': " << file.error().describe());
-      continue;
-    }
-    if (file->image_width != survey_->camera(name).config().image_width ||
-        file->image_height != survey_->camera(name).config().image_height)
-    {
-      ROS_WARN_STREAM("calibration_node: ignoring " << path << ": it is for a " << file->image_width << "x"
-                                                    << file->image_height << " image, the camera is configured "
-                                                    << survey_->camera(name).config().image_width << "x"
-                                                    << survey_->camera(name).config().image_height);
-      continue;
-    }
-    survey_->camera(name).setCalibration(*file);
+    survey_->camera(name).setCalibration(*saved.calibration);
     ++loaded;
-    ROS_INFO_STREAM("calibration_node: loaded the calibration of '" << name << "' from " << path);
+    ROS_INFO_STREAM("calibration_node: loaded the calibration of '" << name << "' from "
+                                                                     << store.calibrationPath(name));
   }
   if (loaded > 0)
     publishCalibrations();

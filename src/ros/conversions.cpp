@@ -1,5 +1,9 @@
 #include "insitu_calibration/ros/conversions.h"
 
+#include <cmath>
+
+#include <sensor_msgs/image_encodings.h>
+
 #include <cv_bridge/cv_bridge.h>
 #include <tf2_eigen/tf2_eigen.h>
 
@@ -124,17 +128,47 @@ Eigen::Isometry3d toEigen(const geometry_msgs::Transform& transform)
   return tf2::transformToEigen(transform);
 }
 
+namespace
+{
+// A message whose header does not match its data would make cv_bridge read past the data or OpenCV assert: checked
+// before either sees it. Sides up to 32768 px.
+Status checkImageMessage(const sensor_msgs::Image& image, const char* what)
+{
+  size_t bytes_per_pixel = 0;
+  try
+  {
+    bytes_per_pixel = static_cast<size_t>(sensor_msgs::image_encodings::numChannels(image.encoding)) *
+                      static_cast<size_t>(sensor_msgs::image_encodings::bitDepth(image.encoding) / 8);
+  }
+  catch (const std::exception&)
+  {
+    return Error(ErrorCode::kInvalidInput, std::string(what) + ": unknown encoding '" + image.encoding + "'");
+  }
+  const size_t width = image.width, height = image.height, step = image.step;
+  if (width == 0 || height == 0 || width > 32768 || height > 32768 || bytes_per_pixel == 0 ||
+      step < width * bytes_per_pixel || image.data.size() < step * height)
+    return Error(ErrorCode::kInvalidInput, std::string(what) + ": a " + std::to_string(width) + "x" +
+                                               std::to_string(height) + " " + image.encoding + " image with step " +
+                                               std::to_string(step) + " and " + std::to_string(image.data.size()) +
+                                               " bytes is inconsistent");
+  return Success{};
+}
+}  // namespace
+
 Expected<RgbdFrame> toRgbdFrame(const sensor_msgs::Image& rgb, const sensor_msgs::Image& depth,
                                 const sensor_msgs::CameraInfo& info, const Eigen::Isometry3d& T_map_camera)
 {
   RgbdFrame frame;
+  for (const Status& s : {checkImageMessage(rgb, "RGB image"), checkImageMessage(depth, "depth image")})
+    if (!s)
+      return s.error();
   try
   {
     // Copies: the frame outlives the messages in offline use.
     frame.rgb = cv_bridge::toCvCopy(rgb, "bgr8")->image;
     frame.depth = cv_bridge::toCvCopy(depth)->image;
   }
-  catch (const cv_bridge::Exception& e)
+  catch (const std::exception& e)  // cv_bridge's and OpenCV's
   {
     return Error(ErrorCode::kInvalidInput, std::string("cannot convert the RGB-D images: ") + e.what());
   }
@@ -142,6 +176,15 @@ Expected<RgbdFrame> toRgbdFrame(const sensor_msgs::Image& rgb, const sensor_msgs
   frame.camera.height = static_cast<int>(info.height);
   frame.camera.intrinsics =
       Intrinsics::fromMatrix(Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(info.K.data()));
+  const Intrinsics& in = frame.camera.intrinsics;
+  if (!(in.fx > 0.0 && in.fy > 0.0 && std::isfinite(in.fx) && std::isfinite(in.fy) && std::isfinite(in.cx) &&
+        std::isfinite(in.cy) && std::isfinite(in.skew)) ||
+      frame.camera.width != frame.rgb.cols || frame.camera.height != frame.rgb.rows)
+    return Error(ErrorCode::kInvalidInput,
+                 "the RGB camera_info has no usable K (zeros or NaN) or another size than "
+                 "its image");
+  if (!T_map_camera.matrix().allFinite())
+    return Error(ErrorCode::kInvalidInput, "the camera's pose in the map holds NaN or infinite values");
   if (info.distortion_model == "plumb_bob" && info.D.size() >= 5)
     for (int i = 0; i < 5; ++i)
       frame.camera.plumb_bob[i] = info.D[i];
@@ -152,11 +195,13 @@ Expected<RgbdFrame> toRgbdFrame(const sensor_msgs::Image& rgb, const sensor_msgs
 
 Expected<cv::Mat> toGrey(const sensor_msgs::Image& image)
 {
+  if (const Status s = checkImageMessage(image, "cannot convert the image to grey"); !s)
+    return s.error();
   try
   {
     return cv_bridge::toCvCopy(image, "mono8")->image;
   }
-  catch (const cv_bridge::Exception& e)
+  catch (const std::exception& e)  // cv_bridge's and OpenCV's
   {
     return Error(ErrorCode::kInvalidInput, std::string("cannot convert the image to grey: ") + e.what());
   }

@@ -199,7 +199,7 @@ Expected<SurveyBagSummary> writeSurveyBag(const sim::SurveySimulator& survey, co
     bag.close();
     write_s += std::chrono::duration<double>(Clock::now() - t0).count();
   }
-  catch (const rosbag::BagException& e)
+  catch (const std::exception& e)  // rosbag's, and cv::Exception or bad_alloc from a frame: no .active is left
   {
     std::error_code ignored;
     std::filesystem::remove(active, ignored);

@@ -1,4 +1,5 @@
 // calibrate_lines: offline calibration of one camera from a correspondence file (3D lines and their images).
+#include <filesystem>
 #include <iostream>
 
 #include "command_line.h"
@@ -119,6 +120,12 @@ int main(int argc, char** argv)
                                      : line_residual == "world" ? ic::LineResidual::kWorldPoints
                                                                 : ic::LineResidual::kBoth;
 
+  const std::string output = cli.value("output");
+  if (output.empty() || std::filesystem::is_directory(output))
+  {
+    std::cerr << "calibrate_lines: --output must name a file (got '" << output << "')\n";
+    return 2;
+  }
   const auto data = ic::loadCorrespondenceFile(cli.positional()[0]);
   if (!data)
   {
@@ -143,7 +150,6 @@ int main(int argc, char** argv)
     std::cerr << "calibrate_lines: calibration failed, nothing written: " << result.error().describe() << "\n";
     return 1;
   }
-  const std::string output = cli.value("output");
   const ic::Status saved =
       ic::saveCalibrationFile(output, ic::toCalibrationFile(*data, *result, cli.value("world-frame", "map")));
   if (!saved)

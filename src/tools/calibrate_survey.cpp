@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <deque>
+#include <filesystem>
 #include <optional>
 #include <iostream>
 #include <random>
@@ -27,6 +28,7 @@
 #include "insitu_calibration/simulation/true_edges.h"
 #include "insitu_calibration/survey/camera_config.h"
 #include "insitu_calibration/survey/overlay.h"
+#include "insitu_calibration/io/calibration_store.h"
 #include "insitu_calibration/survey/survey.h"
 #include "insitu_calibration/geometry/optical_frame.h"
 
@@ -454,9 +456,34 @@ double seconds(std::chrono::steady_clock::time_point start)
 {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
+const char* kReindexHint =
+    " (a recording that was interrupted leaves the bag without its index: `rosbag reindex BAG` repairs it)";
+
+// Opens a bag for reading; an empty string, or what is wrong with a hint at the usual cause.
+std::string openBag(rosbag::Bag& bag, const std::string& path)
+{
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    return path + " is a directory; give a bag file";
+  try
+  {
+    bag.open(path, rosbag::bagmode::Read);
+  }
+  catch (const rosbag::BagUnindexedException& e)
+  {
+    return "cannot open " + path + ": " + e.what() + kReindexHint;
+  }
+  catch (const rosbag::BagException& e)
+  {
+    const bool active = path.size() > 7 && path.compare(path.size() - 7, 7, ".active") == 0;
+    return "cannot open " + path + ": " + e.what() + (active ? kReindexHint : "");
+  }
+  return {};
+}
 }  // namespace
 
 int main(int argc, char** argv)
+try
 {
   ic::quietSolverLogging();
   ic::CommandLine cli(
@@ -561,13 +588,9 @@ int main(int argc, char** argv)
   ic::Survey survey(cameras, options);
 
   rosbag::Bag bag;
-  try
+  if (const std::string problem = openBag(bag, cli.positional()[0]); !problem.empty())
   {
-    bag.open(cli.positional()[0], rosbag::bagmode::Read);
-  }
-  catch (const rosbag::BagException& e)
-  {
-    std::cerr << "calibrate_survey: cannot open " << cli.positional()[0] << ": " << e.what() << "\n";
+    std::cerr << "calibrate_survey: " << problem << "\n";
     return 2;
   }
   const auto start = std::chrono::steady_clock::now();
@@ -677,16 +700,16 @@ int main(int argc, char** argv)
       status = 1;
       continue;
     }
-    const std::string path = out_dir + "/" + name + ".yaml";
-    if (const ic::Status saved = ic::saveCalibrationFile(path, result->file); !saved)
+    const ic::CalibrationStore store(out_dir);
+    const std::string path = store.calibrationPath(name);
+    const cv::Mat overlay = ic::drawOverlay(camera.medianImage(), result->file.image_width, result->file.image_height,
+                                            result->file.camera, map, result->matched_image_lines);
+    if (const ic::Status saved = store.save(name, result->file, overlay); !saved)
     {
       std::printf("%s: %s\n", name.c_str(), saved.error().describe().c_str());
       status = 1;
       continue;
     }
-    cv::imwrite(out_dir + "/" + name + "_overlay.png",
-                ic::drawOverlay(camera.medianImage(), result->file.image_width, result->file.image_height,
-                                result->file.camera, map, result->matched_image_lines));
     std::printf("%s: %s (%.1f s) -> %s\n", name.c_str(), result->summary.c_str(), seconds(calibration_start),
                 path.c_str());
     if (cli.has("truth-dir"))
@@ -703,4 +726,10 @@ int main(int argc, char** argv)
                           survey.usedMapLines(), cli.flag("oracle-details"));
       }
   return status;
+}
+catch (const rosbag::BagException& e)
+{
+  // A bag cut short (a recording killed before it closed the file) fails while it is read.
+  std::cerr << "calibrate_survey: the bag cannot be read to its end: " << e.what() << kReindexHint << "\n";
+  return 2;
 }

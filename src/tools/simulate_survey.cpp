@@ -1,5 +1,7 @@
 // simulate_survey: records a simulated survey of a world into a rosbag, with the ground truth beside it.
 #include <chrono>
+#include <cmath>
+#include <filesystem>
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
@@ -32,10 +34,10 @@ Options:
   --world FILE        world file (config/worlds/*.yaml; format in docs/simulator.md)
   --out FILE          the bag to write
   --seed N            seed of every random choice (sensor noise, odometry drift); required
-  --duration S        survey length in seconds (default 40)
-  --rate HZ           RGB-D frame rate (default 5); /tf runs at a multiple of it, at least 20 Hz
-  --fixed-rate HZ     rate of every fixed camera (default: each camera's rate in the world file)
-  --start-time SEC    stamp of the start, seconds since the epoch (default 1700000000)
+  --duration S        survey length in seconds (default 40; at most 3600, and 20000 RGB-D frames)
+  --rate HZ           RGB-D frame rate (default 5, at most 60); /tf runs at a multiple of it, at least 20 Hz
+  --fixed-rate HZ     rate of every fixed camera, at most 60 (default: each camera's rate in the world file)
+  --start-time SEC    stamp of the start, seconds since the epoch, 0 .. 4e9 (default 1700000000)
   --no-depth-noise    exact depth (rounded to mm; no-return rules kept)
   --no-image-noise    no sensor noise on the fixed cameras (and the Xtion RGB)
   --odom-drift        odom -> base_link drifts (random walk), map -> odom compensates it
@@ -50,6 +52,35 @@ Options:
 
 Exit status: 0 success, 1 simulation or writing failed, 2 bad command line or world file.
 )";
+
+constexpr double kMaxStartTimeS = 4e9;    // ros::Time's seconds are unsigned 32-bit
+constexpr double kMaxDurationS = 3600.0;  // documented limits of a simulated survey
+constexpr double kMaxRateHz = 60.0;       // RGB-D and fixed-camera frame rates
+constexpr double kMaxFrames = 20000.0;    // RGB-D frames (duration x rate)
+
+// The command line's numbers within the documented limits, and the output a file name; also removes the unfinished
+// <out>.active of an earlier run that was killed (writeSurveyBag writes there and renames at the end).
+std::string checkRunOptions(const ic::CommandLine& cli, const sim::SurveyOptions& options)
+{
+  const auto within = [](double v, double low, double high) { return std::isfinite(v) && v >= low && v <= high; };
+  if (options.start_time_ns < 0)
+    return "--start-time must be within 0 .. 4e9 seconds since the epoch";
+  if (!within(options.duration_s, 1e-3, kMaxDurationS) || !within(options.rate_hz, 1e-3, kMaxRateHz) ||
+      options.duration_s * options.rate_hz > kMaxFrames)
+    return "--duration must be within 0.001 .. 3600 s, --rate within 0.001 .. 60 Hz, and duration x rate at most "
+           "20000 frames";
+  if (options.fixed_rate_hz && !within(*options.fixed_rate_hz, 1e-3, kMaxRateHz))
+    return "--fixed-rate must be within 0.001 .. 60 Hz";
+  if (!cli.has("out"))
+    return {};
+  const std::string out = cli.value("out");
+  std::error_code ec;
+  if (out.empty() || std::filesystem::is_directory(out, ec))
+    return "--out must name a file (got '" + out + "')";
+  if (std::filesystem::exists(out + ".active", ec) && std::filesystem::remove(out + ".active", ec))
+    std::cerr << "simulate_survey: removed " << out << ".active, left unfinished by an earlier run\n";
+  return {};
+}
 
 int fail(const std::string& message, int status)
 {
@@ -91,7 +122,10 @@ int main(int argc, char** argv)
   options.seed = static_cast<uint64_t>(cli.number("seed", 0));
   if (cli.has("fixed-rate"))
     options.fixed_rate_hz = cli.number("fixed-rate", 1.0);
-  options.start_time_ns = static_cast<int64_t>(cli.number("start-time", 1.7e9)) * 1000000000LL;
+  const double start_time_s = cli.number("start-time", 1.7e9);
+  // ros::Time holds unsigned 32-bit seconds; checked in checkRunOptions before it is used.
+  options.start_time_ns =
+      start_time_s >= 0.0 && start_time_s <= kMaxStartTimeS ? static_cast<int64_t>(start_time_s) * 1000000000LL : -1;
   options.depth_noise = !cli.flag("no-depth-noise");
   options.image_noise = !cli.flag("no-image-noise");
   options.odom_drift = cli.flag("odom-drift");
@@ -117,6 +151,8 @@ int main(int argc, char** argv)
                     "\n\n" + kUsage,
                 2);
 
+  if (const std::string problem = checkRunOptions(cli, options); !problem.empty())
+    return fail(problem, 2);
   auto world = sim::loadWorldFile(cli.value("world"));
   if (!world)
     return fail(world.error().describe(), 2);

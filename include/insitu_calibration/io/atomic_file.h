@@ -11,7 +11,8 @@ namespace insitu_calibration
 {
 // Creates the parent directory when missing.
 Status writeFileAtomically(const std::string& path, const std::string& content);
-Expected<std::string> readFile(const std::string& path);
+// Refuses a directory and a file larger than max_bytes (the readers' documented limit) before reading it.
+Expected<std::string> readFile(const std::string& path, size_t max_bytes = size_t{64} << 20);
 
 }  // namespace insitu_calibration
 

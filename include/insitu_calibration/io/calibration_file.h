@@ -47,6 +47,10 @@ Status saveCalibrationFile(const std::string& path, const CalibrationFile& calib
 // Reads our format; a plain camera_calibration_parsers file without camera_pose is refused (it has no pose).
 Expected<CalibrationFile> parseCalibration(const std::string& yaml_text);
 Expected<CalibrationFile> loadCalibrationFile(const std::string& path);
+// What parseCalibration checks of every file, loaded or about to be saved: an image of 1..32768 px a side, finite
+// numbers everywhere, positive focal lengths, a principal point and distortion centre near the image, and a division
+// model that does not fold the image (|lambda| r^2 < 1 at every corner: beyond it two pixels share a ray).
+Status validateCalibration(const CalibrationFile& calibration);
 
 }  // namespace insitu_calibration
 

@@ -18,6 +18,17 @@
 
 namespace insitu_calibration
 {
+// Documented limits (README, "Correspondence file"), checked before anything is allocated for the entries.
+namespace correspondence_limits
+{
+constexpr int kMaxImageSide = 32768;         // px, image_width and image_height
+constexpr size_t kMaxLines = 20000;          // entries of `lines`
+constexpr size_t kMaxPoints = 20000;         // entries of `points`
+constexpr size_t kMaxPointsPerLine = 10000;  // entries of a line's `image` or `world`
+constexpr double kImageMargin = 1.0;         // image points within the image grown by its size on every side
+constexpr double kMaxWorldM = 1e5;           // |x|, |y|, |z| of world points, metres
+}  // namespace correspondence_limits
+
 Expected<CorrespondenceSet> loadCorrespondenceFile(const std::string& path);
 Expected<CorrespondenceSet> parseCorrespondences(const std::string& yaml_text);
 // Written atomically (temporary file, then rename).

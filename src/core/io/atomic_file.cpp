@@ -18,6 +18,10 @@ Status writeFileAtomically(const std::string& path, const std::string& content)
   namespace fs = std::filesystem;
   const fs::path target(path);
   std::error_code ec;
+  if (path.empty() || !target.has_filename())
+    return Error(ErrorCode::kInvalidInput, "cannot write to '" + path + "': give a file name");
+  if (fs::is_directory(target, ec))
+    return Error(ErrorCode::kInvalidInput, "cannot write to " + path + ": it is a directory; give a file name");
   if (target.has_parent_path())
   {
     fs::create_directories(target.parent_path(), ec);
@@ -61,16 +65,32 @@ Status writeFileAtomically(const std::string& path, const std::string& content)
   return Success{};
 }
 
-Expected<std::string> readFile(const std::string& path)
+Expected<std::string> readFile(const std::string& path, size_t max_bytes)
 {
+  std::error_code ec;
+  if (path.empty())
+    return Error(ErrorCode::kIoError, "cannot open '': no file name given");
+  if (std::filesystem::is_directory(path, ec))
+    return Error(ErrorCode::kIoError, "cannot read " + path + ": it is a directory, not a file");
+  if (const auto size = std::filesystem::file_size(path, ec); !ec && size > max_bytes)
+    return Error(ErrorCode::kInvalidInput, "cannot read " + path + ": " + std::to_string(size) +
+                                               " bytes, more than the " + std::to_string(max_bytes) + " allowed");
   std::ifstream in(path, std::ios::binary);
   if (!in)
     return Error(ErrorCode::kIoError, "cannot open " + path + ": " + std::strerror(errno));
-  std::ostringstream ss;
-  ss << in.rdbuf();
+  // Read in chunks up to the limit: a FIFO or /dev/zero has no size to check beforehand.
+  std::string text;
+  char chunk[65536];
+  while (in.read(chunk, sizeof chunk) || in.gcount() > 0)
+  {
+    text.append(chunk, static_cast<size_t>(in.gcount()));
+    if (text.size() > max_bytes)
+      return Error(ErrorCode::kInvalidInput,
+                   "cannot read " + path + ": more than the " + std::to_string(max_bytes) + " bytes allowed");
+  }
   if (in.bad())
     return Error(ErrorCode::kIoError, "cannot read " + path);
-  return ss.str();
+  return text;
 }
 
 }  // namespace insitu_calibration

@@ -1,5 +1,7 @@
 #include "insitu_calibration/io/calibration_file.h"
 
+#include <cmath>
+
 #include <Eigen/Geometry>
 
 #include "insitu_calibration/io/atomic_file.h"
@@ -73,7 +75,73 @@ Status saveCalibrationFile(const std::string& path, const CalibrationFile& calib
   return writeFileAtomically(path, formatCalibration(calibration));
 }
 
-Expected<CalibrationFile> parseCalibration(const std::string& yaml_text)
+namespace
+{
+constexpr int kMaxImageSide = 32768;
+
+bool finite(double value)
+{
+  return std::isfinite(value);
+}
+
+Status checkImageGeometry(const CalibrationFile& c)
+{
+  if (c.image_width < 1 || c.image_height < 1 || c.image_width > kMaxImageSide || c.image_height > kMaxImageSide)
+    return Error(ErrorCode::kInvalidInput,
+                 "image_width x image_height must be within 1.." + std::to_string(kMaxImageSide) + " (got " +
+                     std::to_string(c.image_width) + " x " + std::to_string(c.image_height) + ")");
+  const Intrinsics& in = c.camera.intrinsics();
+  const Eigen::Vector2d size(c.image_width, c.image_height);
+  const auto near_image = [&](const Eigen::Vector2d& p) {
+    return p.allFinite() && (p.array() >= -size.array()).all() && (p.array() <= 2.0 * size.array()).all();
+  };
+  if (!(in.fx > 0.0 && in.fy > 0.0 && in.fx < 1e3 * size.maxCoeff() && in.fy < 1e3 * size.maxCoeff()))
+    return Error(ErrorCode::kInvalidInput, "camera_matrix: the focal lengths must be positive and finite (got fx " +
+                                               std::to_string(in.fx) + ", fy " + std::to_string(in.fy) + ")");
+  if (!finite(in.skew) || std::abs(in.skew) > in.fx || !near_image(in.principalPoint()))
+    return Error(ErrorCode::kInvalidInput,
+                 "camera_matrix: the skew must be below fx and the principal point within one image size of the "
+                 "image");
+  const DivisionModel& d = c.camera.distortion();
+  if (!finite(d.lambda) || !near_image(d.center))
+    return Error(ErrorCode::kInvalidInput,
+                 "division_model: lambda must be finite and the centre within one image size of the image");
+  double r2 = 0.0;  // the largest squared radius of a pixel of the image about the distortion centre
+  for (const double u : {-0.5, c.image_width - 0.5})
+    for (const double v : {-0.5, c.image_height - 0.5})
+      r2 = std::max(r2, (Eigen::Vector2d(u, v) - d.center).squaredNorm());
+  if (!(std::abs(d.lambda) * r2 < 1.0))
+    return Error(ErrorCode::kInvalidInput,
+                 "division_model.lambda " + std::to_string(d.lambda) + " folds the image (|lambda| r^2 = " +
+                     std::to_string(std::abs(d.lambda) * r2) + " at a corner, it must stay below 1)");
+  return Success{};
+}
+}  // namespace
+
+Status validateCalibration(const CalibrationFile& c)
+{
+  if (const Status geometry = checkImageGeometry(c); !geometry)
+    return geometry;
+  const Eigen::Isometry3d world_from_camera = c.camera.pose().worldFromCamera();
+  if (!world_from_camera.matrix().allFinite())
+    return Error(ErrorCode::kInvalidInput, "camera_pose: NaN or infinite values");
+  for (const double k : c.plumb_bob.coefficients)
+    if (!finite(k))
+      return Error(ErrorCode::kInvalidInput, "distortion_coefficients: NaN or infinite values");
+  if (!finite(c.plumb_bob.max_error_px) || c.plumb_bob.max_error_px < 0.0)
+    return Error(ErrorCode::kInvalidInput, "division_model.plumb_bob_max_error_px must be finite and >= 0");
+  if (c.quality)
+  {
+    if (!(finite(c.quality->rms_px) && finite(c.quality->median_px) && c.quality->rms_px >= 0.0 &&
+          c.quality->median_px >= 0.0))
+      return Error(ErrorCode::kInvalidInput, "quality: NaN, infinite or negative values");
+  }
+  return Success{};
+}
+
+namespace
+{
+Expected<CalibrationFile> parseDocument(const std::string& yaml_text)
 {
   const auto root = yaml_util::parseYaml(yaml_text, "calibration file");
   if (!root)
@@ -82,7 +150,7 @@ Expected<CalibrationFile> parseCalibration(const std::string& yaml_text)
   if (!doc.IsMap())
     return Error(ErrorCode::kParseError, "calibration file: expected a map");
   CalibrationFile c;
-  c.camera_name = doc["camera_name"] ? doc["camera_name"].as<std::string>("") : "";
+  c.camera_name = doc["camera_name"] && doc["camera_name"].IsScalar() ? doc["camera_name"].Scalar() : "";
   const auto width = yaml_util::toInt(doc["image_width"], "image_width");
   const auto height = yaml_util::toInt(doc["image_height"], "image_height");
   if (!width || !height)
@@ -97,6 +165,8 @@ Expected<CalibrationFile> parseCalibration(const std::string& yaml_text)
   const YAML::Node division = doc["division_model"];
   if (division)
   {
+    if (!division.IsMap())
+      return Error(ErrorCode::kParseError, "division_model: expected a map {lambda, center}");
     const auto lambda = yaml_util::toDouble(division["lambda"], "division_model.lambda");
     if (!lambda)
       return lambda.error();
@@ -105,14 +175,22 @@ Expected<CalibrationFile> parseCalibration(const std::string& yaml_text)
       return center.error();
     c.camera.distortion() = DivisionModel{*lambda, *center};
     if (division["plumb_bob_max_error_px"])
-      c.plumb_bob.max_error_px = division["plumb_bob_max_error_px"].as<double>(0.0);
+    {
+      const auto max_error =
+          yaml_util::toDouble(division["plumb_bob_max_error_px"], "division_model.plumb_bob_max_error_px");
+      if (!max_error)
+        return max_error.error();
+      c.plumb_bob.max_error_px = *max_error;
+    }
   }
   else
   {
     c.camera.distortion() = DivisionModel{0.0, c.camera.intrinsics().principalPoint()};
   }
-  if (const YAML::Node d = doc["distortion_coefficients"]; d && d["data"] && d["data"].IsSequence())
+  if (const YAML::Node d = yaml_util::child(doc, "distortion_coefficients"); d && d["data"] && d["data"].IsSequence())
   {
+    if (d["data"].size() > 16)
+      return Error(ErrorCode::kParseError, "distortion_coefficients.data: expected at most 16 numbers");
     const auto coefficients = yaml_util::toNumbers(d["data"], "distortion_coefficients.data");
     if (!coefficients)
       return coefficients.error();
@@ -123,7 +201,7 @@ Expected<CalibrationFile> parseCalibration(const std::string& yaml_text)
   const YAML::Node pose = doc["camera_pose"];
   if (!pose || !pose.IsMap())
     return Error(ErrorCode::kParseError, "camera_pose: missing (this file has intrinsics but no pose in the world)");
-  c.world_frame = pose["frame_id"] ? pose["frame_id"].as<std::string>("map") : "map";
+  c.world_frame = pose["frame_id"] && pose["frame_id"].IsScalar() ? pose["frame_id"].Scalar() : "map";
   const auto position = yaml_util::toVector<3>(pose["position"], "camera_pose.position");
   if (!position)
     return position.error();
@@ -143,7 +221,9 @@ Expected<CalibrationFile> parseCalibration(const std::string& yaml_text)
     CalibrationQuality q;
     for (const auto& kv : quality)
     {
-      const std::string key = kv.first.as<std::string>();
+      if (!kv.first.IsScalar())
+        return Error(ErrorCode::kParseError, "quality: a key is not a name");
+      const std::string key = kv.first.Scalar();
       if (key == "rms_px")
         q.rms_px = kv.second.as<double>(0.0);
       else if (key == "median_px")
@@ -160,7 +240,8 @@ Expected<CalibrationFile> parseCalibration(const std::string& yaml_text)
       {
         try
         {
-          q.extra[key] = kv.second.as<double>();
+          if (const double value = kv.second.as<double>(); std::isfinite(value))
+            q.extra[key] = value;
         }
         catch (const YAML::Exception&)
         {
@@ -170,7 +251,15 @@ Expected<CalibrationFile> parseCalibration(const std::string& yaml_text)
     }
     c.quality = q;
   }
+  if (const Status valid = validateCalibration(c); !valid)
+    return valid.error();
   return c;
+}
+}  // namespace
+
+Expected<CalibrationFile> parseCalibration(const std::string& yaml_text)
+{
+  return yaml_util::guarded<CalibrationFile>("calibration file", [&] { return parseDocument(yaml_text); });
 }
 
 Expected<CalibrationFile> loadCalibrationFile(const std::string& path)

@@ -12,6 +12,9 @@ Expected<std::vector<Eigen::Matrix<double, N, 1>>> toPointList(const YAML::Node&
 {
   if (!node || !node.IsSequence())
     return Error(ErrorCode::kParseError, where + ": expected a list of [" + (N == 2 ? "u, v" : "x, y, z") + "]");
+  if (const Status s = yaml_util::checkCount(node.size(), correspondence_limits::kMaxPointsPerLine, where, "points");
+      !s)
+    return s.error();
   std::vector<Eigen::Matrix<double, N, 1>> out;
   for (size_t i = 0; i < node.size(); ++i)
   {
@@ -22,9 +25,42 @@ Expected<std::vector<Eigen::Matrix<double, N, 1>>> toPointList(const YAML::Node&
   }
   return out;
 }
-}  // namespace
 
-Expected<CorrespondenceSet> parseCorrespondences(const std::string& yaml_text)
+// Ranges beyond which a value is a mistake, not a measurement: pixels far outside the image (they would also push
+// the eigen-solvers out of double range) and world coordinates beyond any building.
+Status checkRanges(const CorrespondenceSet& set)
+{
+  using namespace correspondence_limits;
+  if (set.image_width > kMaxImageSide || set.image_height > kMaxImageSide)
+    return Error(ErrorCode::kInvalidInput,
+                 "image_width and image_height may be at most " + std::to_string(kMaxImageSide) + " (got " +
+                     std::to_string(set.image_width) + " x " + std::to_string(set.image_height) + ")");
+  const Eigen::Vector2d size(set.image_width, set.image_height);
+  const auto pixel_ok = [&](const Eigen::Vector2d& p) {
+    return (p.array() >= -kImageMargin * size.array()).all() &&
+           (p.array() <= (1.0 + kImageMargin) * size.array()).all();
+  };
+  const auto world_ok = [](const Eigen::Vector3d& x) { return x.allFinite() && x.cwiseAbs().maxCoeff() <= kMaxWorldM; };
+  const std::string pixel_rule = ": an image point lies more than one image size outside the image";
+  const std::string world_rule = ": a world point is beyond " + std::to_string(static_cast<int>(kMaxWorldM)) + " m";
+  for (size_t i = 0; i < set.lines.size(); ++i)
+  {
+    const std::string where = "lines[" + std::to_string(i) + "]";
+    for (const auto& p : set.lines[i].image)
+      if (!pixel_ok(p))
+        return Error(ErrorCode::kInvalidInput, where + pixel_rule);
+    for (const auto& x : set.lines[i].world)
+      if (!world_ok(x))
+        return Error(ErrorCode::kInvalidInput, where + world_rule);
+  }
+  for (size_t i = 0; i < set.points.size(); ++i)
+    if (!pixel_ok(set.points[i].image) || !world_ok(set.points[i].world))
+      return Error(ErrorCode::kInvalidInput,
+                   "points[" + std::to_string(i) + "]" + pixel_rule + " or" + world_rule.substr(1));
+  return Success{};
+}
+
+Expected<CorrespondenceSet> parseDocument(const std::string& yaml_text)
 {
   const auto root = yaml_util::parseYaml(yaml_text, "correspondence file");
   if (!root)
@@ -34,7 +70,7 @@ Expected<CorrespondenceSet> parseCorrespondences(const std::string& yaml_text)
     return Error(ErrorCode::kParseError, "correspondence file: expected a map with image_width, image_height, lines");
   CorrespondenceSet set;
   if (doc["camera_name"])
-    set.camera_name = doc["camera_name"].as<std::string>("");
+    set.camera_name = doc["camera_name"].IsScalar() ? doc["camera_name"].Scalar() : "";
   const auto width = yaml_util::toInt(doc["image_width"], "image_width");
   if (!width)
     return width.error();
@@ -49,9 +85,13 @@ Expected<CorrespondenceSet> parseCorrespondences(const std::string& yaml_text)
   {
     if (!lines.IsSequence())
       return Error(ErrorCode::kParseError, "lines: expected a list");
+    if (const Status s = yaml_util::checkCount(lines.size(), correspondence_limits::kMaxLines, "lines", "lines"); !s)
+      return s.error();
     for (size_t i = 0; i < lines.size(); ++i)
     {
       const std::string where = "lines[" + std::to_string(i) + "]";
+      if (!lines[i].IsMap())
+        return Error(ErrorCode::kParseError, where + ": expected a map with image and world");
       LineCorrespondence line;
       auto image = toPointList<2>(lines[i]["image"], where + ".image");
       if (!image)
@@ -68,9 +108,14 @@ Expected<CorrespondenceSet> parseCorrespondences(const std::string& yaml_text)
   {
     if (!points.IsSequence())
       return Error(ErrorCode::kParseError, "points: expected a list");
+    if (const Status s = yaml_util::checkCount(points.size(), correspondence_limits::kMaxPoints, "points", "points");
+        !s)
+      return s.error();
     for (size_t i = 0; i < points.size(); ++i)
     {
       const std::string where = "points[" + std::to_string(i) + "]";
+      if (!points[i].IsMap())
+        return Error(ErrorCode::kParseError, where + ": expected a map with image and world");
       const auto image = yaml_util::toVector<2>(points[i]["image"], where + ".image");
       if (!image)
         return image.error();
@@ -82,7 +127,15 @@ Expected<CorrespondenceSet> parseCorrespondences(const std::string& yaml_text)
   }
   if (const Status valid = set.validate(); !valid)
     return valid.error();
+  if (const Status in_range = checkRanges(set); !in_range)
+    return in_range.error();
   return set;
+}
+}  // namespace
+
+Expected<CorrespondenceSet> parseCorrespondences(const std::string& yaml_text)
+{
+  return yaml_util::guarded<CorrespondenceSet>("correspondence file", [&] { return parseDocument(yaml_text); });
 }
 
 Expected<CorrespondenceSet> loadCorrespondenceFile(const std::string& path)

@@ -95,16 +95,93 @@ Expected<Eigen::Matrix<double, R, C>> toMatrix(const YAML::Node& node, const std
   return Eigen::Matrix<double, R, C>(Eigen::Map<const Eigen::Matrix<double, R, C, Eigen::RowMajor>>(data->data()));
 }
 
+// The largest YAML document a reader accepts: yaml-cpp needs about 70 bytes per node, so this bounds a reader's
+// memory to a few hundred MB whatever the file.
+constexpr size_t kMaxYamlBytes = size_t{8} << 20;
+
+// yaml-cpp shares an aliased node instead of copying it, so a small file can describe an exponentially large tree
+// (a "billion laughs") and an anchor used inside itself a cyclic one, while every reader walks the expanded tree.
+// The walk stops once the tree has more nodes than an alias-free document of that many bytes could hold (at most
+// one node per byte, with an allowance for tiny documents), which bounds every reader's work by its file's size.
+inline Status checkExpandedSize(const YAML::Node& root, size_t text_bytes, const std::string& source)
+{
+  const size_t max_nodes = 2 * text_bytes + 1024;
+  std::vector<YAML::Node> stack{root};
+  size_t visited = 0;
+  while (!stack.empty())
+  {
+    const YAML::Node node = stack.back();
+    stack.pop_back();
+    if (++visited + stack.size() > max_nodes)
+      return Error(ErrorCode::kInvalidInput,
+                   source + ": the document expands to more than " + std::to_string(max_nodes) +
+                       " nodes (aliases that repeat or contain themselves?); write the values out instead");
+    if (node.IsSequence())
+      for (const auto& child : node)
+        stack.push_back(child);
+    else if (node.IsMap())
+      for (const auto& entry : node)
+      {
+        stack.push_back(entry.first);
+        stack.push_back(entry.second);
+      }
+  }
+  return Success{};
+}
+
 inline Expected<YAML::Node> parseYaml(const std::string& text, const std::string& source)
 {
+  if (text.size() > kMaxYamlBytes)
+    return Error(ErrorCode::kInvalidInput, source + ": " + std::to_string(text.size()) + " bytes, more than the " +
+                                               std::to_string(kMaxYamlBytes >> 20) + " MiB a file may have");
   try
   {
-    return YAML::Load(text);
+    YAML::Node root = YAML::Load(text);
+    if (const Status bounded = checkExpandedSize(root, text.size(), source); !bounded)
+      return bounded.error();
+    return root;
   }
   catch (const YAML::Exception& e)
   {
     return Error(ErrorCode::kParseError, source + ": not valid YAML: " + e.what());
   }
+}
+
+// Runs a reader's parse so that no yaml-cpp exception escapes it: a conversion that no explicit check caught (a
+// scalar where a map is due, a key that is a list) becomes the usual parse error, with yaml-cpp's line and column.
+template <typename T, typename Parse>
+Expected<T> guarded(const std::string& source, Parse&& parse)
+{
+  try
+  {
+    return parse();
+  }
+  catch (const YAML::Exception& e)
+  {
+    return Error(ErrorCode::kParseError, source + ": unexpected content: " + e.what());
+  }
+  catch (const std::bad_alloc&)
+  {
+    return Error(ErrorCode::kInvalidInput, source + ": too large to hold in memory");
+  }
+}
+
+// node[key] that never throws: undefined unless node is a map holding key.
+inline YAML::Node child(const YAML::Node& node, const std::string& key)
+{
+  if (node && node.IsMap())
+    if (YAML::Node value = node[key])
+      return value;
+  return YAML::Node(YAML::NodeType::Undefined);
+}
+
+// A count read from the file, refused above its documented limit before anything is allocated for it.
+inline Status checkCount(size_t count, size_t limit, const std::string& where, const std::string& what)
+{
+  if (count > limit)
+    return Error(ErrorCode::kInvalidInput, where + ": " + std::to_string(count) + " " + what + ", more than the " +
+                                               std::to_string(limit) + " allowed");
+  return Success{};
 }
 
 // Emits a matrix as camera_calibration_parsers does.

@@ -1,4 +1,5 @@
 #include "insitu_calibration/simulation/world.h"
+#include "insitu_calibration/simulation/world_limits.h"
 
 #include <algorithm>
 #include <cmath>
@@ -762,7 +763,7 @@ Status finalizeSurface(Surface& s, bool set_frame)
   return Success{};
 }
 
-Expected<World> parseWorld(const std::string& yaml_text, const std::string& source)
+Expected<World> parseWorldEntries(const std::string& yaml_text, const std::string& source)
 {
   const auto root = yaml_util::parseYaml(yaml_text, source);
   if (!root)

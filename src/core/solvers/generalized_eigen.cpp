@@ -79,7 +79,12 @@ Expected<DltSystemSolution> solveDltSystem(const DltSystem& system, bool estimat
 
   // C11 p = mu C12 p with lambda = -mu. QZ gives (alpha, beta) pairs; beta ~ 0 is an infinite eigenvalue, which C12's
   // rank deficiency always produces.
-  Eigen::GeneralizedEigenSolver<Matrix12d> gep(system.c11(), system.c12(), false);
+  // mu is unchanged when both matrices are scaled alike; scaled to 1, extreme inputs cannot overflow inside QZ (at
+  // 1e155 px its iterations never ended). Eigen's QZ stops after 40 sweeps per eigenvalue and then reports failure.
+  const double scale = std::max(system.c11().cwiseAbs().maxCoeff(), system.c12().cwiseAbs().maxCoeff());
+  if (!(scale > 0.0) || !(scale < 1e200))
+    return Error(ErrorCode::kInvalidInput, "the linear system is zero or beyond double range; normalise the input");
+  Eigen::GeneralizedEigenSolver<Matrix12d> gep(system.c11() / scale, system.c12() / scale, false);
   if (gep.info() != Eigen::Success)
     return Error(ErrorCode::kNoSolution, "the generalised eigenvalue problem did not converge (QZ failed)");
   const auto alphas = gep.alphas();

@@ -10,6 +10,9 @@ namespace insitu_calibration
 {
 namespace
 {
+constexpr size_t kMaxCameras = 256;
+constexpr int kMaxImageSide = 32768;
+
 std::string expandHome(const std::string& path)
 {
   if (!path.empty() && path[0] == '~')
@@ -36,9 +39,31 @@ Status readOptional(const YAML::Node& map, const char* key, const std::string& w
   *out = *v;
   return Success{};
 }
+
+// A string entry: a scalar, or the fallback when absent (a list or map where a name is due is refused).
+Expected<std::string> optionalText(const YAML::Node& map, const char* key, const std::string& where,
+                                   const std::string& fallback)
+{
+  const YAML::Node value = map[key];
+  if (!value)
+    return fallback;
+  if (!value.IsScalar() || value.Scalar().empty())
+    return Error(ErrorCode::kParseError, where + "." + key + ": expected a non-empty string");
+  return value.Scalar();
+}
+
+Expected<std::vector<CameraConfigEntry>> parseCameraList(const std::string& yaml_text);
 }  // namespace
 
 Expected<std::vector<CameraConfigEntry>> parseCameraConfig(const std::string& yaml_text)
+{
+  return yaml_util::guarded<std::vector<CameraConfigEntry>>("camera configuration",
+                                                            [&] { return parseCameraList(yaml_text); });
+}
+
+namespace
+{
+Expected<std::vector<CameraConfigEntry>> parseCameraList(const std::string& yaml_text)
 {
   const auto root = yaml_util::parseYaml(yaml_text, "camera configuration");
   if (!root)
@@ -46,6 +71,8 @@ Expected<std::vector<CameraConfigEntry>> parseCameraConfig(const std::string& ya
   const YAML::Node list = root->IsMap() ? (*root)["cameras"] : *root;
   if (!list || !list.IsSequence() || list.size() == 0)
     return Error(ErrorCode::kParseError, "camera configuration: expected a non-empty list `cameras:`");
+  if (const Status s = yaml_util::checkCount(list.size(), kMaxCameras, "camera configuration", "cameras"); !s)
+    return s.error();
   std::vector<CameraConfigEntry> out;
   std::set<std::string> names;
   std::map<std::string, std::string> info_topics;  // topic -> camera
@@ -57,21 +84,33 @@ Expected<std::vector<CameraConfigEntry>> parseCameraConfig(const std::string& ya
       return Error(ErrorCode::kParseError, where + ": needs at least a name");
     CameraConfigEntry entry;
     FixedCameraConfig& config = entry.camera;
-    config.name = c["name"].as<std::string>("");
-    config.image_topic =
-        c["image_topic"] ? c["image_topic"].as<std::string>("") : "/fixed/" + config.name + "/image_raw";
+    const auto name = optionalText(c, "name", where, "");
+    if (!name)
+      return name.error();
+    config.name = *name;
+    const auto image_topic = optionalText(c, "image_topic", where, "/fixed/" + config.name + "/image_raw");
+    if (!image_topic)
+      return image_topic.error();
+    config.image_topic = *image_topic;
     for (const char* key : {"image_width", "image_height"})
     {
       const auto v = yaml_util::toInt(c[key], where + "." + key);
       if (!v)
         return v.error();
+      if (*v < 1 || *v > kMaxImageSide)
+        return Error(ErrorCode::kInvalidInput,
+                     where + "." + key + ": must be within 1.." + std::to_string(kMaxImageSide) + " px");
       (std::string(key) == "image_width" ? config.image_width : config.image_height) = *v;
     }
-    if (c["correspondence_file"])
-      config.correspondence_file = expandHome(c["correspondence_file"].as<std::string>(""));
+    const auto correspondence_file = optionalText(c, "correspondence_file", where, "");
+    if (!correspondence_file)
+      return correspondence_file.error();
+    config.correspondence_file = expandHome(*correspondence_file);
     if (const YAML::Node p = c["prior"])
     {
       const std::string pw = where + ".prior";
+      if (!p.IsMap())
+        return Error(ErrorCode::kParseError, pw + ": expected a map {position, direction, horizontal_fov_deg}");
       CameraPrior prior;
       const auto position = yaml_util::toVector<3>(p["position"], pw + ".position");
       if (!position)
@@ -102,8 +141,10 @@ Expected<std::vector<CameraConfigEntry>> parseCameraConfig(const std::string& ya
       return Error(valid.error().code(), where + ": " + valid.error().message());
     if (!names.insert(config.name).second)
       return Error(ErrorCode::kInvalidInput, where + ": the name '" + config.name + "' is used twice");
-    entry.calibrated_info_topic = c["calibrated_info_topic"] ? c["calibrated_info_topic"].as<std::string>("")
-                                                             : calibratedInfoTopic(config.image_topic);
+    const auto info_topic = optionalText(c, "calibrated_info_topic", where, calibratedInfoTopic(config.image_topic));
+    if (!info_topic)
+      return info_topic.error();
+    entry.calibrated_info_topic = *info_topic;
     // Two latched publishers on one topic would hand subscribers either camera's calibration.
     if (const auto [it, inserted] = info_topics.emplace(entry.calibrated_info_topic, config.name); !inserted)
       return Error(ErrorCode::kInvalidInput, where + ": cameras '" + it->second + "' and '" + config.name +
@@ -113,6 +154,7 @@ Expected<std::vector<CameraConfigEntry>> parseCameraConfig(const std::string& ya
   }
   return out;
 }
+}  // namespace
 
 Expected<std::vector<CameraConfigEntry>> loadCameraConfig(const std::string& path)
 {
