@@ -161,6 +161,12 @@ bool CalibrationServer::loadParameters()
   private_nh_.param("min_map_support", options.min_map_support, 2);
   private_nh_.param("keyframe/min_translation", options.keyframes.min_translation_m, 0.10);
   private_nh_.param("keyframe/min_rotation_deg", options.keyframes.min_rotation_deg, 5.0);
+  // The localiser's error behind tf (0: exact) and the odometry frame for the map adjustment (survey.h).
+  private_nh_.param("localization_sigma_m", options.localization_sigma_m, options.localization_sigma_m);
+  private_nh_.param("localization_sigma_deg", options.localization_sigma_deg, options.localization_sigma_deg);
+  private_nh_.param("localization_correlation_s", options.localization_correlation_s,
+                    options.localization_correlation_s);
+  private_nh_.param<std::string>("odom_frame", odom_frame_, "odom");
   FixedCameraOptions& camera_options = options.cameras;
   int median_images = 15;
   private_nh_.param("median_images", median_images, 15);
@@ -232,8 +238,13 @@ void CalibrationServer::rgbdCallback(const sensor_msgs::ImageConstPtr& rgb, cons
   }
   const RgbdFrame& frame = *converted;
 
+  // Odometry, when tf has it, ties consecutive keyframes in the map adjustment.
+  std::optional<Eigen::Isometry3d> odometry;
+  if (!odom_frame_.empty() && tf_buffer_.canTransform(odom_frame_, rgb->header.frame_id, rgb->header.stamp))
+    odometry = tf2::transformToEigen(tf_buffer_.lookupTransform(odom_frame_, rgb->header.frame_id, rgb->header.stamp));
+
   std::lock_guard<std::mutex> lock(mutex_);
-  const auto used = survey_->addRgbdFrame(frame);
+  const auto used = survey_->addRgbdFrame(frame, odometry);
   if (!used)
     ROS_WARN_THROTTLE(5.0, "calibration_node: skipping an RGB-D frame: %s", used.error().message().c_str());
 }

@@ -87,6 +87,7 @@ private:
 
   // Parameters
   std::string world_frame_;
+  std::string odom_frame_;  // empty: no odometry for the map adjustment
   std::string output_directory_;
   double tf_timeout_s_ = 0.2;
 
