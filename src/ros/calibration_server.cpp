@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include <boost/bind/bind.hpp>
+#include <boost/make_shared.hpp>
 #include <cv_bridge/cv_bridge.h>
 #include <opencv2/imgcodecs.hpp>
 #include <tf2_eigen/tf2_eigen.h>
@@ -73,6 +74,29 @@ std::string expandHome(const std::string& path)
   return path;
 }
 
+// The namespace of a topic: "/fixed/cam/image_raw" -> "/fixed/cam".
+std::string topicNamespace(const std::string& topic)
+{
+  const auto slash = topic.rfind('/');
+  return slash == std::string::npos ? std::string() : topic.substr(0, slash);
+}
+
+std::string stringMember(XmlRpc::XmlRpcValue& entry, const char* key, const std::string& fallback)
+{
+  if (entry.getType() == XmlRpc::XmlRpcValue::TypeStruct && entry.hasMember(key) &&
+      entry[key].getType() == XmlRpc::XmlRpcValue::TypeString)
+    return static_cast<std::string>(entry[key]);
+  return fallback;
+}
+
+bool boolMember(XmlRpc::XmlRpcValue& entry, const char* key, bool fallback)
+{
+  if (entry.getType() == XmlRpc::XmlRpcValue::TypeStruct && entry.hasMember(key) &&
+      entry[key].getType() == XmlRpc::XmlRpcValue::TypeBoolean)
+    return static_cast<bool>(entry[key]);
+  return fallback;
+}
+
 geometry_msgs::Point toPoint(const Eigen::Vector3d& p)
 {
   geometry_msgs::Point out;
@@ -132,6 +156,12 @@ CalibrationServer::CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private
         survey_->camera(name).config().image_topic, 2,
         [this, camera_name](const sensor_msgs::ImageConstPtr& image) { fixedImageCallback(camera_name, image); });
     camera.overlay_publisher = private_it.advertise(name + "/overlay", 1, true);
+    if (camera.camera_info_topic.empty())
+      continue;
+    if (camera.relay_image)
+      camera.calibrated_publisher = it_.advertiseCamera(topicNamespace(camera.camera_info_topic) + "/image_raw", 2);
+    else
+      camera.camera_info_publisher = nh_.advertise<sensor_msgs::CameraInfo>(camera.camera_info_topic, 2);
   }
   marker_publisher_ = private_nh_.advertise<visualization_msgs::MarkerArray>("markers", 1, true);
   calibrate_server_ = private_nh_.advertiseService("calibrate", &CalibrationServer::calibrateService, this);
@@ -202,8 +232,38 @@ bool CalibrationServer::loadParameters()
     cameras_.emplace(entry.camera.name, std::move(camera));
     fixed.push_back(entry.camera);
   }
+  loadCameraTopics(cameras);
   survey_ = std::make_unique<Survey>(fixed, options);
   return true;
+}
+
+void CalibrationServer::loadCameraTopics(XmlRpc::XmlRpcValue& cameras)
+{
+  if (cameras.getType() == XmlRpc::XmlRpcValue::TypeStruct && cameras.hasMember("cameras"))
+    return loadCameraTopics(cameras["cameras"]);
+  if (cameras.getType() != XmlRpc::XmlRpcValue::TypeArray)
+    return;
+  for (int i = 0; i < cameras.size(); ++i)
+  {
+    const std::string name = stringMember(cameras[i], "name", "");
+    const auto it = cameras_.find(name);
+    if (it == cameras_.end())
+      continue;
+    Camera& camera = it->second;
+    const std::string image_topic = stringMember(cameras[i], "image_topic", "/fixed/" + name + "/image_raw");
+    // Beside the driver's own namespace, not in it: a driver usually publishes an uncalibrated camera_info there.
+    camera.camera_info_topic =
+        stringMember(cameras[i], "camera_info_topic", topicNamespace(image_topic) + "/calibrated/camera_info");
+    camera.relay_image = boolMember(cameras[i], "relay_image", true);
+    camera.set_camera_info_service = stringMember(cameras[i], "set_camera_info_service", "");
+    ROS_INFO_STREAM(
+        "calibration_node: " << name << ": camera info "
+                             << (camera.camera_info_topic.empty() ? "off" : "on " + camera.camera_info_topic)
+                             << (camera.relay_image ? " beside the relayed image" : "")
+                             << (camera.set_camera_info_service.empty()
+                                     ? ""
+                                     : ", committed to " + camera.set_camera_info_service));
+  }
 }
 
 void CalibrationServer::rgbdCallback(const sensor_msgs::ImageConstPtr& rgb, const sensor_msgs::ImageConstPtr& depth,
@@ -237,8 +297,52 @@ void CalibrationServer::rgbdCallback(const sensor_msgs::ImageConstPtr& rgb, cons
     ROS_WARN_THROTTLE(5.0, "calibration_node: skipping an RGB-D frame: %s", used.error().message().c_str());
 }
 
+void CalibrationServer::publishCalibratedInfo(const std::string& name, const sensor_msgs::ImageConstPtr& image)
+{
+  auto info = boost::make_shared<sensor_msgs::CameraInfo>();
+  {
+    std::lock_guard<std::mutex> lock(info_mutex_);
+    const auto it = calibrated_info_.find(name);
+    if (it == calibrated_info_.end())
+      return;
+    *info = it->second;
+  }
+  if (image->width != info->width || image->height != info->height)
+  {
+    ROS_WARN_THROTTLE(10.0,
+                      "calibration_node: camera '%s': a %ux%u image, calibrated for %ux%u: no camera info "
+                      "published with it",
+                      name.c_str(), image->width, image->height, info->width, info->height);
+    return;
+  }
+  // image_proc's synchronizer pairs exact stamps: the image's header, as a driver would publish it.
+  info->header = image->header;
+  Camera& camera = cameras_.at(name);  // the map's structure is fixed after construction
+  if (camera.relay_image)
+    camera.calibrated_publisher.publish(image, info);
+  else
+    camera.camera_info_publisher.publish(info);
+}
+
+std::string CalibrationServer::commitToDriver(const std::string& name, const sensor_msgs::CameraInfo& info)
+{
+  const std::string& service = cameras_.at(name).set_camera_info_service;
+  if (service.empty())
+    return "";
+  sensor_msgs::SetCameraInfo srv;
+  srv.request.camera_info = info;
+  srv.request.camera_info.header.stamp = ros::Time();
+  if (!ros::service::waitForService(service, ros::Duration(2.0)) || !ros::service::call(service, srv))
+    return "; NOT committed: the driver's " + service + " does not answer";
+  if (!srv.response.success)
+    return "; NOT committed: " + service + " refused it (" + srv.response.status_message + ")";
+  return "; committed to " + service;
+}
+
 void CalibrationServer::fixedImageCallback(const std::string& name, const sensor_msgs::ImageConstPtr& image)
 {
+  if (!cameras_.at(name).camera_info_topic.empty())
+    publishCalibratedInfo(name, image);
   const auto grey = toGrey(*image);
   if (!grey)
   {
@@ -332,6 +436,7 @@ bool CalibrationServer::calibrateService(Calibrate::Request& request, Calibrate:
       saved_note = "NOT saved: " + saved.error().message();
       ROS_ERROR_STREAM("calibration_node: " << name << ": " << saved.error().message());
     }
+    saved_note += commitToDriver(name, toCameraInfo(result->file, cameras_.at(name).optical_frame));
     response.message += name + ": " + result->summary + "; " + saved_note + "\n";
     ROS_INFO_STREAM("calibration_node: " << name << ": " << result->summary);
   }
@@ -385,6 +490,10 @@ bool CalibrationServer::resetService(Reset::Request& request, Reset::Response& r
   if (request.camera.empty())
   {
     survey_->reset();
+    {
+      std::lock_guard<std::mutex> info_lock(info_mutex_);
+      calibrated_info_.clear();
+    }
     response.success = true;
     response.message = "reset every camera and the 3D line map (saved files are kept)";
     return true;
@@ -397,6 +506,10 @@ bool CalibrationServer::resetService(Reset::Request& request, Reset::Response& r
     return true;
   }
   survey_->resetCamera(request.camera);
+  {
+    std::lock_guard<std::mutex> info_lock(info_mutex_);
+    calibrated_info_.erase(request.camera);
+  }
   response.success = true;
   response.message = "reset camera '" + request.camera + "' (its saved file is kept)";
   return true;
@@ -418,6 +531,12 @@ bool CalibrationServer::saveService(std_srvs::Trigger::Request&, std_srvs::Trigg
       continue;
     }
     ++saved;
+    // ... and committed again to the drivers configured for it (a driver that was down at calibration time).
+    const std::string committed =
+        commitToDriver(name, toCameraInfo(*survey_->camera(name).calibration(), camera.optical_frame));
+    if (committed.rfind("; NOT", 0) == 0)
+      response.success = false;
+    response.message += committed.empty() ? "" : name + committed.substr(1) + "; ";
   }
   response.message += std::to_string(saved) + " calibration(s) saved in " + output_directory_;
   return true;
@@ -437,6 +556,10 @@ void CalibrationServer::publishCalibrations()
     sensor_msgs::CameraInfo info = toCameraInfo(*calibration, camera.optical_frame);
     info.header.stamp = now;
     camera.info_publisher.publish(info);
+    {
+      std::lock_guard<std::mutex> lock(info_mutex_);
+      calibrated_info_[name] = info;
+    }
     const auto last = survey_->camera(name).lastResult();
     const cv::Mat overlay = drawOverlay(survey_->camera(name).medianImage(), calibration->image_width,
                                         calibration->image_height, calibration->camera, survey_->mapSegments(),

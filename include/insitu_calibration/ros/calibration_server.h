@@ -18,6 +18,7 @@
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
+#include <sensor_msgs/SetCameraInfo.h>
 #include <std_srvs/Trigger.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/static_transform_broadcaster.h>
@@ -34,22 +35,39 @@ class CalibrationServer
 {
 public:
   CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private_nh);
+  // False when the configuration could not be loaded (the reason went to ROS_FATAL): the node must exit non-zero.
+  bool ok() const { return survey_ != nullptr; }
 
 private:
   // The ROS side of a fixed camera; its core is survey_->camera(name).
   struct Camera
   {
     image_transport::Subscriber subscriber;
-    ros::Publisher info_publisher;
+    ros::Publisher info_publisher;  // latched, once per calibration (calibrated_info_topic)
     image_transport::Publisher overlay_publisher;
     std::string link_frame;
     std::string optical_frame;
+    // The camera info that image_proc pairs with each image (same header), on camera_info_topic; with relay_image
+    // the image itself too, beside it (image_raw), so that image_proc runs in that namespace with no remapping.
+    std::string camera_info_topic;
+    bool relay_image = true;
+    image_transport::CameraPublisher calibrated_publisher;  // relay_image
+    ros::Publisher camera_info_publisher;                   // !relay_image
+    // When set, every new calibration is committed to the camera driver (camera_calibration's "commit").
+    std::string set_camera_info_service;
   };
 
   bool loadParameters();
   void rgbdCallback(const sensor_msgs::ImageConstPtr& rgb, const sensor_msgs::ImageConstPtr& depth,
                     const sensor_msgs::CameraInfoConstPtr& info);
   void fixedImageCallback(const std::string& name, const sensor_msgs::ImageConstPtr& image);
+  // The per-camera ROS options of the ~cameras entries (the core parser ignores them).
+  void loadCameraTopics(XmlRpc::XmlRpcValue& cameras);
+  // The calibrated camera info with the image's header, and the image itself when relayed; no-op before a
+  // calibration. Needs only info_mutex_, so images keep flowing while a calibration holds mutex_.
+  void publishCalibratedInfo(const std::string& name, const sensor_msgs::ImageConstPtr& image);
+  // Sends the calibration to the driver's set_camera_info service, when configured. Returns what happened, in words.
+  std::string commitToDriver(const std::string& name, const sensor_msgs::CameraInfo& info);
 
   bool calibrateService(Calibrate::Request& request, Calibrate::Response& response);
   bool statusService(CalibrationStatus::Request& request, CalibrationStatus::Response& response);
@@ -94,6 +112,9 @@ private:
   mutable std::mutex mutex_;
   std::unique_ptr<Survey> survey_;
   std::map<std::string, Camera> cameras_;
+  // Each calibrated camera's CameraInfo (header filled per image), written under both locks, read under info_mutex_.
+  std::mutex info_mutex_;
+  std::map<std::string, sensor_msgs::CameraInfo> calibrated_info_;
 };
 
 }  // namespace insitu_calibration
