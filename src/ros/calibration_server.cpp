@@ -2,6 +2,7 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <optional>
 
 #include <boost/bind/bind.hpp>
 #include <boost/make_shared.hpp>
@@ -131,8 +132,10 @@ visualization_msgs::Marker lineList(const std::string& frame, const std::string&
 }  // namespace
 
 CalibrationServer::CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private_nh)
-    : nh_(nh), private_nh_(private_nh), it_(nh), tf_listener_(tf_buffer_)
+    : nh_(nh), private_nh_(private_nh), it_(nh), tf_listener_(tf_buffer_), service_nh_(private_nh), work_nh_(private_nh)
 {
+  service_nh_.setCallbackQueue(&service_queue_);
+  work_nh_.setCallbackQueue(&work_queue_);
   if (!loadParameters())
   {
     ros::shutdown();
@@ -164,10 +167,18 @@ CalibrationServer::CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private
       camera.camera_info_publisher = nh_.advertise<sensor_msgs::CameraInfo>(camera.camera_info_topic, 2);
   }
   marker_publisher_ = private_nh_.advertise<visualization_msgs::MarkerArray>("markers", 1, true);
-  calibrate_server_ = private_nh_.advertiseService("calibrate", &CalibrationServer::calibrateService, this);
-  status_server_ = private_nh_.advertiseService("status", &CalibrationServer::statusService, this);
-  reset_server_ = private_nh_.advertiseService("reset", &CalibrationServer::resetService, this);
-  save_server_ = private_nh_.advertiseService("save", &CalibrationServer::saveService, this);
+  calibrate_server_ = work_nh_.advertiseService("calibrate", &CalibrationServer::calibrateService, this);
+  status_server_ = service_nh_.advertiseService("status", &CalibrationServer::statusService, this);
+  reset_server_ = service_nh_.advertiseService("reset", &CalibrationServer::resetService, this);
+  save_server_ = service_nh_.advertiseService("save", &CalibrationServer::saveService, this);
+  // The action (topics ~calibrate/goal, feedback, result, cancel; its goals run on its own thread).
+  calibrate_action_ = std::make_unique<actionlib::SimpleActionServer<CalibrateAction>>(
+      service_nh_, "calibrate", [this](const CalibrateGoalConstPtr& goal) { executeCalibrateAction(goal); }, false);
+  calibrate_action_->start();
+  service_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &service_queue_);
+  work_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &work_queue_);
+  service_spinner_->start();
+  work_spinner_->start();
   marker_timer_ = nh_.createWallTimer(ros::WallDuration(2.0), [this](const ros::WallTimerEvent&) {
     std::lock_guard<std::mutex> lock(mutex_);
     publishMarkers();
@@ -177,6 +188,18 @@ CalibrationServer::CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private
   ROS_INFO_STREAM("calibration_node: " << cameras_.size() << " fixed camera(s), world frame '" << world_frame_
                                        << "', calibrations in " << output_directory_
                                        << ". Call ~calibrate once the robot has surveyed the cameras' views.");
+}
+
+CalibrationServer::~CalibrationServer()
+{
+  // No callback may run while the members below go: the action's thread and the spinners stop first.
+  if (calibrate_action_)
+    calibrate_action_->shutdown();
+  if (service_spinner_)
+    service_spinner_->stop();
+  if (work_spinner_)
+    work_spinner_->stop();
+  calibrate_action_.reset();
 }
 
 bool CalibrationServer::loadParameters()
@@ -399,76 +422,178 @@ Status CalibrationServer::saveCalibration(const std::string& name)
   return Success{};
 }
 
-bool CalibrationServer::calibrateService(Calibrate::Request& request, Calibrate::Response& response)
+void CalibrationServer::calibrateOne(const std::string& name, const std::function<void(const std::string&)>& stage,
+                                     CalibrationOutcome* outcome)
 {
-  std::lock_guard<std::mutex> lock(mutex_);
-  std::string error;
-  const std::vector<std::string> names = selectCameras(request.camera, &error);
-  if (names.empty())
+  std::optional<FixedCamera> camera;
+  std::vector<Segment3d> map;
+  std::vector<double> sigmas;
+  uint64_t generation = 0;
   {
-    response.success = false;
-    response.message = error;
-    return true;
+    std::lock_guard<std::mutex> lock(mutex_);
+    camera.emplace(survey_->camera(name));
+    map = survey_->mapSegments();
+    sigmas = survey_->mapLineSigmas();
+    generation = reset_generation_;
   }
-  const std::vector<Segment3d> map = survey_->mapSegments();
-  response.success = true;
-  for (const auto& name : names)
+  stage("calibrating");
+  const auto result = camera->calibrate(map, world_frame_, sigmas);  // the long part, without mutex_
+  if (!result)
   {
-    const auto result = survey_->camera(name).calibrate(map, world_frame_, survey_->mapLineSigmas());
-    if (!result)
+    insitu_calibration::CalibrationResult failed;
+    failed.camera_name = name;
+    failed.success = false;
+    failed.message = result.error().describe();
+    outcome->results.push_back(failed);
+    outcome->success = false;
+    outcome->message += name + ": FAILED: " + result.error().describe() + "\n";
+    ROS_WARN_STREAM("calibration_node: " << name << ": calibration failed: " << result.error().describe());
+    return;
+  }
+  auto msg = toResultMsg(result->file, &result->calibration, world_frame_);
+  msg.message = result->summary;
+  stage("saving");
+  std::string saved_note = "saved to " + calibrationPath(name);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (generation != reset_generation_)
     {
-      insitu_calibration::CalibrationResult failed;
-      failed.camera_name = name;
-      failed.success = false;
-      failed.message = result.error().describe();
-      response.results.push_back(failed);
-      response.success = false;
-      response.message += name + ": FAILED: " + result.error().describe() + "\n";
-      ROS_WARN_STREAM("calibration_node: " << name << ": calibration failed: " << result.error().describe());
-      continue;
+      msg.success = false;
+      msg.message = "discarded: the camera was reset during its calibration";
+      outcome->results.push_back(msg);
+      outcome->success = false;
+      outcome->message += name + ": " + msg.message + "\n";
+      return;
     }
-    auto msg = toResultMsg(result->file, &result->calibration, world_frame_);
-    msg.message = result->summary;
-    response.results.push_back(msg);
-    std::string saved_note = "saved to " + calibrationPath(name);
+    survey_->camera(name) = std::move(*camera);
     if (const Status saved = saveCalibration(name); !saved)
     {
       saved_note = "NOT saved: " + saved.error().message();
       ROS_ERROR_STREAM("calibration_node: " << name << ": " << saved.error().message());
     }
-    saved_note += commitToDriver(name, toCameraInfo(result->file, cameras_.at(name).optical_frame));
-    response.message += name + ": " + result->summary + "; " + saved_note + "\n";
-    ROS_INFO_STREAM("calibration_node: " << name << ": " << result->summary);
   }
-  if (!response.message.empty() && response.message.back() == '\n')
-    response.message.pop_back();
-  publishCalibrations();
-  return true;
+  saved_note += commitToDriver(name, toCameraInfo(result->file, cameras_.at(name).optical_frame));
+  outcome->results.push_back(msg);
+  outcome->message += name + ": " + result->summary + "; " + saved_note + "\n";
+  ROS_INFO_STREAM("calibration_node: " << name << ": " << result->summary);
 }
 
-bool CalibrationServer::statusService(CalibrationStatus::Request& request, CalibrationStatus::Response& response)
+CalibrationServer::CalibrationOutcome CalibrationServer::calibrateCameras(const std::vector<std::string>& names,
+                                                                          const Progress& progress,
+                                                                          const std::function<bool()>& cancelled)
 {
-  std::lock_guard<std::mutex> lock(mutex_);
+  auto report = [&](const std::string& camera, const std::string& stage, size_t done) {
+    if (progress)
+      progress(camera, stage, done, names.size());
+  };
+  report(names.front(), "waiting", 0);
+  std::lock_guard<std::mutex> serial(calibration_mutex_);
+  CalibrationOutcome outcome;
+  for (size_t i = 0; i < names.size(); ++i)
+  {
+    if (cancelled && cancelled())
+    {
+      outcome.cancelled = true;
+      outcome.success = false;
+      outcome.message += "cancelled before " + names[i] + "\n";
+      break;
+    }
+    calibrateOne(
+        names[i], [&](const std::string& stage) { report(names[i], stage, i); }, &outcome);
+  }
+  if (!outcome.message.empty() && outcome.message.back() == '\n')
+    outcome.message.pop_back();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    publishCalibrations();
+  }
+  report("", "done", outcome.results.size());
+  return outcome;
+}
+
+bool CalibrationServer::calibrateService(Calibrate::Request& request, Calibrate::Response& response)
+{
   std::string error;
-  const std::vector<std::string> names = selectCameras(request.camera, &error);
+  const std::vector<std::string> names = selectCameras(request.camera, &error);  // cameras_ is fixed: no lock
   if (names.empty())
   {
     response.success = false;
     response.message = error;
     return true;
   }
-  const std::vector<Segment3d> map = survey_->mapSegments();
-  response.success = true;
-  const SurveyStats& stats = survey_->stats();
-  response.message = std::to_string(stats.frames) + " RGB-D frames received, " + std::to_string(stats.keyframes) +
-                     " keyframes used, " + std::to_string(survey_->lineMap().size()) + " map lines (" +
-                     std::to_string(map.size()) + " seen at least " +
-                     std::to_string(survey_->options().min_map_support) + " times)";
-  for (const auto& name : names)
+  const CalibrationOutcome outcome = calibrateCameras(names, nullptr, nullptr);
+  response.success = outcome.success;
+  response.message = outcome.message;
+  response.results = outcome.results;
+  return true;
+}
+
+void CalibrationServer::executeCalibrateAction(const CalibrateGoalConstPtr& goal)
+{
+  CalibrateResult result;
+  std::string error;
+  const std::vector<std::string> names = selectCameras(goal->camera, &error);
+  if (names.empty())
   {
-    const FixedCameraStatus s = survey_->camera(name).status(map);
+    result.success = false;
+    result.message = error;
+    calibrate_action_->setAborted(result, error);
+    return;
+  }
+  const CalibrationOutcome outcome = calibrateCameras(
+      names,
+      [this](const std::string& camera, const std::string& stage, size_t done, size_t total) {
+        CalibrateFeedback feedback;
+        feedback.camera = camera;
+        feedback.stage = stage;
+        feedback.cameras_done = static_cast<uint32_t>(done);
+        feedback.cameras_total = static_cast<uint32_t>(total);
+        feedback.progress = total > 0 ? static_cast<float>(done) / total : 1.0f;
+        calibrate_action_->publishFeedback(feedback);
+      },
+      [this] { return calibrate_action_->isPreemptRequested() || !ros::ok(); });
+  result.success = outcome.success;
+  result.message = outcome.message;
+  result.results = outcome.results;
+  if (outcome.cancelled)
+    calibrate_action_->setPreempted(result, outcome.message);
+  else if (outcome.success)
+    calibrate_action_->setSucceeded(result, outcome.message);
+  else
+    calibrate_action_->setAborted(result, outcome.message);
+}
+
+bool CalibrationServer::statusService(CalibrationStatus::Request& request, CalibrationStatus::Response& response)
+{
+  std::string error;
+  const std::vector<std::string> names = selectCameras(request.camera, &error);  // cameras_ is fixed: no lock
+  if (names.empty())
+  {
+    response.success = false;
+    response.message = error;
+    return true;
+  }
+  // A snapshot under the lock (FixedCamera copies share their images), the work (the median image and its lines)
+  // without it: images and RGB-D frames do not wait for ~status.
+  std::vector<FixedCamera> cameras;
+  std::vector<Segment3d> map;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    map = survey_->mapSegments();
+    const SurveyStats& stats = survey_->stats();
+    response.message = std::to_string(stats.frames) + " RGB-D frames received, " + std::to_string(stats.keyframes) +
+                       " keyframes used, " + std::to_string(survey_->lineMap().size()) + " map lines (" +
+                       std::to_string(map.size()) + " seen at least " +
+                       std::to_string(survey_->options().min_map_support) + " times)";
+    for (const auto& name : names)
+      cameras.push_back(survey_->camera(name));
+  }
+  response.success = true;
+  for (const FixedCamera& camera : cameras)
+  {
+    const FixedCameraStatus s = camera.status(map);
     CameraStatus msg;
-    msg.camera_name = name;
+    msg.camera_name = camera.config().name;
     msg.has_image = s.has_image;
     msg.images = static_cast<uint32_t>(s.images);
     msg.image_lines = static_cast<uint32_t>(s.image_lines);
@@ -490,6 +615,7 @@ bool CalibrationServer::resetService(Reset::Request& request, Reset::Response& r
   if (request.camera.empty())
   {
     survey_->reset();
+    ++reset_generation_;
     {
       std::lock_guard<std::mutex> info_lock(info_mutex_);
       calibrated_info_.clear();
@@ -506,6 +632,7 @@ bool CalibrationServer::resetService(Reset::Request& request, Reset::Response& r
     return true;
   }
   survey_->resetCamera(request.camera);
+  ++reset_generation_;
   {
     std::lock_guard<std::mutex> info_lock(info_mutex_);
     calibrated_info_.erase(request.camera);

@@ -5,16 +5,19 @@
 #ifndef INSITU_CALIBRATION_ROS_CALIBRATION_SERVER_H
 #define INSITU_CALIBRATION_ROS_CALIBRATION_SERVER_H
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <string>
 #include <vector>
 
+#include <actionlib/server/simple_action_server.h>
 #include <image_transport/image_transport.h>
 #include <message_filters/subscriber.h>
 #include <message_filters/sync_policies/approximate_time.h>
 #include <message_filters/synchronizer.h>
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
@@ -25,6 +28,7 @@
 #include <tf2_ros/transform_listener.h>
 
 #include "insitu_calibration/Calibrate.h"
+#include "insitu_calibration/CalibrateAction.h"
 #include "insitu_calibration/Reset.h"
 #include "insitu_calibration/CalibrationStatus.h"
 #include "insitu_calibration/survey/survey.h"
@@ -35,6 +39,7 @@ class CalibrationServer
 {
 public:
   CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private_nh);
+  ~CalibrationServer();
   // False when the configuration could not be loaded (the reason went to ROS_FATAL): the node must exit non-zero.
   bool ok() const { return survey_ != nullptr; }
 
@@ -69,6 +74,23 @@ private:
   // Sends the calibration to the driver's set_camera_info service, when configured. Returns what happened, in words.
   std::string commitToDriver(const std::string& name, const sensor_msgs::CameraInfo& info);
 
+  // A calibration of some cameras, shared by the ~calibrate service and action. Each camera is calibrated on a copy
+  // of its FixedCamera outside mutex_ (so ~status, images and RGB-D frames go on meanwhile), and the copy replaces
+  // it unless the camera was reset in between. One calibration at a time (calibration_mutex_).
+  struct CalibrationOutcome
+  {
+    bool success = true;
+    bool cancelled = false;
+    std::string message;
+    std::vector<insitu_calibration::CalibrationResult> results;
+  };
+  using Progress = std::function<void(const std::string& camera, const std::string& stage, size_t done, size_t total)>;
+  CalibrationOutcome calibrateCameras(const std::vector<std::string>& names, const Progress& progress,
+                                      const std::function<bool()>& cancelled);
+  void calibrateOne(const std::string& name, const std::function<void(const std::string&)>& stage,
+                    CalibrationOutcome* outcome);
+  void executeCalibrateAction(const CalibrateGoalConstPtr& goal);
+
   bool calibrateService(Calibrate::Request& request, Calibrate::Response& response);
   bool statusService(CalibrationStatus::Request& request, CalibrationStatus::Response& response);
   bool resetService(Reset::Request& request, Reset::Response& response);
@@ -95,6 +117,19 @@ private:
   message_filters::Subscriber<sensor_msgs::Image> depth_subscriber_;
   message_filters::Subscriber<sensor_msgs::CameraInfo> info_subscriber_;
   std::unique_ptr<message_filters::Synchronizer<SyncPolicy>> synchronizer_;
+
+  // Services and the action's goals run on their own queue and thread (service_spinner_), calibrations on the
+  // ~calibrate service's thread (work_spinner_) or the action's own: neither waits behind the image callbacks of
+  // the global queue, nor ~status behind a calibration.
+  ros::CallbackQueue service_queue_;
+  ros::CallbackQueue work_queue_;
+  ros::NodeHandle service_nh_;  // private namespace, service_queue_
+  ros::NodeHandle work_nh_;     // private namespace, work_queue_
+  std::unique_ptr<ros::AsyncSpinner> service_spinner_;
+  std::unique_ptr<ros::AsyncSpinner> work_spinner_;
+  std::unique_ptr<actionlib::SimpleActionServer<CalibrateAction>> calibrate_action_;
+  std::mutex calibration_mutex_;
+  uint64_t reset_generation_ = 0;  // guarded by mutex_; a calibration started before a reset is discarded
 
   ros::ServiceServer calibrate_server_;
   ros::ServiceServer status_server_;
