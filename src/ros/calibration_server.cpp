@@ -177,14 +177,16 @@ CalibrationServer::CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private
   calibrate_action_->start();
   service_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &service_queue_);
   work_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &work_queue_);
-  service_spinner_->start();
-  work_spinner_->start();
+  setupStatusReporting();
   marker_timer_ = nh_.createWallTimer(ros::WallDuration(2.0), [this](const ros::WallTimerEvent&) {
     std::lock_guard<std::mutex> lock(mutex_);
     publishMarkers();
   });
 
   loadSavedCalibrations();
+  // Only now: a service call must not see the node before its saved calibrations are loaded.
+  service_spinner_->start();
+  work_spinner_->start();
   ROS_INFO_STREAM("calibration_node: " << cameras_.size() << " fixed camera(s), world frame '" << world_frame_
                                        << "', calibrations in " << output_directory_
                                        << ". Call ~calibrate once the robot has surveyed the cameras' views.");
@@ -364,6 +366,11 @@ std::string CalibrationServer::commitToDriver(const std::string& name, const sen
 
 void CalibrationServer::fixedImageCallback(const std::string& name, const sensor_msgs::ImageConstPtr& image)
 {
+  {
+    std::lock_guard<std::mutex> lock(info_mutex_);
+    last_image_[name] = ros::WallTime::now();
+    ++image_count_[name];
+  }
   if (!cameras_.at(name).camera_info_topic.empty())
     publishCalibratedInfo(name, image);
   const auto grey = toGrey(*image);
@@ -507,6 +514,7 @@ CalibrationServer::CalibrationOutcome CalibrationServer::calibrateCameras(const 
     std::lock_guard<std::mutex> lock(mutex_);
     publishCalibrations();
   }
+  publishSurveyStatus();
   report("", "done", outcome.results.size());
   return outcome;
 }
@@ -573,39 +581,8 @@ bool CalibrationServer::statusService(CalibrationStatus::Request& request, Calib
     response.message = error;
     return true;
   }
-  // A snapshot under the lock (FixedCamera copies share their images), the work (the median image and its lines)
-  // without it: images and RGB-D frames do not wait for ~status.
-  std::vector<FixedCamera> cameras;
-  std::vector<Segment3d> map;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    map = survey_->mapSegments();
-    const SurveyStats& stats = survey_->stats();
-    response.message = std::to_string(stats.frames) + " RGB-D frames received, " + std::to_string(stats.keyframes) +
-                       " keyframes used, " + std::to_string(survey_->lineMap().size()) + " map lines (" +
-                       std::to_string(map.size()) + " seen at least " +
-                       std::to_string(survey_->options().min_map_support) + " times)";
-    for (const auto& name : names)
-      cameras.push_back(survey_->camera(name));
-  }
   response.success = true;
-  for (const FixedCamera& camera : cameras)
-  {
-    const FixedCameraStatus s = camera.status(map);
-    CameraStatus msg;
-    msg.camera_name = camera.config().name;
-    msg.has_image = s.has_image;
-    msg.images = static_cast<uint32_t>(s.images);
-    msg.image_lines = static_cast<uint32_t>(s.image_lines);
-    msg.map_lines = static_cast<uint32_t>(s.map_lines);
-    msg.map_lines_visible = static_cast<uint32_t>(s.map_lines_visible);
-    msg.matched_lines = static_cast<uint32_t>(s.matched_lines);
-    msg.coverage_percent = s.coverage_percent;
-    msg.calibrated = s.calibrated;
-    msg.ready = s.ready;
-    msg.message = s.message;
-    response.cameras.push_back(msg);
-  }
+  response.cameras = cameraStatuses(names, &response.message);
   return true;
 }
 

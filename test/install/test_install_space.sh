@@ -7,7 +7,8 @@
 #   - every installed executable finds its libraries and answers --help;
 #   - calibrate_lines calibrates the installed example and lands close to its truth;
 #   - the installed calibration_node starts from the installed launch file and answers ~status and ~save (the
-#     latter is a std_srvs/Trigger: python3-std-srvs must be installed for rosservice);
+#     latter is a std_srvs/Trigger: python3-std-srvs must be installed for rosservice), offers the ~calibrate
+#     action, publishes /diagnostics and the latched ~survey_status;
 #   - calibration_node exits non-zero on a FATAL configuration error (no ~cameras);
 #   - sim_time_guard deletes /use_sim_time when it stops.
 # Usage: test_install_space.sh BUILD_DIR RESULT.xml   (writes a JUnit file; exit status non-zero on any failure)
@@ -85,7 +86,8 @@ bin="$prefix/lib/insitu_calibration"
 # The package resolves to the install space, and nothing of the build or source tree is on any path.
 check package_found "test \"\$(rospack find insitu_calibration)\" = '$share' && ! env | grep -e '$build_dir' -e /devel"
 for f in LICENSE README.md package.xml launch/calibration_node.launch launch/calibrate_bag.launch \
-  config/cameras.yaml config/calibration.rviz msg/CameraStatus.msg srv/Calibrate.srv; do
+  config/cameras.yaml config/calibration.rviz msg/CameraStatus.msg msg/SurveyStatus.msg srv/Calibrate.srv \
+  action/Calibrate.action; do
   [ -f "$share/$f" ] || { echo "missing $share/$f" >"$tmp/missing.log"; record "installed_$(basename "$f")" 1 "$tmp/missing.log"; }
 done
 for exe in "$bin"/*; do
@@ -116,6 +118,9 @@ node_pid=$!
 check node_status "for i in \$(seq 120); do rosservice list 2>/dev/null | grep -q /calibration_node/status && break; \
   sleep 0.5; done; rosservice call /calibration_node/status \"camera: ''\" | tee /dev/stderr | grep -q 'success: True'"
 check node_save "rosservice call /calibration_node/save '{}' | tee /dev/stderr | grep -q 'calibration(s) saved'"
+check node_action "rostopic list | grep -q /calibration_node/calibrate/goal && rosmsg show insitu_calibration/CalibrateFeedback"
+check node_diagnostics "timeout 20 rostopic echo -n 1 /diagnostics | tee /dev/stderr | grep -q 'calibration_node: camera cam_east'"
+check node_survey_status "timeout 20 rostopic echo -n 1 /calibration_node/survey_status | tee /dev/stderr | grep -q 'camera_name: \"cam_desk\"'"
 kill -TERM "$node_pid" 2>/dev/null
 wait "$node_pid" 2>/dev/null
 node_pid=

@@ -7,14 +7,18 @@
 #include <algorithm>
 #include <cstdio>
 #include <mutex>
+#include <map>
+#include <optional>
 #include <set>
 
 #include <actionlib/client/simple_action_client.h>
+#include <diagnostic_msgs/DiagnosticArray.h>
 #include <ros/ros.h>
 
 #include "insitu_calibration/Calibrate.h"
 #include "insitu_calibration/CalibrateAction.h"
 #include "insitu_calibration/CalibrationStatus.h"
+#include "insitu_calibration/SurveyStatus.h"
 
 namespace ic = insitu_calibration;
 using Client = actionlib::SimpleActionClient<ic::CalibrateAction>;
@@ -23,6 +27,18 @@ namespace
 {
 double g_bag_start = 0.0;
 double g_bag_end = 0.0;
+
+// The last /diagnostics status of each name, and the last ~survey_status.
+std::mutex g_mutex;
+std::map<std::string, diagnostic_msgs::DiagnosticStatus> g_diagnostics;
+ic::SurveyStatusConstPtr g_survey_status;
+
+std::optional<diagnostic_msgs::DiagnosticStatus> diagnostics(const std::string& name)
+{
+  std::lock_guard<std::mutex> lock(g_mutex);
+  const auto it = g_diagnostics.find(name);
+  return it == g_diagnostics.end() ? std::nullopt : std::optional<diagnostic_msgs::DiagnosticStatus>(it->second);
+}
 
 // Waits for the simulated clock (the bag's) to pass a time.
 bool waitForSimTime(double t, double wall_timeout_s)
@@ -163,6 +179,31 @@ TEST(CalibrationNodeAsync, ServiceStillCalibrates)
   EXPECT_TRUE(srv.response.success) << srv.response.message;
 }
 
+// /diagnostics per camera and for the survey, and the latched ~survey_status, after the calibrations above.
+TEST(CalibrationNodeAsync, DiagnosticsAndSurveyStatus)
+{
+  ros::WallDuration(2.5).sleep();  // a diagnostics period after the last calibration
+  for (const char* camera : {"cam_east", "cam_wide", "cam_desk"})
+  {
+    const auto status = diagnostics(std::string("calibration_node: camera ") + camera);
+    ASSERT_TRUE(status) << "no diagnostics for " << camera;
+    std::printf("diagnostics %s: level %d, %s\n", camera, status->level, status->message.c_str());
+    // Calibrated; the bag has ended, so its images are stale (older than 10 s) or about to be.
+    EXPECT_TRUE(status->message == "calibrated" || status->message.rfind("stale images", 0) == 0) << status->message;
+    EXPECT_NE(status->level, diagnostic_msgs::DiagnosticStatus::ERROR);
+  }
+  const auto survey = diagnostics("calibration_node: survey");
+  ASSERT_TRUE(survey);
+  EXPECT_EQ(survey->message, "every camera calibrated");
+  std::lock_guard<std::mutex> lock(g_mutex);
+  ASSERT_TRUE(g_survey_status) << "nothing on the latched ~survey_status";
+  EXPECT_EQ(g_survey_status->cameras.size(), 3u);
+  EXPECT_GT(g_survey_status->map_lines_used, 0u);
+  for (const auto& camera : g_survey_status->cameras)
+    EXPECT_TRUE(camera.calibrated) << camera.camera_name;
+  std::printf("survey status: %s\n", g_survey_status->message.c_str());
+}
+
 int main(int argc, char** argv)
 {
   testing::InitGoogleTest(&argc, argv);
@@ -170,6 +211,19 @@ int main(int argc, char** argv)
   ros::NodeHandle private_nh("~");
   private_nh.getParam("bag_start", g_bag_start);
   private_nh.getParam("bag_end", g_bag_end);
+  ros::NodeHandle nh;
+  ros::Subscriber diagnostics_subscriber = nh.subscribe<diagnostic_msgs::DiagnosticArray>(
+      "/diagnostics", 10, boost::function<void(const diagnostic_msgs::DiagnosticArrayConstPtr&)>([](const auto& array) {
+        std::lock_guard<std::mutex> lock(g_mutex);
+        for (const auto& status : array->status)
+          g_diagnostics[status.name] = status;
+      }));
+  ros::Subscriber survey_subscriber = nh.subscribe<ic::SurveyStatus>(
+      "/calibration_node/survey_status", 1,
+      boost::function<void(const ic::SurveyStatusConstPtr&)>([](const ic::SurveyStatusConstPtr& msg) {
+        std::lock_guard<std::mutex> lock(g_mutex);
+        g_survey_status = msg;
+      }));
   ros::AsyncSpinner spinner(2);
   spinner.start();
   return RUN_ALL_TESTS();

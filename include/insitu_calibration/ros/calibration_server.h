@@ -1,7 +1,8 @@
 // The calibration node's ROS side: parameters, subscriptions (Xtion RGB-D with tf2 poses, fixed cameras through
-// image_transport), services (~calibrate, ~status, ~reset, ~save) and outputs (one static tf broadcaster, latched
-// CameraInfo, YAML files, markers, overlay images). The work is done by the core (RgbdLineExtractor, LineMap,
-// FixedCamera); this class converts and calls.
+// image_transport), services (~calibrate, ~status, ~reset, ~save), the ~calibrate action, and outputs (one static tf
+// broadcaster, latched and per-image CameraInfo, YAML files, markers, overlay images, /diagnostics, the latched
+// ~survey_status). The work is done by the core (RgbdLineExtractor, LineMap, FixedCamera); this class converts and
+// calls.
 #ifndef INSITU_CALIBRATION_ROS_CALIBRATION_SERVER_H
 #define INSITU_CALIBRATION_ROS_CALIBRATION_SERVER_H
 
@@ -13,6 +14,7 @@
 #include <vector>
 
 #include <actionlib/server/simple_action_server.h>
+#include <diagnostic_updater/diagnostic_updater.h>
 #include <image_transport/image_transport.h>
 #include <message_filters/subscriber.h>
 #include <message_filters/sync_policies/approximate_time.h>
@@ -31,6 +33,7 @@
 #include "insitu_calibration/CalibrateAction.h"
 #include "insitu_calibration/Reset.h"
 #include "insitu_calibration/CalibrationStatus.h"
+#include "insitu_calibration/SurveyStatus.h"
 #include "insitu_calibration/survey/survey.h"
 
 namespace insitu_calibration
@@ -92,6 +95,15 @@ private:
   void executeCalibrateAction(const CalibrateGoalConstPtr& goal);
 
   bool calibrateService(Calibrate::Request& request, Calibrate::Response& response);
+
+  // Status reporting (calibration_server_status.cpp): /diagnostics per camera and for the survey, the latched
+  // ~survey_status topic, and the per-camera status that ~status and the topic share.
+  void setupStatusReporting();
+  std::vector<CameraStatus> cameraStatuses(const std::vector<std::string>& names, std::string* summary,
+                                           SurveyStatus* survey = nullptr);
+  void publishSurveyStatus();
+  void cameraDiagnostics(const std::string& name, diagnostic_updater::DiagnosticStatusWrapper& stat);
+  void surveyDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat);
   bool statusService(CalibrationStatus::Request& request, CalibrationStatus::Response& response);
   bool resetService(Reset::Request& request, Reset::Response& response);
   bool saveService(std_srvs::Trigger::Request& request, std_srvs::Trigger::Response& response);
@@ -129,6 +141,13 @@ private:
   std::unique_ptr<ros::AsyncSpinner> work_spinner_;
   std::unique_ptr<actionlib::SimpleActionServer<CalibrateAction>> calibrate_action_;
   std::mutex calibration_mutex_;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  ros::WallTimer diagnostics_timer_;
+  ros::WallTimer survey_status_timer_;
+  ros::Publisher survey_status_publisher_;
+  double stale_image_s_ = 10.0;         // a camera whose last image is older is stale
+  double max_sigma_position_m_ = 0.05;  // a calibration more uncertain than this is reported (WARN)
+  double max_sigma_rotation_deg_ = 0.5;
   uint64_t reset_generation_ = 0;  // guarded by mutex_; a calibration started before a reset is discarded
 
   ros::ServiceServer calibrate_server_;
@@ -150,6 +169,8 @@ private:
   // Each calibrated camera's CameraInfo (header filled per image), written under both locks, read under info_mutex_.
   std::mutex info_mutex_;
   std::map<std::string, sensor_msgs::CameraInfo> calibrated_info_;
+  std::map<std::string, ros::WallTime> last_image_;  // per camera, when its last image arrived (info_mutex_)
+  std::map<std::string, size_t> image_count_;        // per camera, images received (info_mutex_)
 };
 
 }  // namespace insitu_calibration
