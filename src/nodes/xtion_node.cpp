@@ -2,6 +2,7 @@
 // openni2_launch. Parameters, topics and faults: docs/xtion.md.
 #include <csignal>
 #include <cstdio>
+#include <cstring>
 
 #include <ros/ros.h>
 
@@ -18,6 +19,14 @@ void onSignal(int)
 
 int main(int argc, char** argv)
 {
+  for (int i = 1; i < argc; ++i)
+    if (std::strcmp(argv[i], "--help") == 0 || std::strcmp(argv[i], "-h") == 0)
+    {
+      std::puts(
+          "xtion_node: an Asus Xtion, an .oni recording or OpenNI2's DummyDevice, published like openni2_launch.\n"
+          "Usage: roslaunch insitu_calibration xtion.launch [device_uri:=...] (parameters and topics: docs/xtion.md)");
+      return 0;
+    }
   // Our own SIGINT/SIGTERM handling: stop the streams and close the device before ROS shuts down.
   ros::init(argc, argv, "xtion_node", ros::init_options::NoSigintHandler);
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // INFO lines reach a log file as they happen

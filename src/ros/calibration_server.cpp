@@ -2,8 +2,10 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <optional>
 
 #include <boost/bind/bind.hpp>
+#include <boost/make_shared.hpp>
 #include <cv_bridge/cv_bridge.h>
 #include <opencv2/imgcodecs.hpp>
 #include <tf2_eigen/tf2_eigen.h>
@@ -74,6 +76,29 @@ std::string expandHome(const std::string& path)
   return path;
 }
 
+// The namespace of a topic: "/fixed/cam/image_raw" -> "/fixed/cam".
+std::string topicNamespace(const std::string& topic)
+{
+  const auto slash = topic.rfind('/');
+  return slash == std::string::npos ? std::string() : topic.substr(0, slash);
+}
+
+std::string stringMember(XmlRpc::XmlRpcValue& entry, const char* key, const std::string& fallback)
+{
+  if (entry.getType() == XmlRpc::XmlRpcValue::TypeStruct && entry.hasMember(key) &&
+      entry[key].getType() == XmlRpc::XmlRpcValue::TypeString)
+    return static_cast<std::string>(entry[key]);
+  return fallback;
+}
+
+bool boolMember(XmlRpc::XmlRpcValue& entry, const char* key, bool fallback)
+{
+  if (entry.getType() == XmlRpc::XmlRpcValue::TypeStruct && entry.hasMember(key) &&
+      entry[key].getType() == XmlRpc::XmlRpcValue::TypeBoolean)
+    return static_cast<bool>(entry[key]);
+  return fallback;
+}
+
 geometry_msgs::Point toPoint(const Eigen::Vector3d& p)
 {
   geometry_msgs::Point out;
@@ -108,8 +133,10 @@ visualization_msgs::Marker lineList(const std::string& frame, const std::string&
 }  // namespace
 
 CalibrationServer::CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private_nh)
-    : nh_(nh), private_nh_(private_nh), it_(nh), tf_listener_(tf_buffer_)
+    : nh_(nh), private_nh_(private_nh), it_(nh), tf_listener_(tf_buffer_), service_nh_(private_nh), work_nh_(private_nh)
 {
+  service_nh_.setCallbackQueue(&service_queue_);
+  work_nh_.setCallbackQueue(&work_queue_);
   if (!loadParameters())
   {
     ros::shutdown();
@@ -133,21 +160,49 @@ CalibrationServer::CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private
         survey_->camera(name).config().image_topic, 2,
         [this, camera_name](const sensor_msgs::ImageConstPtr& image) { fixedImageCallback(camera_name, image); });
     camera.overlay_publisher = private_it.advertise(name + "/overlay", 1, true);
+    if (camera.camera_info_topic.empty())
+      continue;
+    if (camera.relay_image)
+      camera.calibrated_publisher = it_.advertiseCamera(topicNamespace(camera.camera_info_topic) + "/image_raw", 2);
+    else
+      camera.camera_info_publisher = nh_.advertise<sensor_msgs::CameraInfo>(camera.camera_info_topic, 2);
   }
   marker_publisher_ = private_nh_.advertise<visualization_msgs::MarkerArray>("markers", 1, true);
-  calibrate_server_ = private_nh_.advertiseService("calibrate", &CalibrationServer::calibrateService, this);
-  status_server_ = private_nh_.advertiseService("status", &CalibrationServer::statusService, this);
-  reset_server_ = private_nh_.advertiseService("reset", &CalibrationServer::resetService, this);
-  save_server_ = private_nh_.advertiseService("save", &CalibrationServer::saveService, this);
+  calibrate_server_ = work_nh_.advertiseService("calibrate", &CalibrationServer::calibrateService, this);
+  status_server_ = service_nh_.advertiseService("status", &CalibrationServer::statusService, this);
+  reset_server_ = service_nh_.advertiseService("reset", &CalibrationServer::resetService, this);
+  save_server_ = service_nh_.advertiseService("save", &CalibrationServer::saveService, this);
+  // The action (topics ~calibrate/goal, feedback, result, cancel; its goals run on its own thread).
+  calibrate_action_ = std::make_unique<actionlib::SimpleActionServer<CalibrateAction>>(
+      service_nh_, "calibrate", [this](const CalibrateGoalConstPtr& goal) { executeCalibrateAction(goal); }, false);
+  calibrate_action_->start();
+  service_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &service_queue_);
+  work_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &work_queue_);
+  setupStatusReporting();
   marker_timer_ = nh_.createWallTimer(ros::WallDuration(2.0), [this](const ros::WallTimerEvent&) {
     std::lock_guard<std::mutex> lock(mutex_);
     publishMarkers();
   });
 
   loadSavedCalibrations();
+  // Only now: a service call must not see the node before its saved calibrations are loaded.
+  service_spinner_->start();
+  work_spinner_->start();
   ROS_INFO_STREAM("calibration_node: " << cameras_.size() << " fixed camera(s), world frame '" << world_frame_
                                        << "', calibrations in " << output_directory_
                                        << ". Call ~calibrate once the robot has surveyed the cameras' views.");
+}
+
+CalibrationServer::~CalibrationServer()
+{
+  // No callback may run while the members below go: the action's thread and the spinners stop first.
+  if (calibrate_action_)
+    calibrate_action_->shutdown();
+  if (service_spinner_)
+    service_spinner_->stop();
+  if (work_spinner_)
+    work_spinner_->stop();
+  calibrate_action_.reset();
 }
 
 bool CalibrationServer::loadParameters()
@@ -209,8 +264,38 @@ bool CalibrationServer::loadParameters()
     cameras_.emplace(entry.camera.name, std::move(camera));
     fixed.push_back(entry.camera);
   }
+  loadCameraTopics(cameras);
   survey_ = std::make_unique<Survey>(fixed, options);
   return true;
+}
+
+void CalibrationServer::loadCameraTopics(XmlRpc::XmlRpcValue& cameras)
+{
+  if (cameras.getType() == XmlRpc::XmlRpcValue::TypeStruct && cameras.hasMember("cameras"))
+    return loadCameraTopics(cameras["cameras"]);
+  if (cameras.getType() != XmlRpc::XmlRpcValue::TypeArray)
+    return;
+  for (int i = 0; i < cameras.size(); ++i)
+  {
+    const std::string name = stringMember(cameras[i], "name", "");
+    const auto it = cameras_.find(name);
+    if (it == cameras_.end())
+      continue;
+    Camera& camera = it->second;
+    const std::string image_topic = stringMember(cameras[i], "image_topic", "/fixed/" + name + "/image_raw");
+    // Beside the driver's own namespace, not in it: a driver usually publishes an uncalibrated camera_info there.
+    camera.camera_info_topic =
+        stringMember(cameras[i], "camera_info_topic", topicNamespace(image_topic) + "/calibrated/camera_info");
+    camera.relay_image = boolMember(cameras[i], "relay_image", true);
+    camera.set_camera_info_service = stringMember(cameras[i], "set_camera_info_service", "");
+    ROS_INFO_STREAM(
+        "calibration_node: " << name << ": camera info "
+                             << (camera.camera_info_topic.empty() ? "off" : "on " + camera.camera_info_topic)
+                             << (camera.relay_image ? " beside the relayed image" : "")
+                             << (camera.set_camera_info_service.empty()
+                                     ? ""
+                                     : ", committed to " + camera.set_camera_info_service));
+  }
 }
 
 void CalibrationServer::rgbdCallback(const sensor_msgs::ImageConstPtr& rgb, const sensor_msgs::ImageConstPtr& depth,
@@ -249,8 +334,57 @@ void CalibrationServer::rgbdCallback(const sensor_msgs::ImageConstPtr& rgb, cons
     ROS_WARN_THROTTLE(5.0, "calibration_node: skipping an RGB-D frame: %s", used.error().message().c_str());
 }
 
+void CalibrationServer::publishCalibratedInfo(const std::string& name, const sensor_msgs::ImageConstPtr& image)
+{
+  auto info = boost::make_shared<sensor_msgs::CameraInfo>();
+  {
+    std::lock_guard<std::mutex> lock(info_mutex_);
+    const auto it = calibrated_info_.find(name);
+    if (it == calibrated_info_.end())
+      return;
+    *info = it->second;
+  }
+  if (image->width != info->width || image->height != info->height)
+  {
+    ROS_WARN_THROTTLE(10.0,
+                      "calibration_node: camera '%s': a %ux%u image, calibrated for %ux%u: no camera info "
+                      "published with it",
+                      name.c_str(), image->width, image->height, info->width, info->height);
+    return;
+  }
+  // image_proc's synchronizer pairs exact stamps: the image's header, as a driver would publish it.
+  info->header = image->header;
+  Camera& camera = cameras_.at(name);  // the map's structure is fixed after construction
+  if (camera.relay_image)
+    camera.calibrated_publisher.publish(image, info);
+  else
+    camera.camera_info_publisher.publish(info);
+}
+
+std::string CalibrationServer::commitToDriver(const std::string& name, const sensor_msgs::CameraInfo& info)
+{
+  const std::string& service = cameras_.at(name).set_camera_info_service;
+  if (service.empty())
+    return "";
+  sensor_msgs::SetCameraInfo srv;
+  srv.request.camera_info = info;
+  srv.request.camera_info.header.stamp = ros::Time();
+  if (!ros::service::waitForService(service, ros::Duration(2.0)) || !ros::service::call(service, srv))
+    return "; NOT committed: the driver's " + service + " does not answer";
+  if (!srv.response.success)
+    return "; NOT committed: " + service + " refused it (" + srv.response.status_message + ")";
+  return "; committed to " + service;
+}
+
 void CalibrationServer::fixedImageCallback(const std::string& name, const sensor_msgs::ImageConstPtr& image)
 {
+  {
+    std::lock_guard<std::mutex> lock(info_mutex_);
+    last_image_[name] = ros::WallTime::now();
+    ++image_count_[name];
+  }
+  if (!cameras_.at(name).camera_info_topic.empty())
+    publishCalibratedInfo(name, image);
   const auto grey = toGrey(*image);
   if (!grey)
   {
@@ -304,86 +438,166 @@ Status CalibrationServer::saveCalibration(const std::string& name)
   return CalibrationStore(output_directory_).save(name, file, overlay);
 }
 
-bool CalibrationServer::calibrateService(Calibrate::Request& request, Calibrate::Response& response)
+void CalibrationServer::calibrateOne(const std::string& name, const std::function<void(const std::string&)>& stage,
+                                     CalibrationOutcome* outcome)
 {
-  std::lock_guard<std::mutex> lock(mutex_);
-  std::string error;
-  const std::vector<std::string> names = selectCameras(request.camera, &error);
-  if (names.empty())
+  std::optional<FixedCamera> camera;
+  std::vector<Segment3d> map;
+  std::vector<double> sigmas;
+  uint64_t generation = 0;
   {
-    response.success = false;
-    response.message = error;
-    return true;
+    std::lock_guard<std::mutex> lock(mutex_);
+    camera.emplace(survey_->camera(name));
+    map = survey_->mapSegments();
+    sigmas = survey_->mapLineSigmas();
+    generation = reset_generation_;
   }
-  response.success = true;
-  for (const auto& name : names)
+  stage("calibrating");
+  auto result = camera->calibrate(map, world_frame_, sigmas);  // the long part, without mutex_
+  if (!result)
   {
-    const auto result = survey_->calibrate(name, world_frame_);
-    if (!result)
+    insitu_calibration::CalibrationResult failed;
+    failed.camera_name = name;
+    failed.success = false;
+    failed.message = result.error().describe();
+    outcome->results.push_back(failed);
+    outcome->success = false;
+    outcome->message += name + ": FAILED: " + result.error().describe() + "\n";
+    ROS_WARN_STREAM("calibration_node: " << name << ": calibration failed: " << result.error().describe());
+    return;
+  }
+  {
+    // The map's placement in world_frame_ (the localiser's error over the survey) widens the pose's sigmas.
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (survey_->addMapPlacement(&*result))
+      camera->setCalibration(result->file);
+  }
+  auto msg = toResultMsg(result->file, &result->calibration, world_frame_);
+  msg.message = result->summary;
+  stage("saving");
+  std::string saved_note = "saved to " + calibrationPath(name);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (generation != reset_generation_)
     {
-      insitu_calibration::CalibrationResult failed;
-      failed.camera_name = name;
-      failed.success = false;
-      failed.message = result.error().describe();
-      response.results.push_back(failed);
-      response.success = false;
-      response.message += name + ": FAILED: " + result.error().describe() + "\n";
-      ROS_WARN_STREAM("calibration_node: " << name << ": calibration failed: " << result.error().describe());
-      continue;
+      msg.success = false;
+      msg.message = "discarded: the camera was reset during its calibration";
+      outcome->results.push_back(msg);
+      outcome->success = false;
+      outcome->message += name + ": " + msg.message + "\n";
+      return;
     }
-    auto msg = toResultMsg(result->file, &result->calibration, world_frame_);
-    msg.message = result->summary;
-    response.results.push_back(msg);
-    std::string saved_note = "saved to " + calibrationPath(name);
+    survey_->camera(name) = std::move(*camera);
     if (const Status saved = saveCalibration(name); !saved)
     {
       saved_note = "NOT saved: " + saved.error().message();
       ROS_ERROR_STREAM("calibration_node: " << name << ": " << saved.error().message());
     }
-    response.message += name + ": " + result->summary + "; " + saved_note + "\n";
-    ROS_INFO_STREAM("calibration_node: " << name << ": " << result->summary);
   }
-  if (!response.message.empty() && response.message.back() == '\n')
-    response.message.pop_back();
-  publishCalibrations();
-  return true;
+  saved_note += commitToDriver(name, toCameraInfo(result->file, cameras_.at(name).optical_frame));
+  outcome->results.push_back(msg);
+  outcome->message += name + ": " + result->summary + "; " + saved_note + "\n";
+  ROS_INFO_STREAM("calibration_node: " << name << ": " << result->summary);
 }
 
-bool CalibrationServer::statusService(CalibrationStatus::Request& request, CalibrationStatus::Response& response)
+CalibrationServer::CalibrationOutcome CalibrationServer::calibrateCameras(const std::vector<std::string>& names,
+                                                                          const Progress& progress,
+                                                                          const std::function<bool()>& cancelled)
 {
-  std::lock_guard<std::mutex> lock(mutex_);
+  auto report = [&](const std::string& camera, const std::string& stage, size_t done) {
+    if (progress)
+      progress(camera, stage, done, names.size());
+  };
+  report(names.front(), "waiting", 0);
+  std::lock_guard<std::mutex> serial(calibration_mutex_);
+  CalibrationOutcome outcome;
+  for (size_t i = 0; i < names.size(); ++i)
+  {
+    if (cancelled && cancelled())
+    {
+      outcome.cancelled = true;
+      outcome.success = false;
+      outcome.message += "cancelled before " + names[i] + "\n";
+      break;
+    }
+    calibrateOne(
+        names[i], [&](const std::string& stage) { report(names[i], stage, i); }, &outcome);
+  }
+  if (!outcome.message.empty() && outcome.message.back() == '\n')
+    outcome.message.pop_back();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    publishCalibrations();
+  }
+  publishSurveyStatus();
+  report("", "done", outcome.results.size());
+  return outcome;
+}
+
+bool CalibrationServer::calibrateService(Calibrate::Request& request, Calibrate::Response& response)
+{
   std::string error;
-  const std::vector<std::string> names = selectCameras(request.camera, &error);
+  const std::vector<std::string> names = selectCameras(request.camera, &error);  // cameras_ is fixed: no lock
   if (names.empty())
   {
     response.success = false;
     response.message = error;
     return true;
   }
-  const std::vector<Segment3d> map = survey_->mapSegments();
-  response.success = true;
-  const SurveyStats& stats = survey_->stats();
-  response.message = std::to_string(stats.frames) + " RGB-D frames received, " + std::to_string(stats.keyframes) +
-                     " keyframes used, " + std::to_string(survey_->lineMap().size()) + " map lines (" +
-                     std::to_string(map.size()) + " seen at least " +
-                     std::to_string(survey_->options().min_map_support) + " times)";
-  for (const auto& name : names)
+  const CalibrationOutcome outcome = calibrateCameras(names, nullptr, nullptr);
+  response.success = outcome.success;
+  response.message = outcome.message;
+  response.results = outcome.results;
+  return true;
+}
+
+void CalibrationServer::executeCalibrateAction(const CalibrateGoalConstPtr& goal)
+{
+  CalibrateResult result;
+  std::string error;
+  const std::vector<std::string> names = selectCameras(goal->camera, &error);
+  if (names.empty())
   {
-    const FixedCameraStatus s = survey_->camera(name).status(map);
-    CameraStatus msg;
-    msg.camera_name = name;
-    msg.has_image = s.has_image;
-    msg.images = static_cast<uint32_t>(s.images);
-    msg.image_lines = static_cast<uint32_t>(s.image_lines);
-    msg.map_lines = static_cast<uint32_t>(s.map_lines);
-    msg.map_lines_visible = static_cast<uint32_t>(s.map_lines_visible);
-    msg.matched_lines = static_cast<uint32_t>(s.matched_lines);
-    msg.coverage_percent = s.coverage_percent;
-    msg.calibrated = s.calibrated;
-    msg.ready = s.ready;
-    msg.message = s.message;
-    response.cameras.push_back(msg);
+    result.success = false;
+    result.message = error;
+    calibrate_action_->setAborted(result, error);
+    return;
   }
+  const CalibrationOutcome outcome = calibrateCameras(
+      names,
+      [this](const std::string& camera, const std::string& stage, size_t done, size_t total) {
+        CalibrateFeedback feedback;
+        feedback.camera = camera;
+        feedback.stage = stage;
+        feedback.cameras_done = static_cast<uint32_t>(done);
+        feedback.cameras_total = static_cast<uint32_t>(total);
+        feedback.progress = total > 0 ? static_cast<float>(done) / total : 1.0f;
+        calibrate_action_->publishFeedback(feedback);
+      },
+      [this] { return calibrate_action_->isPreemptRequested() || !ros::ok(); });
+  result.success = outcome.success;
+  result.message = outcome.message;
+  result.results = outcome.results;
+  if (outcome.cancelled)
+    calibrate_action_->setPreempted(result, outcome.message);
+  else if (outcome.success)
+    calibrate_action_->setSucceeded(result, outcome.message);
+  else
+    calibrate_action_->setAborted(result, outcome.message);
+}
+
+bool CalibrationServer::statusService(CalibrationStatus::Request& request, CalibrationStatus::Response& response)
+{
+  std::string error;
+  const std::vector<std::string> names = selectCameras(request.camera, &error);  // cameras_ is fixed: no lock
+  if (names.empty())
+  {
+    response.success = false;
+    response.message = error;
+    return true;
+  }
+  response.success = true;
+  response.cameras = cameraStatuses(names, &response.message);
   return true;
 }
 
@@ -393,6 +607,11 @@ bool CalibrationServer::resetService(Reset::Request& request, Reset::Response& r
   if (request.camera.empty())
   {
     survey_->reset();
+    ++reset_generation_;
+    {
+      std::lock_guard<std::mutex> info_lock(info_mutex_);
+      calibrated_info_.clear();
+    }
     response.success = true;
     response.message = "reset every camera and the 3D line map (saved files are kept)";
     return true;
@@ -405,6 +624,11 @@ bool CalibrationServer::resetService(Reset::Request& request, Reset::Response& r
     return true;
   }
   survey_->resetCamera(request.camera);
+  ++reset_generation_;
+  {
+    std::lock_guard<std::mutex> info_lock(info_mutex_);
+    calibrated_info_.erase(request.camera);
+  }
   response.success = true;
   response.message = "reset camera '" + request.camera + "' (its saved file is kept)";
   return true;
@@ -426,6 +650,12 @@ bool CalibrationServer::saveService(std_srvs::Trigger::Request&, std_srvs::Trigg
       continue;
     }
     ++saved;
+    // ... and committed again to the drivers configured for it (a driver that was down at calibration time).
+    const std::string committed =
+        commitToDriver(name, toCameraInfo(*survey_->camera(name).calibration(), camera.optical_frame));
+    if (committed.rfind("; NOT", 0) == 0)
+      response.success = false;
+    response.message += committed.empty() ? "" : name + committed.substr(1) + "; ";
   }
   response.message += std::to_string(saved) + " calibration(s) saved in " + output_directory_;
   return true;
@@ -445,6 +675,10 @@ void CalibrationServer::publishCalibrations()
     sensor_msgs::CameraInfo info = toCameraInfo(*calibration, camera.optical_frame);
     info.header.stamp = now;
     camera.info_publisher.publish(info);
+    {
+      std::lock_guard<std::mutex> lock(info_mutex_);
+      calibrated_info_[name] = info;
+    }
     const auto last = survey_->camera(name).lastResult();
     const cv::Mat overlay = drawOverlay(survey_->camera(name).medianImage(), calibration->image_width,
                                         calibration->image_height, calibration->camera, survey_->mapSegments(),

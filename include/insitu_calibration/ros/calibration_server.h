@@ -1,31 +1,39 @@
 // The calibration node's ROS side: parameters, subscriptions (Xtion RGB-D with tf2 poses, fixed cameras through
-// image_transport), services (~calibrate, ~status, ~reset, ~save) and outputs (one static tf broadcaster, latched
-// CameraInfo, YAML files, markers, overlay images). The work is done by the core (RgbdLineExtractor, LineMap,
-// FixedCamera); this class converts and calls.
+// image_transport), services (~calibrate, ~status, ~reset, ~save), the ~calibrate action, and outputs (one static tf
+// broadcaster, latched and per-image CameraInfo, YAML files, markers, overlay images, /diagnostics, the latched
+// ~survey_status). The work is done by the core (RgbdLineExtractor, LineMap, FixedCamera); this class converts and
+// calls.
 #ifndef INSITU_CALIBRATION_ROS_CALIBRATION_SERVER_H
 #define INSITU_CALIBRATION_ROS_CALIBRATION_SERVER_H
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <string>
 #include <vector>
 
+#include <actionlib/server/simple_action_server.h>
+#include <diagnostic_updater/diagnostic_updater.h>
 #include <image_transport/image_transport.h>
 #include <message_filters/subscriber.h>
 #include <message_filters/sync_policies/approximate_time.h>
 #include <message_filters/synchronizer.h>
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
+#include <sensor_msgs/SetCameraInfo.h>
 #include <std_srvs/Trigger.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
 
 #include "insitu_calibration/Calibrate.h"
+#include "insitu_calibration/CalibrateAction.h"
 #include "insitu_calibration/Reset.h"
 #include "insitu_calibration/CalibrationStatus.h"
+#include "insitu_calibration/SurveyStatus.h"
 #include "insitu_calibration/survey/survey.h"
 
 namespace insitu_calibration
@@ -34,24 +42,68 @@ class CalibrationServer
 {
 public:
   CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private_nh);
+  ~CalibrationServer();
+  // False when the configuration could not be loaded (the reason went to ROS_FATAL): the node must exit non-zero.
+  bool ok() const { return survey_ != nullptr; }
 
 private:
   // The ROS side of a fixed camera; its core is survey_->camera(name).
   struct Camera
   {
     image_transport::Subscriber subscriber;
-    ros::Publisher info_publisher;
+    ros::Publisher info_publisher;  // latched, once per calibration (calibrated_info_topic)
     image_transport::Publisher overlay_publisher;
     std::string link_frame;
     std::string optical_frame;
+    // The camera info that image_proc pairs with each image (same header), on camera_info_topic; with relay_image
+    // the image itself too, beside it (image_raw), so that image_proc runs in that namespace with no remapping.
+    std::string camera_info_topic;
+    bool relay_image = true;
+    image_transport::CameraPublisher calibrated_publisher;  // relay_image
+    ros::Publisher camera_info_publisher;                   // !relay_image
+    // When set, every new calibration is committed to the camera driver (camera_calibration's "commit").
+    std::string set_camera_info_service;
   };
 
   bool loadParameters();
   void rgbdCallback(const sensor_msgs::ImageConstPtr& rgb, const sensor_msgs::ImageConstPtr& depth,
                     const sensor_msgs::CameraInfoConstPtr& info);
   void fixedImageCallback(const std::string& name, const sensor_msgs::ImageConstPtr& image);
+  // The per-camera ROS options of the ~cameras entries (the core parser ignores them).
+  void loadCameraTopics(XmlRpc::XmlRpcValue& cameras);
+  // The calibrated camera info with the image's header, and the image itself when relayed; no-op before a
+  // calibration. Needs only info_mutex_, so images keep flowing while a calibration holds mutex_.
+  void publishCalibratedInfo(const std::string& name, const sensor_msgs::ImageConstPtr& image);
+  // Sends the calibration to the driver's set_camera_info service, when configured. Returns what happened, in words.
+  std::string commitToDriver(const std::string& name, const sensor_msgs::CameraInfo& info);
+
+  // A calibration of some cameras, shared by the ~calibrate service and action. Each camera is calibrated on a copy
+  // of its FixedCamera outside mutex_ (so ~status, images and RGB-D frames go on meanwhile), and the copy replaces
+  // it unless the camera was reset in between. One calibration at a time (calibration_mutex_).
+  struct CalibrationOutcome
+  {
+    bool success = true;
+    bool cancelled = false;
+    std::string message;
+    std::vector<insitu_calibration::CalibrationResult> results;
+  };
+  using Progress = std::function<void(const std::string& camera, const std::string& stage, size_t done, size_t total)>;
+  CalibrationOutcome calibrateCameras(const std::vector<std::string>& names, const Progress& progress,
+                                      const std::function<bool()>& cancelled);
+  void calibrateOne(const std::string& name, const std::function<void(const std::string&)>& stage,
+                    CalibrationOutcome* outcome);
+  void executeCalibrateAction(const CalibrateGoalConstPtr& goal);
 
   bool calibrateService(Calibrate::Request& request, Calibrate::Response& response);
+
+  // Status reporting (calibration_server_status.cpp): /diagnostics per camera and for the survey, the latched
+  // ~survey_status topic, and the per-camera status that ~status and the topic share.
+  void setupStatusReporting();
+  std::vector<CameraStatus> cameraStatuses(const std::vector<std::string>& names, std::string* summary,
+                                           SurveyStatus* survey = nullptr);
+  void publishSurveyStatus();
+  void cameraDiagnostics(const std::string& name, diagnostic_updater::DiagnosticStatusWrapper& stat);
+  void surveyDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat);
   bool statusService(CalibrationStatus::Request& request, CalibrationStatus::Response& response);
   bool resetService(Reset::Request& request, Reset::Response& response);
   bool saveService(std_srvs::Trigger::Request& request, std_srvs::Trigger::Response& response);
@@ -78,6 +130,26 @@ private:
   message_filters::Subscriber<sensor_msgs::CameraInfo> info_subscriber_;
   std::unique_ptr<message_filters::Synchronizer<SyncPolicy>> synchronizer_;
 
+  // Services and the action's goals run on their own queue and thread (service_spinner_), calibrations on the
+  // ~calibrate service's thread (work_spinner_) or the action's own: neither waits behind the image callbacks of
+  // the global queue, nor ~status behind a calibration.
+  ros::CallbackQueue service_queue_;
+  ros::CallbackQueue work_queue_;
+  ros::NodeHandle service_nh_;  // private namespace, service_queue_
+  ros::NodeHandle work_nh_;     // private namespace, work_queue_
+  std::unique_ptr<ros::AsyncSpinner> service_spinner_;
+  std::unique_ptr<ros::AsyncSpinner> work_spinner_;
+  std::unique_ptr<actionlib::SimpleActionServer<CalibrateAction>> calibrate_action_;
+  std::mutex calibration_mutex_;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  ros::WallTimer diagnostics_timer_;
+  ros::WallTimer survey_status_timer_;
+  ros::Publisher survey_status_publisher_;
+  double stale_image_s_ = 10.0;         // a camera whose last image is older is stale
+  double max_sigma_position_m_ = 0.05;  // a calibration more uncertain than this is reported (WARN)
+  double max_sigma_rotation_deg_ = 0.5;
+  uint64_t reset_generation_ = 0;  // guarded by mutex_; a calibration started before a reset is discarded
+
   ros::ServiceServer calibrate_server_;
   ros::ServiceServer status_server_;
   ros::ServiceServer reset_server_;
@@ -95,6 +167,11 @@ private:
   mutable std::mutex mutex_;
   std::unique_ptr<Survey> survey_;
   std::map<std::string, Camera> cameras_;
+  // Each calibrated camera's CameraInfo (header filled per image), written under both locks, read under info_mutex_.
+  std::mutex info_mutex_;
+  std::map<std::string, sensor_msgs::CameraInfo> calibrated_info_;
+  std::map<std::string, ros::WallTime> last_image_;  // per camera, when its last image arrived (info_mutex_)
+  std::map<std::string, size_t> image_count_;        // per camera, images received (info_mutex_)
 };
 
 }  // namespace insitu_calibration

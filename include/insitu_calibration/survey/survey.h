@@ -96,6 +96,10 @@ public:
   // Calibrates one camera against the map in use (FixedCamera::calibrate with the map's segments and sigmas) and
   // adds the map's placement uncertainty to the result's pose sigmas. Errors as FixedCamera::calibrate.
   Expected<FixedCameraResult> calibrate(const std::string& name, const std::string& world_frame);
+  // The map's placement uncertainty added to a calibration made against mapSegments() (its pose sigmas and its
+  // file's quality), for callers that calibrate a copy of a camera (the node, outside its lock). False when there is
+  // none to add (tf trusted, or no uncertainty available).
+  bool addMapPlacement(FixedCameraResult* result) const;
 
   bool hasCamera(const std::string& name) const { return cameras_.count(name) > 0; }
   std::vector<std::string> cameraNames() const;

@@ -227,28 +227,32 @@ Expected<FixedCameraResult> Survey::calibrate(const std::string& name, const std
   auto result = camera(name).calibrate(mapSegments(), world_frame, mapLineSigmas());
   if (!result)
     return result;
+  if (addMapPlacement(&*result))
+    camera(name).setCalibration(result->file);
+  return result;
+}
+
+bool Survey::addMapPlacement(FixedCameraResult* result) const
+{
   // The whole map may be off by the placement: a shift of the camera, and a turn about the survey's centre that
   // turns the camera and moves it by the turn times its horizontal distance from the centre.
   const MapPlacementUncertainty placement = mapPlacement();
   CameraUncertainty& u = result->calibration.uncertainty;
-  if (u.available && (placement.sigma_m > 0.0 || placement.sigma_deg > 0.0))
+  if (!u.available || !(placement.sigma_m > 0.0 || placement.sigma_deg > 0.0))
+    return false;
+  const Eigen::Vector3d arm = result->calibration.camera.pose().center() - placement.centre;
+  const double turn_m = placement.sigma_deg * M_PI / 180.0 * arm.head<2>().norm();
+  u.position_m = std::sqrt(u.position_m * u.position_m + 2.0 * placement.sigma_m * placement.sigma_m + turn_m * turn_m);
+  u.rotation_deg = std::hypot(u.rotation_deg, placement.sigma_deg);
+  if (result->file.quality)
   {
-    const Eigen::Vector3d arm = result->calibration.camera.pose().center() - placement.centre;
-    const double turn_m = placement.sigma_deg * M_PI / 180.0 * arm.head<2>().norm();
-    u.position_m =
-        std::sqrt(u.position_m * u.position_m + 2.0 * placement.sigma_m * placement.sigma_m + turn_m * turn_m);
-    u.rotation_deg = std::hypot(u.rotation_deg, placement.sigma_deg);
-    if (result->file.quality)
-    {
-      auto& extra = result->file.quality->extra;
-      extra["sigma_position_m"] = u.position_m;
-      extra["sigma_rotation_deg"] = u.rotation_deg;
-      extra["sigma_map_placement_m"] = std::hypot(placement.sigma_m, placement.sigma_m);
-      extra["sigma_map_placement_deg"] = placement.sigma_deg;
-    }
-    camera(name).setCalibration(result->file);
+    auto& extra = result->file.quality->extra;
+    extra["sigma_position_m"] = u.position_m;
+    extra["sigma_rotation_deg"] = u.rotation_deg;
+    extra["sigma_map_placement_m"] = std::hypot(placement.sigma_m, placement.sigma_m);
+    extra["sigma_map_placement_deg"] = placement.sigma_deg;
   }
-  return result;
+  return true;
 }
 
 std::vector<MapLine> Survey::usedMapLines() const
