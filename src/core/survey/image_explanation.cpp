@@ -97,11 +97,12 @@ void assessLine(const Gradients& g, const CameraModel& camera, const Segment3d& 
 std::string ImageExplanation::describe() const
 {
   char buffer[320];
-  std::snprintf(buffer, sizeof(buffer),
-                "%zu map lines in view, %.0f %% of their length on image edges (%.0f %% 4 px beside them); %zu matched "
-                "lines: median residual %.3f px, held out %.3f px",
-                map_lines, 100.0 * overlay_agreement, 100.0 * overlay_chance, matched_lines, median_rms_px,
-                median_heldout_px);
+  std::snprintf(
+      buffer, sizeof(buffer),
+      "%zu map lines in view, %.0f %% of their length on image edges (%.0f %% 4 px beside them, excess %.2f); "
+      "%zu matched lines: median residual %.3f px, held out %.3f px",
+      map_lines, 100.0 * overlay_agreement, 100.0 * overlay_chance, overlayExcess(), matched_lines, median_rms_px,
+      median_heldout_px);
   return buffer;
 }
 
@@ -146,8 +147,7 @@ Status acceptExplanation(const ImageExplanation& e, const ImageExplanationOption
     return Error(ErrorCode::kNoSolution,
                  "the camera does not explain the image: too few of the map lines it sees fall on image edges" +
                      numbers + "; the matches are probably wrong: check the prior, or survey more of the view");
-  if (o.min_overlay_over_chance > 0.0 && e.samples > 0 &&
-      e.overlay_agreement < o.min_overlay_over_chance * e.overlay_chance)
+  if (o.min_overlay_excess > 0.0 && e.samples > 0 && e.overlayExcess() < o.min_overlay_excess)
     return Error(ErrorCode::kNoSolution,
                  "the camera does not explain the image: the map lines it sees meet image edges hardly more often "
                  "than lines beside them" +
