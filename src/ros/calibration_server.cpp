@@ -525,10 +525,7 @@ CalibrationServer::CalibrationOutcome CalibrationServer::calibrateCameras(const 
   }
   if (!outcome.message.empty() && outcome.message.back() == '\n')
     outcome.message.pop_back();
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    publishCalibrations();
-  }
+  publishCalibrations();
   publishSurveyStatus();
   report("", "done", outcome.results.size());
   return outcome;
@@ -663,26 +660,37 @@ bool CalibrationServer::saveService(std_srvs::Trigger::Request&, std_srvs::Trigg
 
 void CalibrationServer::publishCalibrations()
 {
+  // A snapshot under mutex_ (FixedCamera copies share their images); the median images, overlays and publishing
+  // without it, so that ~status and the image callbacks do not wait for the drawing. The caller must not hold it.
+  std::vector<std::pair<std::string, FixedCamera>> calibrated;
+  std::vector<Segment3d> map;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    map = survey_->mapSegments();
+    for (const auto& [name, camera] : cameras_)
+      if (survey_->camera(name).calibration())
+        calibrated.emplace_back(name, survey_->camera(name));
+    publishMarkers();
+  }
   std::vector<geometry_msgs::TransformStamped> transforms;
   const ros::Time now = ros::Time::now();
-  for (auto& [name, camera] : cameras_)
+  for (const auto& [name, fixed] : calibrated)
   {
-    const auto& calibration = survey_->camera(name).calibration();
-    if (!calibration)
-      continue;
-    const auto t = cameraTransforms(*calibration, world_frame_, camera.link_frame, camera.optical_frame, now);
+    Camera& camera = cameras_.at(name);
+    const CalibrationFile& calibration = *fixed.calibration();
+    const auto t = cameraTransforms(calibration, world_frame_, camera.link_frame, camera.optical_frame, now);
     transforms.insert(transforms.end(), t.begin(), t.end());
-    sensor_msgs::CameraInfo info = toCameraInfo(*calibration, camera.optical_frame);
+    sensor_msgs::CameraInfo info = toCameraInfo(calibration, camera.optical_frame);
     info.header.stamp = now;
     camera.info_publisher.publish(info);
     {
       std::lock_guard<std::mutex> lock(info_mutex_);
       calibrated_info_[name] = info;
     }
-    const auto last = survey_->camera(name).lastResult();
-    const cv::Mat overlay = drawOverlay(survey_->camera(name).medianImage(), calibration->image_width,
-                                        calibration->image_height, calibration->camera, survey_->mapSegments(),
-                                        last ? last->matched_image_lines : std::vector<std::vector<Eigen::Vector2d>>{});
+    const auto& last = fixed.lastResult();
+    const cv::Mat overlay =
+        drawOverlay(fixed.medianImage(), calibration.image_width, calibration.image_height, calibration.camera, map,
+                    last ? last->matched_image_lines : std::vector<std::vector<Eigen::Vector2d>>{});
     std_msgs::Header header;
     header.stamp = now;
     header.frame_id = camera.optical_frame;
@@ -691,7 +699,6 @@ void CalibrationServer::publishCalibrations()
   // One broadcaster for every camera: it republishes all its transforms together on the latched /tf_static.
   if (!transforms.empty())
     static_broadcaster_.sendTransform(transforms);
-  publishMarkers();
 }
 
 void CalibrationServer::publishMarkers()

@@ -108,7 +108,8 @@ private:
   bool resetService(Reset::Request& request, Reset::Response& response);
   bool saveService(std_srvs::Trigger::Request& request, std_srvs::Trigger::Response& response);
 
-  // Publishes every calibration: tf (one broadcaster, all cameras at once), CameraInfo, markers, overlays.
+  // Publishes every calibration: tf (one broadcaster, all cameras at once), CameraInfo, markers, overlays. Takes
+  // mutex_ itself (only for a snapshot): the caller must not hold it.
   void publishCalibrations();
   void publishMarkers();
   void loadSavedCalibrations();
