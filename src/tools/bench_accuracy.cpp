@@ -31,6 +31,7 @@ namespace ic = insitu_calibration;
 namespace
 {
 const char* kUsage = R"(Usage: bench_accuracy [--trials N] [--out-dir DIR] [--seed S] [--experiments LIST] [--no-plot]
+                      [--previous-defaults]
 
 Runs, with N trials per setting (default 100), on synthetic surveillance-like cameras (1280x960, barrel distortion
 displacing the corner by 15 px) looking at 30 random 3D segments in a room (5 image points per line, 2 world points):
@@ -46,6 +47,8 @@ displacing the corner by 15 px) looking at 30 random 3D segments in a room (5 im
             defaults against OpenCV's calibrateCamera on the end points with the same noise; prints the medians
   dense_fixed  the issue's own cases at 1 px: 6 image and 6 world points per line (3 mm), 10 image points and exact
             world points
+--previous-defaults runs every experiment with the pipeline as it was before issue 13 (DLT over parts, fixed RANSAC
+threshold, image-point line residuals), for before/after comparisons in one binary.
 (--experiments picks some of fig2,fig2_rendered,outliers,outliers_added,lines,dense,dense_fixed; all by default) and reports the coverage of the
 refined result's standard deviations (how often the true error is within 2 sigma).
 Writes DIR/accuracy.csv, DIR/accuracy.md and PNG plots (DIR defaults to ./accuracy). Errors are against the truth:
@@ -126,8 +129,27 @@ Errors errorsOf(const Trial& t, const ic::CameraModel& estimate)
   return e;
 }
 
+// The pipeline as it was before issue 13: the DLT over parts without fallback, the fixed RANSAC threshold, image-point
+// residuals to the line through the first and last world points (bit for bit the previous results).
+ic::CalibrationOptions previousDefaults()
+{
+  ic::CalibrationOptions options;
+  options.linear_stage = ic::LinearStage::kParts;
+  options.lambda_fallback = false;
+  options.noise_threshold_factor = 0.0;
+  options.refinement.line_residual = ic::LineResidual::kImagePoints;
+  return options;
+}
+
+// --previous-defaults: every experiment with previousDefaults() instead of CalibrationOptions' defaults.
+bool g_previous_defaults = false;
+ic::CalibrationOptions baseOptions()
+{
+  return g_previous_defaults ? previousDefaults() : ic::CalibrationOptions();
+}
+
 Errors runCalibration(const Trial& t, const ic::CorrespondenceSet& data, ic::DltMethod method, bool normalize,
-                      bool robust, double inlier_threshold_px, ic::CalibrationOptions options = {})
+                      bool robust, double inlier_threshold_px, ic::CalibrationOptions options = baseOptions())
 {
   options.method = method;
   options.distortion = ic::DistortionMode::kOn;
@@ -292,20 +314,9 @@ RenderedTrial makeRenderedTrial(unsigned seed, int width, int height)
 // calibrate_lines' defaults where they differ from CalibrationOptions' (the refinement's joint error model).
 ic::CalibrationOptions calibrateLinesDefaults()
 {
-  ic::CalibrationOptions options;
-  options.refinement.line_residual = ic::LineResidual::kJoint;
-  return options;
-}
-
-// The pipeline as it was before issue 13: the DLT over parts without fallback, the fixed RANSAC threshold, image-point
-// residuals to the line through the first and last world points.
-ic::CalibrationOptions previousDefaults()
-{
-  ic::CalibrationOptions options;
-  options.linear_stage = ic::LinearStage::kParts;
-  options.lambda_fallback = false;
-  options.noise_threshold_factor = 0.0;
-  options.refinement.line_residual = ic::LineResidual::kImagePoints;
+  ic::CalibrationOptions options = baseOptions();
+  if (!g_previous_defaults)
+    options.refinement.line_residual = ic::LineResidual::kJoint;
   return options;
 }
 
@@ -394,12 +405,13 @@ struct Writer
 int main(int argc, char** argv)
 {
   ic::quietSolverLogging();
-  ic::CommandLine cli(argc, argv, {"trials", "out-dir", "seed", "experiments"}, {"no-plot"});
+  ic::CommandLine cli(argc, argv, {"trials", "out-dir", "seed", "experiments"}, {"no-plot", "previous-defaults"});
   if (cli.help())
   {
     std::cout << kUsage;
     return 0;
   }
+  g_previous_defaults = cli.flag("previous-defaults");
   const int trials = static_cast<int>(cli.number("trials", 100));
   const unsigned seed = static_cast<unsigned>(cli.number("seed", 1000));
   const std::string out_dir = cli.value("out-dir", "accuracy");
