@@ -67,8 +67,9 @@ struct CalibrationOptions
   bool refine = true;
   RefinementOptions refinement;
   // When no camera is found: whether the data calibrate with the world mirrored, and then an error that says the
-  // frame is left-handed and how to calibrate (instead of the solver's failure).
-  bool detect_left_handed = true;  // estimate_distortion is set from the distortion decision
+  // frame is left-handed and how to calibrate (instead of the solver's failure). Off by default: a failed solve then
+  // costs a second one, which the matcher's many trial calibrations should not pay; calibrate_lines turns it on.
+  bool detect_left_handed = false;  // estimate_distortion is set from the distortion decision
 };
 
 struct CameraCalibration

@@ -316,7 +316,10 @@ ic::CalibrationOptions calibrateLinesDefaults()
 {
   ic::CalibrationOptions options = baseOptions();
   if (!g_previous_defaults)
+  {
     options.refinement.line_residual = ic::LineResidual::kJoint;
+    options.detect_left_handed = true;
+  }
   return options;
 }
 

@@ -89,6 +89,7 @@ std::string parseOptions(ic::CommandLine& cli, ic::CalibrationOptions* options)
   options->distortion = *distortion;
   options->method = *method;
   options->linear_stage = *stage;
+  options->detect_left_handed = true;
   options->ransac = !cli.flag("no-ransac") && !cli.flag("paper");
   options->refine = !cli.flag("no-refine") && !cli.flag("paper");
   options->ransac_options.inlier_threshold_px = cli.number("inlier-threshold", 3.0);

@@ -37,6 +37,7 @@ ic::CalibrationOptions calibrateLinesOptions()
   ic::CalibrationOptions options;
   options.method = ic::DltMethod::kLines;
   options.refinement.line_residual = ic::LineResidual::kJoint;
+  options.detect_left_handed = true;
   return options;
 }
 
