@@ -7,6 +7,7 @@
 #include <random>
 
 #include "insitu_calibration/calibration.h"
+#include "insitu_calibration/io/correspondence_file.h"
 #include "insitu_calibration/metrics.h"
 #include "insitu_calibration/refine/noise_model.h"
 #include "insitu_calibration/solvers/plumb_line.h"
@@ -229,4 +230,20 @@ TEST(DensePolylines, LambdaFallback)
   const Medians m = calibrateTrials(7600, 10, data, options);
   EXPECT_EQ(m.failures, 0);
   EXPECT_LT(m.focal_percent, 1.0);
+}
+
+// A line's world_sigma in the correspondence file (0: exact, a BIM line) reaches the refinement; absent stays unset.
+TEST(DensePolylines, WorldSigmaInCorrespondenceFile)
+{
+  const Scene s = makeDenseScene(7700, ic::DensePolylineOptions());
+  ic::CorrespondenceSet data = s.lines.data;
+  data.lines[0].world_point_sigma_m = 0.0;
+  data.lines[1].world_point_sigma_m = 0.004;
+  const std::string path = ::testing::TempDir() + "/dense_world_sigma.yaml";
+  ASSERT_TRUE(ic::saveCorrespondenceFile(path, data));
+  const auto loaded = ic::loadCorrespondenceFile(path);
+  ASSERT_TRUE(loaded) << loaded.error().describe();
+  EXPECT_EQ(loaded->lines[0].world_point_sigma_m, 0.0);
+  EXPECT_DOUBLE_EQ(loaded->lines[1].world_point_sigma_m, 0.004);
+  EXPECT_LT(loaded->lines[2].world_point_sigma_m, 0.0);
 }
