@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <functional>
 #include <numeric>
+#include <optional>
 #include <fstream>
 #include <iostream>
 #include <map>
@@ -31,7 +32,7 @@ namespace ic = insitu_calibration;
 namespace
 {
 const char* kUsage = R"(Usage: bench_accuracy [--trials N] [--out-dir DIR] [--seed S] [--experiments LIST] [--no-plot]
-                      [--previous-defaults]
+                      [--previous-defaults] [--linear-stage auto|plumb-line|parts]
 
 Runs, with N trials per setting (default 100), on synthetic surveillance-like cameras (1280x960, barrel distortion
 displacing the corner by 15 px) looking at 30 random 3D segments in a room (5 image points per line, 2 world points):
@@ -48,7 +49,8 @@ displacing the corner by 15 px) looking at 30 random 3D segments in a room (5 im
   dense_fixed  the issue's own cases at 1 px: 6 image and 6 world points per line (3 mm), 10 image points and exact
             world points
 --previous-defaults runs every experiment with the pipeline as it was before issue 13 (DLT over parts, fixed RANSAC
-threshold, image-point line residuals), for before/after comparisons in one binary.
+threshold, image-point line residuals), for before/after comparisons in one binary; --linear-stage forces one linear
+stage (calibrate_lines --linear-stage) everywhere.
 (--experiments picks some of fig2,fig2_rendered,outliers,outliers_added,lines,dense,dense_fixed; all by default) and reports the coverage of the
 refined result's standard deviations (how often the true error is within 2 sigma).
 Writes DIR/accuracy.csv, DIR/accuracy.md and PNG plots (DIR defaults to ./accuracy). Errors are against the truth:
@@ -143,9 +145,13 @@ ic::CalibrationOptions previousDefaults()
 
 // --previous-defaults: every experiment with previousDefaults() instead of CalibrationOptions' defaults.
 bool g_previous_defaults = false;
+std::optional<ic::LinearStage> g_linear_stage;  // --linear-stage: measure the stages against each other
 ic::CalibrationOptions baseOptions()
 {
-  return g_previous_defaults ? previousDefaults() : ic::CalibrationOptions();
+  ic::CalibrationOptions options = g_previous_defaults ? previousDefaults() : ic::CalibrationOptions();
+  if (g_linear_stage)
+    options.linear_stage = *g_linear_stage;
+  return options;
 }
 
 Errors runCalibration(const Trial& t, const ic::CorrespondenceSet& data, ic::DltMethod method, bool normalize,
@@ -408,13 +414,22 @@ struct Writer
 int main(int argc, char** argv)
 {
   ic::quietSolverLogging();
-  ic::CommandLine cli(argc, argv, {"trials", "out-dir", "seed", "experiments"}, {"no-plot", "previous-defaults"});
+  ic::CommandLine cli(argc, argv, {"trials", "out-dir", "seed", "experiments", "linear-stage"}, {"no-plot", "previous-defaults"});
   if (cli.help())
   {
     std::cout << kUsage;
     return 0;
   }
   g_previous_defaults = cli.flag("previous-defaults");
+  if (cli.has("linear-stage"))
+  {
+    g_linear_stage = ic::parseLinearStage(cli.value("linear-stage"));
+    if (!g_linear_stage)
+    {
+      std::cerr << "bench_accuracy: --linear-stage must be auto, plumb-line or parts\n";
+      return 2;
+    }
+  }
   const int trials = static_cast<int>(cli.number("trials", 100));
   const unsigned seed = static_cast<unsigned>(cli.number("seed", 1000));
   const std::string out_dir = cli.value("out-dir", "accuracy");
