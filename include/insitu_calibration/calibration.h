@@ -30,7 +30,7 @@ enum class LinearStage
 {
   kParts,      // the paper's DLT-Lines: every world point with every part of its polyline, lambda from the GEP
   kPlumbLine,  // lambda from the straightness of all polylines, each polyline fitted as one line, pin-hole DLT
-  kAuto,       // plumb-line when lambda is estimated and two or more polylines have 3+ points, parts otherwise
+  kAuto,       // parts; when its lambda is implausible (or it finds no camera) plumb-line, then lambda = 0
 };
 std::optional<LinearStage> parseLinearStage(const std::string& name);
 
