@@ -506,9 +506,11 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
   // kJoint: the noise levels (given or estimated with the initial distortion) and each line's 3D line.
   NoiseLevels noise;
   if (options.line_residual == LineResidual::kJoint)
+  {
     noise = estimateNoiseLevels(data, initial.distortion(), options.image_sigma_px, options.world_sigma_m);
-  result.image_sigma_px = noise.image_sigma_px;
-  result.world_sigma_m = noise.world_sigma_m;
+    result.image_sigma_px = noise.image_sigma_px;
+    result.world_sigma_m = noise.world_sigma_m;
+  }
   std::vector<LineModel> models = makeLineModels(data, options, noise);
   const bool image_residuals = options.line_residual != LineResidual::kWorldPoints;
   const bool only_image_residuals =
