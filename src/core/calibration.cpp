@@ -52,7 +52,10 @@ Expected<DltResult> linearSolve(const CorrespondenceSet& data, const DltOptions&
   const bool plumb = usesPlumbLine(data, dlt, options.linear_stage);
   *note = plumb ? "linear stage: plumb-line lambda, polylines fitted as lines" : "linear stage: DLT over parts";
   auto solved = plumb ? solvePlumbLineDlt(data, dlt) : solveDlt(data, dlt);
-  if (solved || !dlt.estimate_distortion || !options.lambda_fallback || solved.error().code() != ErrorCode::kNoSolution)
+  // The fallbacks only start the refinement: the plain linear result (--paper) stays the paper's, refused when
+  // implausible rather than a camera nobody refines.
+  if (solved || !dlt.estimate_distortion || !options.lambda_fallback || !options.refine ||
+      solved.error().code() != ErrorCode::kNoSolution)
     return solved;
   const std::string why = solved.error().message();
   if (!plumb)
