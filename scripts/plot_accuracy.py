@@ -20,6 +20,8 @@ LABELS = {
     "combined_refined": "lines + end points, RANSAC + refinement",
     "opencv_calibrate_camera": "OpenCV calibrateCamera (end points)",
     "oracle_inliers_refined": "oracle: only the good lines, refined",
+    "calibrate_lines_default": "calibrate_lines defaults (plumb-line stage, joint error model)",
+    "previous_defaults": "before issue 13 (DLT over parts, image residuals)",
 }
 
 
@@ -65,7 +67,8 @@ def main():
     plot("outliers", "fraction of wrong line correspondences", "outliers.png")
     plot("outliers_added", "fraction of wrong line correspondences (added to 30 good ones)", "outliers_added.png")
     plot("lines", "number of lines", "lines.png", logx=True)
-    print("wrote %s/fig2.png, fig2_rendered.png, outliers.png, outliers_added.png, lines.png" % out)
+    plot("dense", "image noise sigma (px), world noise 3 mm per px; dense polylines", "dense.png", logx=True)
+    print("wrote %s/fig2.png, fig2_rendered.png, outliers.png, outliers_added.png, lines.png, dense.png" % out)
 
 
 if __name__ == "__main__":

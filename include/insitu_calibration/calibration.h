@@ -25,8 +25,24 @@ enum class DistortionMode
 };
 std::optional<DistortionMode> parseDistortionMode(const std::string& name);
 
+// The linear stage that starts RANSAC and the refinement (README, "Method notes").
+enum class LinearStage
+{
+  kParts,      // the paper's DLT-Lines: every world point with every part of its polyline, lambda from the GEP
+  kPlumbLine,  // lambda from the straightness of all polylines, each polyline fitted as one line, pin-hole DLT
+  kAuto,       // parts; when its lambda is implausible (or it finds no camera) plumb-line, then lambda = 0
+};
+std::optional<LinearStage> parseLinearStage(const std::string& name);
+
 struct CalibrationOptions
 {
+  LinearStage linear_stage = LinearStage::kAuto;
+  // When the linear lambda is implausible (it would fold the image) or the linear solve fails with it: the pin-hole
+  // solve, and the refinement starts from lambda = 0 (instead of refusing).
+  bool lambda_fallback = true;
+  // The inlier threshold grows with the noise the data show: at least noise_threshold_factor x the median line
+  // error of the inliers (so that true lines at 1-3 px noise are kept); 0: the fixed threshold only.
+  double noise_threshold_factor = 3.5;
   DltMethod method = DltMethod::kCombined;
   DistortionMode distortion = DistortionMode::kAuto;
   DltOptions dlt;  // method and estimate_distortion are set from the fields above
@@ -49,7 +65,11 @@ struct CalibrationOptions
   // against the same threshold.
   bool leave_one_out = false;
   bool refine = true;
-  RefinementOptions refinement;  // estimate_distortion is set from the distortion decision
+  RefinementOptions refinement;
+  // When no camera is found: whether the data calibrate with the world mirrored, and then an error that says the
+  // frame is left-handed and how to calibrate (instead of the solver's failure). Off by default: a failed solve then
+  // costs a second one, which the matcher's many trial calibrations should not pay; calibrate_lines turns it on.
+  bool detect_left_handed = false;  // estimate_distortion is set from the distortion decision
 };
 
 struct CameraCalibration
@@ -59,8 +79,10 @@ struct CameraCalibration
   ReprojectionStats reprojection;  // point-to-line (and point) errors in distorted pixels, over the inliers
   DltResult dlt;
   bool distortion_estimated = false;
-  std::string distortion_note;     // why lambda was or was not estimated
-  std::vector<bool> inlier_lines;  // per input line; all true without RANSAC
+  std::string distortion_note;       // why lambda was or was not estimated
+  std::string linear_note;           // which linear stage started the refinement, and any fallback
+  double inlier_threshold_px = 0.0;  // the threshold the final inliers were judged with
+  std::vector<bool> inlier_lines;    // per input line; all true without RANSAC
   size_t inlier_count = 0;
   int ransac_iterations = 0;
   std::optional<RefinementResult> refinement;
@@ -74,6 +96,10 @@ struct CameraCalibration
 // score) chooses the inliers. The linear DLT on those inliers and the refinement follow as without it.
 Expected<CameraCalibration> calibrateCamera(const CorrespondenceSet& data, const CalibrationOptions& options = {},
                                             const std::optional<CameraModel>& initial = std::nullopt);
+
+// Negates one coordinate (0 x, 1 y, 2 z) of every world point: a left-handed world frame made right-handed.
+void mirrorWorld(CorrespondenceSet* data, int axis);
+std::optional<int> parseMirrorAxis(const std::string& name);
 
 CalibrationFile toCalibrationFile(const CorrespondenceSet& data, const CameraCalibration& result,
                                   const std::string& world_frame);

@@ -6,6 +6,8 @@
 #include <limits>
 #include <sstream>
 
+#include "insitu_calibration/solvers/plumb_line.h"
+
 namespace insitu_calibration
 {
 std::optional<DistortionMode> parseDistortionMode(const std::string& name)
@@ -19,15 +21,112 @@ std::optional<DistortionMode> parseDistortionMode(const std::string& name)
   return std::nullopt;
 }
 
+std::optional<LinearStage> parseLinearStage(const std::string& name)
+{
+  if (name == "parts")
+    return LinearStage::kParts;
+  if (name == "plumb-line")
+    return LinearStage::kPlumbLine;
+  if (name == "auto")
+    return LinearStage::kAuto;
+  return std::nullopt;
+}
+
 namespace
 {
+bool usesPlumbLine(const CorrespondenceSet& data, const DltOptions& dlt, LinearStage stage)
+{
+  // kAuto starts with the DLT over parts: measured, the refinement reaches the same optimum from either stage on
+  // dense polylines, and the parts stage's linear camera (with the principal-point iteration) is the better one on
+  // polylines of a few good points (bench_accuracy fig2, fig2_rendered). The plumb-line stage is its fallback.
+  (void)data;
+  (void)dlt;
+  return stage == LinearStage::kPlumbLine;
+}
+
+// The linear stage chosen, then the fallbacks when it finds no acceptable camera (an implausible lambda, a camera
+// with the scene behind it): the other stage, then the pin-hole solve with lambda = 0 as the refinement's start.
+Expected<DltResult> linearSolve(const CorrespondenceSet& data, const DltOptions& dlt, const CalibrationOptions& options,
+                                std::string* note)
+{
+  const bool plumb = usesPlumbLine(data, dlt, options.linear_stage);
+  *note = plumb ? "linear stage: plumb-line lambda, polylines fitted as lines" : "linear stage: DLT over parts";
+  auto solved = plumb ? solvePlumbLineDlt(data, dlt) : solveDlt(data, dlt);
+  // The fallbacks only start the refinement: the plain linear result (--paper) stays the paper's, refused when
+  // implausible rather than a camera nobody refines.
+  if (solved || !dlt.estimate_distortion || !options.lambda_fallback || !options.refine ||
+      solved.error().code() != ErrorCode::kNoSolution)
+    return solved;
+  const std::string why = solved.error().message();
+  if (!plumb)
+    if (auto other = solvePlumbLineDlt(data, dlt))
+    {
+      *note = "linear stage: plumb-line lambda (the DLT over parts failed: " + why + ")";
+      return other;
+    }
+  DltOptions pinhole = dlt;
+  pinhole.estimate_distortion = false;
+  auto fallback = plumb ? solvePlumbLineDlt(data, pinhole) : solveDlt(data, pinhole);
+  if (!fallback)
+    return solved;
+  *note = "linear stage: pin-hole, refinement started from lambda = 0 (" + why + ")";
+  fallback->distortion_estimated = true;
+  return fallback;
+}
+
+// RANSAC over lines; with the plumb-line stage on the straightened lines (lambda from all polylines first, which
+// wrong correspondences do not affect), pin-hole hypotheses of 6 lines.
+Expected<RansacResult> selectLines(const CorrespondenceSet& data, const DltOptions& dlt,
+                                   const CalibrationOptions& options, const RansacOptions& ransac_options)
+{
+  // kAuto: the parts stage first; when none of its hypotheses is acceptable (every lambda implausible), the
+  // straightened lines.
+  std::optional<Expected<RansacResult>> parts;
+  if (!usesPlumbLine(data, dlt, options.linear_stage))
+  {
+    parts = ransacDlt(data, dlt, ransac_options);
+    if (*parts || options.linear_stage == LinearStage::kParts || !options.lambda_fallback ||
+        parts->error().code() != ErrorCode::kNoSolution)
+      return std::move(*parts);
+  }
+  DivisionModel distortion{0.0, dlt.distortion_center.value_or(data.imageCenter())};
+  if (dlt.estimate_distortion)
+  {
+    const auto estimate = estimatePlumbLineLambda(data, distortion.center);
+    if (!estimate)
+      return parts ? std::move(*parts) : ransacDlt(data, dlt, ransac_options);
+    distortion.lambda = estimate->lambda;
+  }
+  DltOptions pinhole = dlt;
+  pinhole.estimate_distortion = false;
+  auto selected = ransacDlt(straightenCorrespondences(data, distortion), pinhole, ransac_options);
+  if (selected)
+    selected->camera.distortion() = distortion;
+  return selected;
+}
+
+// The threshold the noise calls for: noise_threshold_factor x the median line error of the given lines.
+double noiseThreshold(const CameraModel& camera, const CorrespondenceSet& data, const std::vector<bool>& use,
+                      const CalibrationOptions& options)
+{
+  std::vector<double> errors;
+  for (size_t i = 0; i < data.lines.size(); ++i)
+    if (use[i])
+      errors.push_back(lineError(camera, data.lines[i]));
+  if (errors.empty() || !(options.noise_threshold_factor > 0.0))
+    return 0.0;
+  std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
+  const double median = errors[errors.size() / 2];
+  return std::isfinite(median) ? options.noise_threshold_factor * median : 0.0;
+}
+
 // The DLT with the principal-point iteration, then the refinement, on lines already selected. With an anchor (a
 // camera known to be close, refined before), the refinement also starts from it and the better of the two optima
 // (lower RMS) is kept; the anchor alone is used when the linear solve fails.
 Status solveAndRefine(const CorrespondenceSet& inliers, const DltOptions& dlt, const CalibrationOptions& options,
                       const std::optional<CameraModel>& anchor, CameraCalibration* result)
 {
-  auto solved = solveDlt(inliers, dlt);
+  auto solved = linearSolve(inliers, dlt, options, &result->linear_note);
   if (!solved && !(anchor && options.refine))
     return solved.error();
   if (solved)
@@ -140,8 +239,54 @@ double msacScore(const CameraModel& camera, const CorrespondenceSet& data, doubl
 }
 }  // namespace
 
+void mirrorWorld(CorrespondenceSet* data, int axis)
+{
+  for (auto& line : data->lines)
+    for (auto& x : line.world)
+      x(axis) = -x(axis);
+  for (auto& point : data->points)
+    point.world(axis) = -point.world(axis);
+}
+
+std::optional<int> parseMirrorAxis(const std::string& name)
+{
+  if (name == "x")
+    return 0;
+  if (name == "y")
+    return 1;
+  if (name == "z")
+    return 2;
+  return std::nullopt;
+}
+
+namespace
+{
+Expected<CameraCalibration> calibrateInFrame(const CorrespondenceSet& data, const CalibrationOptions& options,
+                                             const std::optional<CameraModel>& initial);
+}
+
 Expected<CameraCalibration> calibrateCamera(const CorrespondenceSet& data, const CalibrationOptions& options,
                                             const std::optional<CameraModel>& initial)
+{
+  auto result = calibrateInFrame(data, options, initial);
+  if (result || !options.detect_left_handed || result.error().code() != ErrorCode::kNoSolution)
+    return result;
+  // A left-handed world frame (CAD tools, game engines): no proper rotation sees the scene in front, so every
+  // solve fails. The same data with one axis mirrored calibrating is the proof.
+  CorrespondenceSet mirrored = data;
+  mirrorWorld(&mirrored, 2);
+  if (!calibrateInFrame(mirrored, options, std::nullopt))
+    return result;
+  return Error(ErrorCode::kInvalidInput,
+               "the world frame of these correspondences is left-handed: no camera sees them with a proper rotation, "
+               "while with one world axis mirrored (z -> -z) they calibrate. Mirror an axis of the world points "
+               "(calibrate_lines --mirror-world z); the pose is then given in that mirrored, right-handed frame");
+}
+
+namespace
+{
+Expected<CameraCalibration> calibrateInFrame(const CorrespondenceSet& data, const CalibrationOptions& options,
+                                             const std::optional<CameraModel>& initial)
 {
   CameraCalibration result;
   DltOptions dlt = options.dlt;
@@ -206,10 +351,16 @@ Expected<CameraCalibration> calibrateCamera(const CorrespondenceSet& data, const
       RansacOptions ransac_options = options.ransac_options;
       if (anchor)
         ransac_options.max_iterations = std::min(ransac_options.max_iterations, options.anchored_ransac_iterations);
-      const auto ransac = ransacDlt(selected, dlt, ransac_options);
+      const auto ransac = selectLines(selected, dlt, options, ransac_options);
       if (!ransac)
         return ransac.error();
       result.inlier_lines = ransac->inliers;
+      // Noisier data than the threshold was set for: the lines are judged again with the threshold their noise
+      // calls for, so that true lines are not dropped.
+      const double scaled = noiseThreshold(ransac->camera, selected, ransac->inliers, options);
+      if (scaled > t)
+        for (size_t i = 0; i < selected.lines.size(); ++i)
+          result.inlier_lines[i] = lineError(ransac->camera, selected.lines[i]) < scaled;
       result.ransac_iterations = ransac->iterations;
       // The known camera against RANSAC's hypothesis: the lower MSAC score picks the inliers.
       std::vector<bool> ransac_inliers;
@@ -258,6 +409,8 @@ Expected<CameraCalibration> calibrateCamera(const CorrespondenceSet& data, const
       threshold = std::min(threshold, std::max(options.min_inlier_threshold_px,
                                                options.inlier_sigmas * result.uncertainty.residual_sigma_px));
     }
+    threshold = std::max(threshold, noiseThreshold(result.camera, selected, result.inlier_lines, options));
+    result.inlier_threshold_px = threshold;
     // A line is judged by its own error and, when the refinement ran, by its error had it been left out: a wrong
     // line with enough leverage pulls the camera onto itself and only the second shows it.
     std::vector<bool> judged(selected.lines.size());
@@ -281,6 +434,7 @@ Expected<CameraCalibration> calibrateCamera(const CorrespondenceSet& data, const
   result.reprojection = reprojectionStats(result.camera, inliers);
   return result;
 }
+}  // namespace
 
 CalibrationFile toCalibrationFile(const CorrespondenceSet& data, const CameraCalibration& result,
                                   const std::string& world_frame)
@@ -339,9 +493,14 @@ std::string describeCalibration(const CameraCalibration& r)
                 r.reprojection.mse_px2, r.reprojection.count, r.dlt.lines_used, r.dlt.points_used, r.dlt.constraints,
                 r.iterations, r.converged ? "" : " (NOT converged)");
   std::string out = buffer;
+  if (!r.linear_note.empty())
+    out += "linear         " + r.linear_note.substr(r.linear_note.find(':') + 2) + "\n";
   if (r.inlier_count < r.inlier_lines.size())
+  {
+    std::snprintf(buffer, sizeof(buffer), " (threshold %.2f px)", r.inlier_threshold_px);
     out += "robust         " + std::to_string(r.inlier_count) + " of " + std::to_string(r.inlier_lines.size()) +
-           " lines are inliers (RANSAC); the others were left out\n";
+           " lines are inliers (RANSAC" + (r.inlier_threshold_px > 0.0 ? buffer : "") + "); the others were left out\n";
+  }
   if (r.refinement)
   {
     const CameraUncertainty& u = r.uncertainty;
@@ -356,6 +515,12 @@ std::string describeCalibration(const CameraCalibration& r)
     else
     {
       out += "uncertainty    not available: " + u.reason + "\n";
+    }
+    if (r.refinement->image_sigma_px > 0.0)
+    {
+      std::snprintf(buffer, sizeof(buffer), "noise model    image %.3f px, world %.2f mm (joint line error)\n",
+                    r.refinement->image_sigma_px, 1000.0 * r.refinement->world_sigma_m);
+      out += buffer;
     }
     std::snprintf(buffer, sizeof(buffer), "refinement     RMS %.3f px -> %.3f px (%s)\n", r.refinement->initial_rms_px,
                   r.refinement->final_rms_px, r.refinement->converged ? "converged" : "NOT converged");

@@ -2,9 +2,12 @@
 // lines, the OpenCV peer, and the honesty of the reported standard deviations). Writes a CSV and a markdown summary,
 // then plots with scripts/plot_accuracy.py.
 #include <algorithm>
+#include <cstdio>
+#include <limits>
 #include <cstdlib>
 #include <functional>
 #include <numeric>
+#include <optional>
 #include <fstream>
 #include <iostream>
 #include <map>
@@ -29,6 +32,7 @@ namespace ic = insitu_calibration;
 namespace
 {
 const char* kUsage = R"(Usage: bench_accuracy [--trials N] [--out-dir DIR] [--seed S] [--experiments LIST] [--no-plot]
+                      [--previous-defaults] [--linear-stage auto|plumb-line|parts]
 
 Runs, with N trials per setting (default 100), on synthetic surveillance-like cameras (1280x960, barrel distortion
 displacing the corner by 15 px) looking at 30 random 3D segments in a room (5 image points per line, 2 world points):
@@ -39,7 +43,15 @@ displacing the corner by 15 px) looking at 30 random 3D segments in a room (5 im
   outliers  0..50 % wrong line correspondences at 1 px: plain DLT-Lines against the robust default path (and an
             oracle that keeps exactly the good lines); outliers_added: wrong lines added to the 30 good ones
   lines     6..200 lines at 1 px: plain DLT-Lines against the default path
-(--experiments picks some of fig2,fig2_rendered,outliers,outliers_added,lines; all by default) and reports the coverage of the
+  dense     issue 13's hand-clicked data: 40 polylines of 2-12 image points and 2-6 world points (segments 0.5-2 m,
+            images >= 80 px), image noise 0.3, 1 and 3 px with world noise 0.9, 3 and 9 mm: calibrate_lines'
+            defaults against OpenCV's calibrateCamera on the end points with the same noise; prints the medians
+  dense_fixed  the issue's own cases at 1 px: 6 image and 6 world points per line (3 mm), 10 image points and exact
+            world points
+--previous-defaults runs every experiment with the pipeline as it was before issue 13 (DLT over parts, fixed RANSAC
+threshold, image-point line residuals), for before/after comparisons in one binary; --linear-stage forces one linear
+stage (calibrate_lines --linear-stage) everywhere.
+(--experiments picks some of fig2,fig2_rendered,outliers,outliers_added,lines,dense,dense_fixed; all by default) and reports the coverage of the
 refined result's standard deviations (how often the true error is within 2 sigma).
 Writes DIR/accuracy.csv, DIR/accuracy.md and PNG plots (DIR defaults to ./accuracy). Errors are against the truth:
 relative focal error |fx - fx_true| / fx_true, reprojection error = RMS distance between the estimated and the true
@@ -77,6 +89,7 @@ struct Errors
   double rotation_deg = 0.0;
   double center_m = 0.0;
   double lambda = 0.0;
+  double inlier_fraction = 1.0;  // lines kept by the robust path
   // Refined results only: whether the truth is within 2 sigma, per parameter (-1: no sigma).
   int fx_covered = -1;
   int cx_covered = -1;
@@ -118,10 +131,32 @@ Errors errorsOf(const Trial& t, const ic::CameraModel& estimate)
   return e;
 }
 
-Errors runCalibration(const Trial& t, const ic::CorrespondenceSet& data, ic::DltMethod method, bool normalize,
-                      bool robust, double inlier_threshold_px)
+// The pipeline as it was before issue 13: the DLT over parts without fallback, the fixed RANSAC threshold, image-point
+// residuals to the line through the first and last world points (bit for bit the previous results).
+ic::CalibrationOptions previousDefaults()
 {
   ic::CalibrationOptions options;
+  options.linear_stage = ic::LinearStage::kParts;
+  options.lambda_fallback = false;
+  options.noise_threshold_factor = 0.0;
+  options.refinement.line_residual = ic::LineResidual::kImagePoints;
+  return options;
+}
+
+// --previous-defaults: every experiment with previousDefaults() instead of CalibrationOptions' defaults.
+bool g_previous_defaults = false;
+std::optional<ic::LinearStage> g_linear_stage;  // --linear-stage: measure the stages against each other
+ic::CalibrationOptions baseOptions()
+{
+  ic::CalibrationOptions options = g_previous_defaults ? previousDefaults() : ic::CalibrationOptions();
+  if (g_linear_stage)
+    options.linear_stage = *g_linear_stage;
+  return options;
+}
+
+Errors runCalibration(const Trial& t, const ic::CorrespondenceSet& data, ic::DltMethod method, bool normalize,
+                      bool robust, double inlier_threshold_px, ic::CalibrationOptions options = baseOptions())
+{
   options.method = method;
   options.distortion = ic::DistortionMode::kOn;
   options.dlt.normalize = normalize;
@@ -132,6 +167,7 @@ Errors runCalibration(const Trial& t, const ic::CorrespondenceSet& data, ic::Dlt
   if (!result)
     return {};
   Errors e = errorsOf(t, result->camera);
+  e.inlier_fraction = static_cast<double>(result->inlier_count) / std::max<size_t>(1, data.lines.size());
   const ic::CameraUncertainty& u = result->uncertainty;
   if (robust && u.available)
   {
@@ -148,6 +184,8 @@ Errors runCalibration(const Trial& t, const ic::CorrespondenceSet& data, ic::Dlt
 // OpenCV's calibrateCamera on the end points: a 3D rig needs an intrinsic guess, taken from normalised DLT-Points.
 Errors runOpenCv(const Trial& t, int width, int height)
 {
+  if (t.points.size() < 6)
+    return {};
   ic::CorrespondenceSet data;
   data.image_width = width;
   data.image_height = height;
@@ -279,6 +317,84 @@ RenderedTrial makeRenderedTrial(unsigned seed, int width, int height)
   return t;
 }
 
+// calibrate_lines' defaults where they differ from CalibrationOptions' (the refinement's joint error model).
+ic::CalibrationOptions calibrateLinesDefaults()
+{
+  ic::CalibrationOptions options = baseOptions();
+  if (!g_previous_defaults)
+  {
+    options.refinement.line_residual = ic::LineResidual::kJoint;
+    options.detect_left_handed = true;
+  }
+  return options;
+}
+
+// Issue 13's data: 40 dense polylines (2-12 image points, 2-6 world points, 0.5-2 m), image noise sigma px and
+// world noise 3 mm x sigma; OpenCV gets the segments' end points with the same image and world noise.
+// image_points / world_points > 0 fix the counts (the issue's own trials: 6 and 6 at 1 px / 3 mm, 10 and exact).
+Trial makeDenseTrial(unsigned seed, double noise_px, int image_points = 0, int world_points = 0,
+                     double world_noise_per_px_m = 0.003)
+{
+  std::mt19937 rng(seed);
+  Trial t;
+  t.truth = ic::randomCamera(ic::SyntheticCameraOptions(), rng);
+  ic::DensePolylineOptions options;
+  options.image_noise_px = noise_px;
+  options.world_noise_m = world_noise_per_px_m * noise_px;
+  if (image_points > 0)
+    options.image_points_min = options.image_points_max = image_points;
+  if (world_points > 0)
+    options.world_points_min = options.world_points_max = world_points;
+  t.lines = ic::makeDensePolylines(t.truth, 1280, 960, options, rng);
+  std::normal_distribution<double> standard(0.0, 1.0);
+  for (const auto& s : t.lines.segments)
+    for (const Eigen::Vector3d& x : {s.a, s.b})
+      if (const auto m = t.truth.project(x))
+        t.points.push_back({*m + noise_px * Eigen::Vector2d(standard(rng), standard(rng)),
+                            x + options.world_noise_m * Eigen::Vector3d(standard(rng), standard(rng), standard(rng))});
+  return t;
+}
+
+double median(std::vector<double> v)
+{
+  if (v.empty())
+    return std::numeric_limits<double>::quiet_NaN();
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+// One line per (x, method) of an experiment: failures and the medians the issue's goals are stated in.
+void printMedians(const std::string& experiment,
+                  const std::map<std::tuple<std::string, double, std::string>, std::vector<Errors>>& groups)
+{
+  std::printf("%-14s %6s %-28s %8s %10s %10s %9s %9s %9s %9s\n", "experiment", "x", "method", "failures", "focal %",
+              "rot deg", "pos mm", "lambda %", "reproj px", "inliers %");
+  for (const auto& [key, errors] : groups)
+  {
+    if (std::get<0>(key) != experiment)
+      continue;
+    std::vector<double> focal, rotation, center, lambda, reprojection, kept;
+    int failures = 0;
+    for (const Errors& e : errors)
+    {
+      if (!e.ok)
+      {
+        ++failures;
+        continue;
+      }
+      focal.push_back(100.0 * e.focal);
+      rotation.push_back(e.rotation_deg);
+      center.push_back(1000.0 * e.center_m);
+      lambda.push_back(100.0 * std::abs(e.lambda));
+      reprojection.push_back(e.reprojection_px);
+      kept.push_back(100.0 * e.inlier_fraction);
+    }
+    std::printf("%-14s %6g %-28s %4d/%-3zu %10.4f %10.4f %9.2f %9.2f %9.3f %9.1f\n", experiment.c_str(),
+                std::get<1>(key), std::get<2>(key).c_str(), failures, errors.size(), median(focal), median(rotation),
+                median(center), median(lambda), median(reprojection), median(kept));
+  }
+}
+
 struct Writer
 {
   std::ofstream csv;
@@ -298,11 +414,21 @@ struct Writer
 int main(int argc, char** argv)
 {
   ic::quietSolverLogging();
-  ic::CommandLine cli(argc, argv, {"trials", "out-dir", "seed", "experiments"}, {"no-plot"});
+  ic::CommandLine cli(argc, argv, {"trials", "out-dir", "seed", "experiments", "linear-stage"}, {"no-plot", "previous-defaults"});
   if (cli.help())
   {
     std::cout << kUsage;
     return 0;
+  }
+  g_previous_defaults = cli.flag("previous-defaults");
+  if (cli.has("linear-stage"))
+  {
+    g_linear_stage = ic::parseLinearStage(cli.value("linear-stage"));
+    if (!g_linear_stage)
+    {
+      std::cerr << "bench_accuracy: --linear-stage must be auto, plumb-line or parts\n";
+      return 2;
+    }
   }
   const int trials = static_cast<int>(cli.number("trials", 100));
   const unsigned seed = static_cast<unsigned>(cli.number("seed", 1000));
@@ -328,7 +454,7 @@ int main(int argc, char** argv)
   const int width = 1280;
   const int height = 960;
   const std::string experiments =
-      "," + cli.value("experiments", "fig2,fig2_rendered,outliers,outliers_added,lines") + ",";
+      "," + cli.value("experiments", "fig2,fig2_rendered,outliers,outliers_added,lines,dense,dense_fixed") + ",";
   const auto runs = [&](const char* name) {
     return experiments.find("," + std::string(name) + ",") != std::string::npos;
   };
@@ -463,6 +589,44 @@ int main(int argc, char** argv)
     }
     std::cout << "lines: " << lines << " done" << std::endl;
   }
+  // Issue 13: dense noisy polylines and noisy 3D points, the calibrate_lines defaults against OpenCV on points.
+  for (double noise : {0.3, 1.0, 3.0})
+  {
+    if (!runs("dense"))
+      break;
+    for (int k = 0; k < trials; ++k)
+    {
+      const Trial t = makeDenseTrial(seed + 110000 + static_cast<unsigned>(1000 * noise) + k, noise);
+      w.add("dense", noise, "calibrate_lines_default", k,
+            runCalibration(t, linesOf(t), ic::DltMethod::kLines, true, true, 3.0, calibrateLinesDefaults()));
+      w.add("dense", noise, "previous_defaults", k,
+            runCalibration(t, linesOf(t), ic::DltMethod::kLines, true, true, 3.0, previousDefaults()));
+      w.add("dense", noise, "opencv_calibrate_camera", k, runOpenCv(t, width, height));
+    }
+    std::cout << "dense: sigma " << noise << " px done" << std::endl;
+  }
+  // The issue's own two cases at 1 px: 6 image and 6 world points per line with 3 mm world noise (x = 6), and 10
+  // image points with exact world points (x = 10).
+  for (int case_points : {6, 10})
+  {
+    if (!runs("dense_fixed"))
+      break;
+    for (int k = 0; k < trials; ++k)
+    {
+      const Trial t = case_points == 6 ? makeDenseTrial(seed + 130000 + k, 1.0, 6, 6)
+                                       : makeDenseTrial(seed + 140000 + k, 1.0, 10, 2, 0.0);
+      w.add("dense_fixed", case_points, "calibrate_lines_default", k,
+            runCalibration(t, linesOf(t), ic::DltMethod::kLines, true, true, 3.0, calibrateLinesDefaults()));
+      w.add("dense_fixed", case_points, "previous_defaults", k,
+            runCalibration(t, linesOf(t), ic::DltMethod::kLines, true, true, 3.0, previousDefaults()));
+      w.add("dense_fixed", case_points, "opencv_calibrate_camera", k, runOpenCv(t, width, height));
+    }
+    std::cout << "dense_fixed: " << case_points << " image points done" << std::endl;
+  }
+  if (runs("dense"))
+    printMedians("dense", w.groups);
+  if (runs("dense_fixed"))
+    printMedians("dense_fixed", w.groups);
   w.csv.close();
 
   // Markdown summary: means over the successful trials, failures counted.

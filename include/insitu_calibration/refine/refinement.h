@@ -37,11 +37,21 @@ enum class LineResidual
   kWorldPoints,
   // Both of the above: a symmetric transfer error for data where both sides are noisy.
   kBoth,
+  // Image and world points both noisy (issue 13): each image point to the distorted image of its line's 3D line, the
+  // 3D line a free parameter tied to the line's world points by their distances to it (in px: x image_sigma /
+  // world_sigma). With exact world points (sigma 0) the 3D line is fixed at the one fitted to them.
+  kJoint,
 };
+std::optional<LineResidual> parseLineResidual(const std::string& name);
 
 struct RefinementOptions
 {
   LineResidual line_residual = LineResidual::kImagePoints;
+  // kJoint's noise levels: image points' sigma in px (0: estimated from the polylines' scatter about their straight
+  // lines, 1 px when no polyline has 3 points) and world points' sigma in m (negative: estimated from lines of 3 or
+  // more world points, 0 when there are none; 0: exact). LineCorrespondence::world_point_sigma_m overrides per line.
+  double image_sigma_px = 0.0;
+  double world_sigma_m = -1.0;
   bool single_focal = false;   // fx = fy
   bool estimate_skew = false;  // skew fixed (at its initial value, normally 0) by default
   bool estimate_distortion = true;
@@ -110,7 +120,9 @@ struct RefinementResult
   std::string termination;  // Ceres' message
   int iterations = 0;
   double initial_rms_px = 0.0;
-  double loss_scale_px = 0.0;  // the scale used
+  double loss_scale_px = 0.0;   // the scale used
+  double image_sigma_px = 0.0;  // kJoint: the noise levels used (given or estimated)
+  double world_sigma_m = 0.0;
   double final_rms_px = 0.0;
   size_t residuals = 0;
   CameraUncertainty uncertainty;

@@ -22,6 +22,9 @@ struct LineCorrespondence
   // How far the 3D line may be off, m (one sigma, across it; 0: exact). A surveyed line's error moves all its image
   // residuals together; the refinement weights the line by it (RefinementOptions::weight_by_world_sigma).
   double world_sigma_m = 0.0;
+  // How far each world point may be off, m (one sigma per axis; a surveyed point; 0: exact, as a BIM model's line;
+  // negative: not given, the refinement's world_sigma_m or its estimate applies). Used by LineResidual::kJoint.
+  double world_point_sigma_m = -1.0;
 
   size_t partCount() const { return image.size() < 2 ? 0 : image.size() - 1; }
   // Point-line pairs this line contributes: world points x parts.

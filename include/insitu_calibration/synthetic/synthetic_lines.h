@@ -62,6 +62,24 @@ std::vector<PointCorrespondence> endPointCorrespondences(const CameraModel& came
                                                          const std::vector<Segment3d>& segments, double image_noise_px,
                                                          std::mt19937& rng);
 
+// Hand-clicked / surveyed data as calibrate_lines gets it (issue 13): every line with its own number of image points
+// (a dense polyline) and of world points, both noisy, segments of a given 3D length.
+struct DensePolylineOptions
+{
+  int lines = 40;
+  int image_points_min = 2;
+  int image_points_max = 12;
+  int world_points_min = 2;
+  int world_points_max = 6;
+  double segment_min_m = 0.5;
+  double segment_max_m = 2.0;
+  double min_image_length_px = 80.0;
+  double image_noise_px = 1.0;
+  double world_noise_m = 0.003;
+};
+SyntheticLines makeDensePolylines(const CameraModel& camera, int image_width, int image_height,
+                                  const DensePolylineOptions& options, std::mt19937& rng);
+
 }  // namespace insitu_calibration
 
 #endif  // INSITU_CALIBRATION_SYNTHETIC_SYNTHETIC_LINES_H

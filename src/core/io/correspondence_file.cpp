@@ -101,6 +101,16 @@ Expected<CorrespondenceSet> parseDocument(const std::string& yaml_text)
         return world.error();
       line.image = std::move(*image);
       line.world = std::move(*world);
+      // Optional: the noise of this line's world points, m per axis (0: exact, a BIM model's line).
+      if (const YAML::Node sigma = lines[i]["world_sigma"]; sigma)
+      {
+        const auto value = yaml_util::toDouble(sigma, where + ".world_sigma");
+        if (!value)
+          return value.error();
+        if (!(*value >= 0.0))
+          return Error(ErrorCode::kInvalidInput, where + ".world_sigma: must be 0 or positive (m)");
+        line.world_point_sigma_m = *value;
+      }
       set.lines.push_back(std::move(line));
     }
   }
@@ -167,7 +177,10 @@ std::string formatCorrespondences(const CorrespondenceSet& data)
     out << YAML::EndSeq << YAML::Key << "world" << YAML::Value << YAML::Flow << YAML::BeginSeq;
     for (const auto& p : line.world)
       yaml_util::emitVector(out, p);
-    out << YAML::EndSeq << YAML::EndMap;
+    out << YAML::EndSeq;
+    if (line.world_point_sigma_m >= 0.0)
+      out << YAML::Key << "world_sigma" << YAML::Value << line.world_point_sigma_m;
+    out << YAML::EndMap;
   }
   out << YAML::EndSeq;
   if (!data.points.empty())

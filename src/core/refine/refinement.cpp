@@ -15,6 +15,7 @@
 #include <Eigen/Geometry>
 
 #include "insitu_calibration/metrics.h"
+#include "insitu_calibration/refine/noise_model.h"
 
 namespace insitu_calibration
 {
@@ -43,7 +44,14 @@ struct Projector
   void undistortedHomogeneous(const T* focal, const T* skew, const T* delta, const T* center,
                               const Eigen::Vector3d& world, T* u) const
   {
-    T d[3] = {T(world.x()) - center[0], T(world.y()) - center[1], T(world.z()) - center[2]};
+    const T x[3] = {T(world.x()), T(world.y()), T(world.z())};
+    undistortedHomogeneous(focal, skew, delta, center, x, u);
+  }
+  template <typename T>
+  void undistortedHomogeneous(const T* focal, const T* skew, const T* delta, const T* center, const T* world,
+                              T* u) const
+  {
+    T d[3] = {world[0] - center[0], world[1] - center[1], world[2] - center[2]};
     T rotated[3];
     for (int i = 0; i < 3; ++i)
       rotated[i] = T(r0(i, 0)) * d[0] + T(r0(i, 1)) * d[1] + T(r0(i, 2)) * d[2];
@@ -118,6 +126,14 @@ struct ImagePointToLineResidual
     T ub[3];
     projector.undistortedHomogeneous(focal, skew, delta, center, world_a, ua);
     projector.undistortedHomogeneous(focal, skew, delta, center, world_b, ub);
+    return distance(ua, ub, image, weight, principal, distortion, projector.r_ref2, residual);
+  }
+
+  // The residual from the two projections (shared with JointImageResidual).
+  template <typename T>
+  static bool distance(const T* ua, const T* ub, const Eigen::Vector2d& image, double weight, const T* principal,
+                       const T* distortion, double r_ref2, T* residual)
+  {
     // Homogeneous image line through both projections (relative to the principal point), valid for any depth sign.
     const T l0 = ua[1] * ub[2] - ua[2] * ub[1];
     const T l1 = ua[2] * ub[0] - ua[0] * ub[2];
@@ -127,13 +143,119 @@ struct ImagePointToLineResidual
       return false;
     const T dx = T(image.x()) - principal[0];
     const T dy = T(image.y()) - principal[1];
-    const T scale = T(1.0) + distortion[0] / T(projector.r_ref2) * (dx * dx + dy * dy);
+    const T scale = T(1.0) + distortion[0] / T(r_ref2) * (dx * dx + dy * dy);
     if (!(scale > T(0.0)))
       return false;
     residual[0] = T(weight) * (l0 * (dx / scale) + l1 * (dy / scale) + l2) / norm * scale;
     return true;
   }
 };
+
+// kJoint's 3D line, a free parameter q of 4 entries: its ends a = a0 + q0 e1 + q1 e2 and b = b0 + q2 e1 + q3 e2
+// move across the line as fitted to the world points (e1, e2 perpendicular to it); along it they cannot move.
+struct LineFrame
+{
+  Eigen::Vector3d a0;
+  Eigen::Vector3d b0;
+  Eigen::Vector3d e1;
+  Eigen::Vector3d e2;
+
+  template <typename T>
+  void ends(const T* q, T* a, T* b) const
+  {
+    for (int i = 0; i < 3; ++i)
+    {
+      a[i] = T(a0(i)) + q[0] * T(e1(i)) + q[1] * T(e2(i));
+      b[i] = T(b0(i)) + q[2] * T(e1(i)) + q[3] * T(e2(i));
+    }
+  }
+};
+
+// An image point to the distorted image of the free 3D line (ImagePointToLineResidual with the line as parameter).
+struct JointImageResidual
+{
+  Projector projector;
+  LineFrame frame;
+  Eigen::Vector2d image;
+
+  template <typename T>
+  bool operator()(const T* focal, const T* principal, const T* skew, const T* distortion, const T* delta,
+                  const T* center, const T* line, T* residual) const
+  {
+    T a[3], b[3], ua[3], ub[3];
+    frame.ends(line, a, b);
+    projector.undistortedHomogeneous(focal, skew, delta, center, a, ua);
+    projector.undistortedHomogeneous(focal, skew, delta, center, b, ub);
+    return ImagePointToLineResidual::distance(ua, ub, image, 1.0, principal, distortion, projector.r_ref2, residual);
+  }
+};
+
+// A world point's distance to the free 3D line (its two components across the fitted line), in m times `weight`
+// (image sigma / world sigma: px of equal noise).
+struct WorldPointToLineResidual
+{
+  LineFrame frame;
+  Eigen::Vector3d world;
+  double weight;
+
+  template <typename T>
+  bool operator()(const T* line, T* residual) const
+  {
+    T a[3], b[3];
+    frame.ends(line, a, b);
+    const T d[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+    const T norm = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    if (!(norm > T(0.0)))
+      return false;
+    T v[3] = {T(world.x()) - a[0], T(world.y()) - a[1], T(world.z()) - a[2]};
+    const T along = (v[0] * d[0] + v[1] * d[1] + v[2] * d[2]) / (norm * norm);
+    for (int i = 0; i < 3; ++i)
+      v[i] -= along * d[i];
+    residual[0] = T(weight) * (v[0] * T(frame.e1.x()) + v[1] * T(frame.e1.y()) + v[2] * T(frame.e1.z()));
+    residual[1] = T(weight) * (v[0] * T(frame.e2.x()) + v[1] * T(frame.e2.y()) + v[2] * T(frame.e2.z()));
+    return true;
+  }
+};
+
+// Per line: the 3D line its image residuals use (fitted to the world points for kJoint, the first and last world
+// points otherwise) and, when its world points are noisy under kJoint, the free line's frame, parameters and the
+// weight of its world residuals.
+struct LineModel
+{
+  FittedLine3d ends;
+  bool joint = false;
+  LineFrame frame;
+  std::array<double, 4> q = {0.0, 0.0, 0.0, 0.0};
+  double world_weight = 0.0;
+};
+
+std::vector<LineModel> makeLineModels(const CorrespondenceSet& data, const RefinementOptions& options,
+                                      const NoiseLevels& noise)
+{
+  std::vector<LineModel> models(data.lines.size());
+  for (size_t i = 0; i < data.lines.size(); ++i)
+  {
+    const auto& line = data.lines[i];
+    LineModel& m = models[i];
+    if (line.world.empty())
+      continue;
+    m.ends = options.line_residual == LineResidual::kJoint ? fitWorldLine(line.world)
+                                                           : FittedLine3d{line.world.front(), line.world.back()};
+    const double sigma = line.world_point_sigma_m >= 0.0 ? line.world_point_sigma_m : noise.world_sigma_m;
+    const Eigen::Vector3d direction = m.ends.b - m.ends.a;
+    if (options.line_residual != LineResidual::kJoint || line.world.size() < 2 || !(sigma > 0.0) ||
+        !(direction.norm() > 0.0))
+      continue;
+    m.joint = true;
+    m.frame.a0 = m.ends.a;
+    m.frame.b0 = m.ends.b;
+    const Eigen::Vector3d u = direction.normalized();
+    m.frame.e1 = u.unitOrthogonal();
+    m.frame.e2 = u.cross(m.frame.e1);
+    m.world_weight = noise.image_sigma_px / sigma;
+  }
+  return models;
+}
 
 // A plumb line: an image point, undistorted about the principal point, to the straight line (normal angle theta,
 // offset rho, undistorted px about the principal point) that its polyline must be; scaled back by the local scale.
@@ -278,6 +400,19 @@ std::optional<RobustLoss> parseRobustLoss(const std::string& name)
   return std::nullopt;
 }
 
+std::optional<LineResidual> parseLineResidual(const std::string& name)
+{
+  if (name == "image")
+    return LineResidual::kImagePoints;
+  if (name == "world")
+    return LineResidual::kWorldPoints;
+  if (name == "both")
+    return LineResidual::kBoth;
+  if (name == "joint")
+    return LineResidual::kJoint;
+  return std::nullopt;
+}
+
 const char* toString(RobustLoss loss)
 {
   switch (loss)
@@ -348,7 +483,7 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
   // from the initial camera in px (f sigma / depth) and s0 the image noise (an option, not an estimate: the weights
   // must not depend on the start, whose optima are compared).
   std::vector<double> line_weight(data.lines.size(), 1.0);
-  if (options.weight_by_world_sigma)
+  if (options.weight_by_world_sigma && options.line_residual != LineResidual::kJoint)
   {
     const CameraModel current = toCamera(p, projector);
     const double s0 = options.world_sigma_image_noise_px;
@@ -367,6 +502,19 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
       line_weight[i] = std::sqrt(s0 * s0 / (s0 * s0 + n * s * s));
     }
   }
+
+  // kJoint: the noise levels (given or estimated with the initial distortion) and each line's 3D line.
+  NoiseLevels noise;
+  if (options.line_residual == LineResidual::kJoint)
+  {
+    noise = estimateNoiseLevels(data, initial.distortion(), options.image_sigma_px, options.world_sigma_m);
+    result.image_sigma_px = noise.image_sigma_px;
+    result.world_sigma_m = noise.world_sigma_m;
+  }
+  std::vector<LineModel> models = makeLineModels(data, options, noise);
+  const bool image_residuals = options.line_residual != LineResidual::kWorldPoints;
+  const bool only_image_residuals =
+      options.line_residual == LineResidual::kImagePoints || options.line_residual == LineResidual::kJoint;
 
   // Plumb lines: each gets its straight line (theta, rho), fitted to its points undistorted with the initial camera.
   std::vector<std::array<double, 2>> straight(options.use_straight_lines ? data.straight_lines.size() : 0);
@@ -437,7 +585,7 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
       assignment[i] = parts;
     }
     // The pairing only matters for world-point residuals: with image-point residuals one solve is enough.
-    if (round > 0 && !vertices_changed && (!changed || options.line_residual == LineResidual::kImagePoints))
+    if (round > 0 && !vertices_changed && (!changed || only_image_residuals))
       break;
 
     ceres::Problem::Options problem_options;
@@ -450,22 +598,37 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
       if (!selected(i))
         continue;
       const auto& line = data.lines[i];
-      if (options.line_residual != LineResidual::kWorldPoints && line.world.size() >= 2 &&
-          (line.world.back() - line.world.front()).norm() > 0.0)
+      LineModel& model = models[i];
+      if (image_residuals && line.world.size() >= 2 && (model.ends.b - model.ends.a).norm() > 0.0)
       {
         for (size_t v = 0; v < line.image.size(); ++v)
         {
           if (!vertex_used[i][v])
             continue;
-          auto* cost = new ceres::AutoDiffCostFunction<ImagePointToLineResidual, 1, 2, 2, 1, 1, 3, 3>(
-              new ImagePointToLineResidual{projector, line.world.front(), line.world.back(), line.image[v],
-                                           line_weight[i]});
-          problem->AddResidualBlock(cost, makeLoss(options.loss, result.loss_scale_px).release(), p.focal, p.principal,
-                                    p.skew, p.distortion, p.delta, p.center);
+          if (model.joint)
+            problem->AddResidualBlock(new ceres::AutoDiffCostFunction<JointImageResidual, 1, 2, 2, 1, 1, 3, 3, 4>(
+                                          new JointImageResidual{projector, model.frame, line.image[v]}),
+                                      makeLoss(options.loss, result.loss_scale_px).release(), p.focal, p.principal,
+                                      p.skew, p.distortion, p.delta, p.center, model.q.data());
+          else
+            problem->AddResidualBlock(
+                new ceres::AutoDiffCostFunction<ImagePointToLineResidual, 1, 2, 2, 1, 1, 3, 3>(
+                    new ImagePointToLineResidual{projector, model.ends.a, model.ends.b, line.image[v], line_weight[i]}),
+                makeLoss(options.loss, result.loss_scale_px).release(), p.focal, p.principal, p.skew, p.distortion,
+                p.delta, p.center);
           ++residual_count;
           row_group.push_back(i);
         }
-        if (options.line_residual == LineResidual::kImagePoints)
+        for (size_t k = 0; model.joint && k < line.world.size(); ++k)
+        {
+          problem->AddResidualBlock(new ceres::AutoDiffCostFunction<WorldPointToLineResidual, 2, 4>(
+                                        new WorldPointToLineResidual{model.frame, line.world[k], model.world_weight}),
+                                    makeLoss(options.loss, result.loss_scale_px).release(), model.q.data());
+          residual_count += 2;
+          row_group.push_back(i);
+          row_group.push_back(i);
+        }
+        if (only_image_residuals)
           continue;
       }
       for (size_t k = 0; k < line.world.size(); ++k)
@@ -554,9 +717,12 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
       for (size_t i = 0; i < data.lines.size(); ++i)
       {
         const auto& line = data.lines[i];
-        if (!selected(i) || line.world.size() < 2 || !((line.world.back() - line.world.front()).norm() > 0.0))
+        if (!selected(i) || line.world.size() < 2 || !((models[i].ends.b - models[i].ends.a).norm() > 0.0))
           continue;
-        const ImagePointToLineResidual functor{projector, line.world.front(), line.world.back(), Eigen::Vector2d()};
+        Eigen::Vector3d a = models[i].ends.a, b = models[i].ends.b;
+        if (models[i].joint)
+          models[i].frame.ends(models[i].q.data(), a.data(), b.data());
+        const ImagePointToLineResidual functor{projector, a, b, Eigen::Vector2d()};
         for (const auto& m : line.image)
         {
           ImagePointToLineResidual f = functor;
@@ -739,7 +905,10 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
   {
     CameraUncertainty& u = result.uncertainty;
     u.reciprocal_condition = reciprocal_condition;
-    const size_t free_parameters = 2 * std::count(straight_used.begin(), straight_used.end(), true) +
+    size_t joint_lines = 0;
+    for (size_t i = 0; i < data.lines.size(); ++i)
+      joint_lines += selected(i) && models[i].joint ? 1 : 0;
+    const size_t free_parameters = 4 * joint_lines + 2 * std::count(straight_used.begin(), straight_used.end(), true) +
                                    (options.single_focal ? 1 : 2) + (options.estimate_principal_point ? 2 : 0) +
                                    (options.estimate_skew ? 1 : 0) + (options.estimate_distortion ? 1 : 0) + 6;
     if (residual_count <= free_parameters)

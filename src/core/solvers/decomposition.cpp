@@ -50,10 +50,11 @@ Expected<DecomposedProjection> decomposeProjection(const Matrix34d& projection,
     for (const auto& x : scene_points)
       in_front += (out.pose.rotation * x + out.pose.translation).z() > 0.0 ? 1 : 0;
     if (2 * in_front < scene_points.size())
-      return Error(ErrorCode::kNoSolution, "the solution places " + std::to_string(scene_points.size() - in_front) +
-                                               " of " + std::to_string(scene_points.size()) +
-                                               " scene points behind the camera; the correspondences are probably "
-                                               "wrong or degenerate");
+      return Error(ErrorCode::kNoSolution,
+                   "the solution places " + std::to_string(scene_points.size() - in_front) + " of " +
+                       std::to_string(scene_points.size()) +
+                       " scene points behind the camera (wrong or degenerate correspondences, or a "
+                       "left-handed world frame)");
   }
   return out;
 }

@@ -145,4 +145,40 @@ std::vector<PointCorrespondence> endPointCorrespondences(const CameraModel& came
   return out;
 }
 
+SyntheticLines makeDensePolylines(const CameraModel& camera, int image_width, int image_height,
+                                  const DensePolylineOptions& options, std::mt19937& rng)
+{
+  // Exact segments from the generic generator (its lengths cover 0.3-3 m), those of the wanted length kept and cut
+  // into image and world points here, each line with its own counts.
+  SyntheticLineOptions segment_options;
+  segment_options.lines = 8 * options.lines;
+  segment_options.min_image_length_px = options.min_image_length_px;
+  const SyntheticLines candidates = makeSyntheticLines(camera, image_width, image_height, segment_options, rng);
+  std::normal_distribution<double> standard(0.0, 1.0);
+  std::uniform_int_distribution<int> image_count(options.image_points_min, options.image_points_max);
+  std::uniform_int_distribution<int> world_count(options.world_points_min, options.world_points_max);
+  SyntheticLines out;
+  out.data.image_width = image_width;
+  out.data.image_height = image_height;
+  for (const Segment3d& s : candidates.segments)
+  {
+    const double length = (s.b - s.a).norm();
+    if (static_cast<int>(out.segments.size()) >= options.lines || length < options.segment_min_m ||
+        length > options.segment_max_m)
+      continue;
+    LineCorrespondence line;
+    const int n = std::max(2, image_count(rng));
+    const int m = std::max(1, world_count(rng));
+    for (int k = 0; k < n; ++k)
+      line.image.push_back(*camera.project(s.pointAt(k / double(n - 1))) +
+                           options.image_noise_px * Eigen::Vector2d(standard(rng), standard(rng)));
+    for (int k = 0; k < m; ++k)
+      line.world.push_back(s.pointAt(m == 1 ? 0.5 : k / double(m - 1)) +
+                           options.world_noise_m * Eigen::Vector3d(standard(rng), standard(rng), standard(rng)));
+    out.segments.push_back(s);
+    out.data.lines.push_back(std::move(line));
+  }
+  return out;
+}
+
 }  // namespace insitu_calibration
