@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 
+#include "insitu_calibration/camera/camera_model.h"
 #include "insitu_calibration/error.h"
 
 namespace insitu_calibration
