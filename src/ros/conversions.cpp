@@ -7,14 +7,13 @@
 #include <cv_bridge/cv_bridge.h>
 #include <tf2_eigen/tf2_eigen.h>
 
+#include "insitu_calibration/geometry/optical_frame.h"
+
 namespace insitu_calibration
 {
 Eigen::Quaterniond bodyFromOptical()
 {
-  // Columns: the optical axes (x right, y down, z forward) in the body frame (x forward, y left, z up).
-  Eigen::Matrix3d r;
-  r << 0, 0, 1, -1, 0, 0, 0, -1, 0;
-  return Eigen::Quaterniond(r);
+  return Eigen::Quaterniond(bodyFromOpticalRotation());
 }
 
 sensor_msgs::CameraInfo toCameraInfo(const CalibrationFile& calibration, const std::string& optical_frame)

@@ -628,7 +628,7 @@ bool benchFixedCameraPass(const sim::SurveySimulator& survey, size_t c, bool tru
                           const ic::ImageLineOptions& image_options, const std::vector<ic::TrueEdgeImage>& edges,
                           int fixed_frames, int repeat, bool verbose)
 {
-  const sim::FixedCameraConfig& fc = survey.world().fixed_cameras[c];
+  const sim::SimulatedFixedCamera& fc = survey.world().fixed_cameras[c];
   ic::DivisionModel distortion;
   distortion.center = Eigen::Vector2d(0.5 * (fc.width - 1), 0.5 * (fc.height - 1));
   if (true_lambda)
@@ -696,7 +696,7 @@ int runWorld(ic::CommandLine& cl, const std::vector<ic::SegmentDetectorKind>& ki
 {
   const bool verbose = cl.flag("verbose");
   const std::string world_path = cl.value("world", std::string(INSITU_SOURCE_DIR) + "/config/worlds/waiting_room.yaml");
-  sim::SurveyOptions options;
+  sim::SimulationOptions options;
   options.duration_s = cl.number("duration", 40.0);
   options.rate_hz = cl.number("rate", 5.0);
   options.seed = static_cast<uint64_t>(cl.number("seed", 1));

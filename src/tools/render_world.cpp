@@ -53,7 +53,7 @@ int main(int argc, char** argv)
     std::cerr << "render_world: " << world.error().describe() << "\n";
     return 2;
   }
-  sim::SurveyOptions options;
+  sim::SimulationOptions options;
   options.seed = static_cast<uint64_t>(cli.number("seed", 0));
   options.duration_s = 1e4;
   auto survey = sim::SurveySimulator::create(std::move(*world), options);
@@ -69,7 +69,7 @@ int main(int argc, char** argv)
               survey->trajectory().lapDuration());
   for (size_t c = 0; c < w.fixed_cameras.size(); ++c)
   {
-    const sim::FixedCameraConfig& f = w.fixed_cameras[c];
+    const sim::SimulatedFixedCamera& f = w.fixed_cameras[c];
     double corner = 0.0;
     for (double x : {0.0, f.width - 1.0})
       for (double y : {0.0, f.height - 1.0})

@@ -60,7 +60,7 @@ constexpr double kMaxFrames = 20000.0;    // RGB-D frames (duration x rate)
 
 // The command line's numbers within the documented limits, and the output a file name; also removes the unfinished
 // <out>.active of an earlier run that was killed (writeSurveyBag writes there and renames at the end).
-std::string checkRunOptions(const ic::CommandLine& cli, const sim::SurveyOptions& options)
+std::string checkRunOptions(const ic::CommandLine& cli, const sim::SimulationOptions& options)
 {
   const auto within = [](double v, double low, double high) { return std::isfinite(v) && v >= low && v <= high; };
   if (options.start_time_ns < 0)
@@ -116,7 +116,7 @@ int main(int argc, char** argv)
     std::cout << kUsage;
     return 0;
   }
-  sim::SurveyOptions options;
+  sim::SimulationOptions options;
   options.duration_s = cli.number("duration", options.duration_s);
   options.rate_hz = cli.number("rate", options.rate_hz);
   options.seed = static_cast<uint64_t>(cli.number("seed", 0));

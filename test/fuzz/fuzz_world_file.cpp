@@ -13,7 +13,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size)
   auto world = sim::parseWorld(std::string(reinterpret_cast<const char*>(data), size), "fuzz.yaml");
   if (!world)
     return 0;
-  sim::SurveyOptions options;
+  sim::SimulationOptions options;
   options.duration_s = 1.0;
   (void)sim::SurveySimulator::create(std::move(*world), options);
   return 0;

@@ -171,7 +171,7 @@ TEST_F(SurveyBag, MessagesLookLikeOpenni2AndNetworkCameras)
       {
         const std::string name = topic.substr(7, topic.size() - 7 - 10);  // /fixed/<name>/image_raw
         const auto it = std::find_if(world->fixed_cameras.begin(), world->fixed_cameras.end(),
-                                     [&](const sim::FixedCameraConfig& c) { return c.name == name; });
+                                     [&](const sim::SimulatedFixedCamera& c) { return c.name == name; });
         ASSERT_NE(it, world->fixed_cameras.end()) << topic;
         EXPECT_EQ(image->header.frame_id, name + "_optical_frame");
         EXPECT_EQ(static_cast<int>(image->width), it->width);

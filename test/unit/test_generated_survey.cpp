@@ -64,7 +64,7 @@ TEST(GeneratedSurvey, NoWrongCameraAcceptedInAGeneratedRoom)
   const auto configs = ic::parseCameraConfig(building->cameras_yaml);
   ASSERT_TRUE(configs) << configs.error().describe();
 
-  sim::SurveyOptions sim_options;
+  sim::SimulationOptions sim_options;
   sim_options.seed = 1;
   sim_options.duration_s = kDuration;
   auto simulator = sim::SurveySimulator::create(building->world, sim_options);

@@ -55,7 +55,7 @@ protected:
   {
     auto world = sim::loadWorldFile(kWorld);
     ASSERT_TRUE(world) << world.error().describe();
-    sim::SurveyOptions options;  // the default survey: 40 s, 5 Hz, depth and image noise on
+    sim::SimulationOptions options;  // the default survey: 40 s, 5 Hz, depth and image noise on
     options.seed = kSeed;
     auto survey = sim::SurveySimulator::create(std::move(*world), options);
     ASSERT_TRUE(survey) << survey.error().describe();
@@ -87,7 +87,7 @@ bool checkFixedCameras(const sim::SurveySimulator& survey, const std::vector<ic:
   bool has_full_hd = false;
   for (size_t c = 0; c < world.fixed_cameras.size(); ++c)
   {
-    const sim::FixedCameraConfig& fc = world.fixed_cameras[c];
+    const sim::SimulatedFixedCamera& fc = world.fixed_cameras[c];
     has_full_hd |= fc.width == 1920 && fc.height == 1080;
     // Collinear true edges (a row of chairs' seat edges, window panes) are one 3D line for a 2D line.
     const auto edges = ic::projectEdges(fc.camera, ic::mergeCollinearSegments(truth));
@@ -151,7 +151,7 @@ TEST(LinesOnCorridorWorld, FixedCameraLinesFineTunedOntoTrueEdges)
 {
   auto world = sim::loadWorldFile(std::string(INSITU_SOURCE_DIR) + "/config/worlds/corridor.yaml");
   ASSERT_TRUE(world) << world.error().describe();
-  sim::SurveyOptions options;
+  sim::SimulationOptions options;
   options.seed = kSeed;
   options.duration_s = 1.0;  // only the fixed cameras' first frames are used
   auto survey = sim::SurveySimulator::create(std::move(*world), options);

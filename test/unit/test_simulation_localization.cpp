@@ -1,4 +1,4 @@
-// The simulator's erring localiser (SurveyOptions::localization_*, simulate_survey --localization-error): /tf's
+// The simulator's erring localiser (SimulationOptions::localization_*, simulate_survey --localization-error): /tf's
 // map -> base_link is the true pose moved by the error, odometry stays true, the error has the stated size and
 // correlation, and the placement limit is the averaged error.
 #include <gtest/gtest.h>
@@ -18,7 +18,7 @@ sim::SurveySimulator makeSimulator(double duration_s, bool odom_drift)
 {
   auto world = sim::loadWorldFile(kSource + "/config/worlds/waiting_room.yaml");
   EXPECT_TRUE(world);
-  sim::SurveyOptions o;
+  sim::SimulationOptions o;
   o.seed = 5;
   o.duration_s = duration_s;
   o.localization_sigma_m = 0.02;

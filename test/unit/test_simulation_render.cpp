@@ -116,7 +116,7 @@ TEST(Renderer, RasterizerMatchesRayCaster)
 // on the world's surfaces (before noise: median error under 1 mm).
 TEST(XtionDepth, BackProjectsOntoTheSurfaces)
 {
-  sim::SurveyOptions options;
+  sim::SimulationOptions options;
   options.depth_noise = false;
   options.duration_s = 40.0;
   auto survey = sim::SurveySimulator::create(loadDefaultWorld(), options);
@@ -291,7 +291,7 @@ TEST(FixedCameras, TrueEdgesFallOnGradientMaxima)
   const std::vector<sim::TrueEdge> edges = sim::computeTrueEdges(world);
   for (size_t c = 0; c < world.fixed_cameras.size(); ++c)
   {
-    const sim::FixedCameraConfig& fc = world.fixed_cameras[c];
+    const sim::SimulatedFixedCamera& fc = world.fixed_cameras[c];
     const ic::CameraModel& model = fc.camera;
     sim::RenderOptions ro;
     ro.supersampling = fc.supersampling;
@@ -426,7 +426,7 @@ TEST(Random, StreamsAreReproducibleAndDistinct)
 // Same seed, same frames; another seed, other noise on the same clean images.
 TEST(Survey, IsDeterministic)
 {
-  sim::SurveyOptions options;
+  sim::SimulationOptions options;
   options.duration_s = 2.0;
   options.seed = 42;
   options.odom_drift = true;
@@ -471,7 +471,7 @@ TEST(Survey, IsDeterministic)
 
 TEST(Survey, TimelineHasTheStatedRates)
 {
-  sim::SurveyOptions options;  // 40 s at 5 Hz
+  sim::SimulationOptions options;  // 40 s at 5 Hz
   auto s = sim::SurveySimulator::create(loadDefaultWorld(), options);
   ASSERT_TRUE(s);
   EXPECT_EQ(s->xtionFrameCount(), 200u);

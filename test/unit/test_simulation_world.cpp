@@ -47,7 +47,7 @@ std::string replaced(const std::string& text, const std::string& from, const std
   return s;
 }
 
-double cornerDisplacementPx(const sim::FixedCameraConfig& c)
+double cornerDisplacementPx(const sim::SimulatedFixedCamera& c)
 {
   double d = 0.0;
   for (double x : {0.0, c.width - 1.0})
@@ -59,7 +59,7 @@ double cornerDisplacementPx(const sim::FixedCameraConfig& c)
   return d;
 }
 
-double lookingDownDeg(const sim::FixedCameraConfig& c)
+double lookingDownDeg(const sim::SimulatedFixedCamera& c)
 {
   const Eigen::Vector3d forward = c.camera.pose().worldFromCamera().linear().col(2);
   return std::asin(-forward.z()) * 180.0 / M_PI;
@@ -74,7 +74,7 @@ TEST(WorldFile, MinimalWorldParses)
   ASSERT_EQ(world->surfaces.size(), 2u);
   EXPECT_NEAR(world->surfaces[0].normal.z(), 1.0, 1e-12);
   ASSERT_EQ(world->fixed_cameras.size(), 1u);
-  const sim::FixedCameraConfig& c = world->fixed_cameras[0];
+  const sim::SimulatedFixedCamera& c = world->fixed_cameras[0];
   EXPECT_DOUBLE_EQ(c.camera.intrinsics().fy, 500.0);  // fy defaults to fx
   EXPECT_DOUBLE_EQ(c.camera.intrinsics().cx, 319.5);  // principal point defaults to the centre
   EXPECT_LT((c.camera.pose().center() - Eigen::Vector3d(0.2, 0.2, 2.5)).norm(), 1e-12);

@@ -32,7 +32,7 @@ TEST(SurveyCalibration, DefaultWorldEveryCameraWithinTheThresholds)
   const auto configs = ic::loadCameraConfig(kSource + "/config/cameras.yaml");
   ASSERT_TRUE(configs) << configs.error().describe();
 
-  sim::SurveyOptions sim_options;
+  sim::SimulationOptions sim_options;
   sim_options.seed = kSeed;
   auto simulator = sim::SurveySimulator::create(*world, sim_options);
   ASSERT_TRUE(simulator) << simulator.error().describe();

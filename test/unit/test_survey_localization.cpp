@@ -78,7 +78,7 @@ TEST(SurveyLocalization, AdjustedMapKeepsTheCamerasConsistent)
   ASSERT_TRUE(world) << world.error().describe();
   const auto configs = ic::loadCameraConfig(kSource + "/config/cameras.yaml");
   ASSERT_TRUE(configs) << configs.error().describe();
-  sim::SurveyOptions sim_options;
+  sim::SimulationOptions sim_options;
   sim_options.seed = kSeed;
   sim_options.localization_sigma_m = 0.02;
   sim_options.localization_sigma_deg = 0.5;

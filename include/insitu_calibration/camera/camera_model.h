@@ -30,6 +30,13 @@ struct Intrinsics
   Eigen::Vector2d principalPoint() const { return {cx, cy}; }
 };
 
+// The centre of a width x height image (pixel (0,0) is the centre of the top-left pixel): the principal point and
+// distortion centre assumed before calibration.
+inline Eigen::Vector2d imageCenter(int width, int height)
+{
+  return {0.5 * (width - 1), 0.5 * (height - 1)};
+}
+
 // Fitzgibbon's division model. Stateless maths on pixel coordinates.
 struct DivisionModel
 {

@@ -28,7 +28,7 @@ namespace insitu_calibration
 {
 namespace simulation
 {
-struct SurveyOptions
+struct SimulationOptions
 {
   double duration_s = 40.0;
   double rate_hz = 5.0;  // RGB-D frames
@@ -93,10 +93,10 @@ struct SurveyTimings
 class SurveySimulator
 {
 public:
-  static Expected<SurveySimulator> create(World world, const SurveyOptions& options);
+  static Expected<SurveySimulator> create(World world, const SimulationOptions& options);
 
   const World& world() const { return *world_; }
-  const SurveyOptions& options() const { return options_; }
+  const SimulationOptions& options() const { return options_; }
   const Renderer& renderer() const { return *renderer_; }
   const RouteTrajectory& trajectory() const { return trajectory_; }
 
@@ -132,11 +132,11 @@ public:
   const SurveyTimings& timings() const { return timings_; }
 
 private:
-  SurveySimulator(World world, const SurveyOptions& options);
+  SurveySimulator(World world, const SimulationOptions& options);
 
   std::unique_ptr<World> world_;  // stable address: the renderer refers to it
   std::unique_ptr<Renderer> renderer_;
-  SurveyOptions options_;
+  SimulationOptions options_;
   RouteTrajectory trajectory_;
   int64_t duration_ns_ = 0;
   int64_t tf_period_ns_ = 0;

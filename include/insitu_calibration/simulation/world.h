@@ -133,7 +133,7 @@ struct ImageNoiseConfig
   double shot_gain = 0.02;  // variance grows by shot_gain per grey level: sigma^2 = read^2 + gain I
 };
 
-struct FixedCameraConfig
+struct SimulatedFixedCamera
 {
   std::string name;
   int width = 0;
@@ -153,7 +153,7 @@ struct World
   Lighting lighting;
   Route route;
   XtionConfig xtion;
-  std::vector<FixedCameraConfig> fixed_cameras;
+  std::vector<SimulatedFixedCamera> fixed_cameras;
 };
 
 // Typed errors name the problem and where it is, e.g.

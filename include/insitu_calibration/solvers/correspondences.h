@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 
+#include "insitu_calibration/camera/camera_model.h"
 #include "insitu_calibration/error.h"
 
 namespace insitu_calibration
@@ -48,7 +49,7 @@ struct CorrespondenceSet
   // only the distortion (and weakly the principal point), through the refinement; the DLT does not use them.
   std::vector<std::vector<Eigen::Vector2d>> straight_lines;
 
-  Eigen::Vector2d imageCenter() const { return {0.5 * (image_width - 1), 0.5 * (image_height - 1)}; }
+  Eigen::Vector2d imageCenter() const { return insitu_calibration::imageCenter(image_width, image_height); }
   size_t lineConstraintCount() const;
   // True when a line has 3 or more image points or point correspondences exist: the data that identify lambda.
   bool canIdentifyDistortion() const;

@@ -40,7 +40,7 @@ int64_t periodNs(double rate_hz)
 
 // x, y and yaw each a stationary first-order Gauss-Markov process (exponential correlation tau_s), sampled every
 // dt_s, starting from its stationary distribution.
-std::vector<Pose2d> localizationErrors(const SurveyOptions& o, size_t count, double dt_s)
+std::vector<Pose2d> localizationErrors(const SimulationOptions& o, size_t count, double dt_s)
 {
   FastRandom rng(streamSeed(o.seed, kLocalizationStream));
   const double sigma_yaw = o.localization_sigma_deg * M_PI / 180.0;
@@ -63,14 +63,14 @@ std::vector<Pose2d> localizationErrors(const SurveyOptions& o, size_t count, dou
 }
 }  // namespace
 
-SurveySimulator::SurveySimulator(World world, const SurveyOptions& options)
+SurveySimulator::SurveySimulator(World world, const SimulationOptions& options)
     : world_(std::make_unique<World>(std::move(world))),
       renderer_(std::make_unique<Renderer>(*world_)),
       options_(options),
       trajectory_(world_->route)
 {}
 
-Expected<SurveySimulator> SurveySimulator::create(World world, const SurveyOptions& options)
+Expected<SurveySimulator> SurveySimulator::create(World world, const SimulationOptions& options)
 {
   if (!(options.duration_s > 0.0 && options.duration_s <= 24 * 3600.0))
     return Error(ErrorCode::kInvalidInput, "the duration must be positive (and at most a day)");
@@ -199,7 +199,7 @@ ViewCamera SurveySimulator::xtionCamera(int64_t stamp_ns) const
 
 ViewCamera SurveySimulator::fixedCamera(int camera) const
 {
-  const FixedCameraConfig& c = world_->fixed_cameras[camera];
+  const SimulatedFixedCamera& c = world_->fixed_cameras[camera];
   return ViewCamera::fromModel(c.camera, c.width, c.height);
 }
 
@@ -258,7 +258,7 @@ FixedFrame SurveySimulator::fixedFrame(int camera, int index) const
 
 CalibrationFile SurveySimulator::groundTruth(int camera) const
 {
-  const FixedCameraConfig& c = world_->fixed_cameras.at(camera);
+  const SimulatedFixedCamera& c = world_->fixed_cameras.at(camera);
   CalibrationFile f;
   f.camera_name = c.name;
   f.image_width = c.width;
@@ -322,7 +322,7 @@ Status writeGroundTruth(const SurveySimulator& survey, const std::string& direct
   if (const Status s = saveTrueEdges(directory + "/edges.yaml", computeTrueEdges(world), world.name); !s)
     return s;
 
-  const SurveyOptions& o = survey.options();
+  const SimulationOptions& o = survey.options();
   const XtionConfig& x = world.xtion;
   YAML::Emitter out;
   out.SetDoublePrecision(12);
@@ -352,7 +352,7 @@ Status writeGroundTruth(const SurveySimulator& survey, const std::string& direct
   out << YAML::Key << "fixed_cameras" << YAML::Value << YAML::BeginSeq;
   for (size_t c = 0; c < world.fixed_cameras.size(); ++c)
   {
-    const FixedCameraConfig& f = world.fixed_cameras[c];
+    const SimulatedFixedCamera& f = world.fixed_cameras[c];
     out << YAML::Flow << YAML::BeginMap;
     out << YAML::Key << "name" << YAML::Value << f.name;
     out << YAML::Key << "rate_hz" << YAML::Value << survey.fixedRateHz(static_cast<int>(c));

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "insitu_calibration/geometry/optical_frame.h"
+
 namespace insitu_calibration
 {
 namespace simulation
@@ -13,16 +15,12 @@ double wrapAngle(double a)
   return std::atan2(std::sin(a), std::cos(a));
 }
 
-Eigen::Isometry3d opticalFromFrame()
+// A body frame's optical frame (REP 103) as the transform frame_from_optical.
+Eigen::Isometry3d frameFromOptical()
 {
-  // REP 103: optical z = frame x (forward), optical x = -frame y (right), optical y = -frame z (down).
-  Eigen::Matrix3d frame_from_optical;
-  frame_from_optical.col(0) = -Eigen::Vector3d::UnitY();
-  frame_from_optical.col(1) = -Eigen::Vector3d::UnitZ();
-  frame_from_optical.col(2) = Eigen::Vector3d::UnitX();
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-  t.linear() = frame_from_optical;
-  return t;  // frame_from_optical
+  t.linear() = bodyFromOpticalRotation();
+  return t;
 }
 
 Eigen::Isometry3d translation(const Eigen::Vector3d& v)
@@ -130,9 +128,9 @@ std::vector<NamedTransform> xtionStaticTransforms(const XtionConfig& x)
   return {
       {"base_link", "camera_link", base_from_link},
       {"camera_link", "camera_rgb_frame", translation(x.rgb_offset)},
-      {"camera_rgb_frame", "camera_rgb_optical_frame", opticalFromFrame()},
+      {"camera_rgb_frame", "camera_rgb_optical_frame", frameFromOptical()},
       {"camera_link", "camera_depth_frame", translation(x.depth_offset)},
-      {"camera_depth_frame", "camera_depth_optical_frame", opticalFromFrame()},
+      {"camera_depth_frame", "camera_depth_optical_frame", frameFromOptical()},
   };
 }
 

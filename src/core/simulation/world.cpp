@@ -515,14 +515,14 @@ Expected<XtionConfig> parseXtion(const YAML::Node& node, const std::string& wher
   return x;
 }
 
-Expected<FixedCameraConfig> parseFixedCamera(const YAML::Node& node, size_t index, const std::string& source)
+Expected<SimulatedFixedCamera> parseFixedCamera(const YAML::Node& node, size_t index, const std::string& source)
 {
   std::string where = source + ": fixed_cameras[" + std::to_string(index) + "]";
   const MapReader m(node, where);
   TRY(m.check({"name", "width", "height", "fx", "fy", "cx", "cy", "skew", "lambda", "corner_displacement_px",
                "distortion_center", "position", "look_at", "roll_deg", "orientation", "rate", "phase", "noise",
                "supersampling"}));
-  FixedCameraConfig c;
+  SimulatedFixedCamera c;
   TRY_ASSIGN(c.name, m.text("name"));
   where += " '" + c.name + "'";
   static const std::regex valid_name("[A-Za-z][A-Za-z0-9_]*");
@@ -802,7 +802,7 @@ Expected<World> parseWorldEntries(const std::string& yaml_text, const std::strin
   std::set<std::string> camera_names;
   for (size_t i = 0; i < m["fixed_cameras"].size(); ++i)
   {
-    FixedCameraConfig c;
+    SimulatedFixedCamera c;
     TRY_ASSIGN(c, parseFixedCamera(m["fixed_cameras"][i], i, source));
     if (!camera_names.insert(c.name).second)
       return invalid(source + ": fixed_cameras[" + std::to_string(i) + "]",

@@ -125,7 +125,7 @@ Status checkFixedCameras(const World& world, const std::string& source)
 {
   if (world.fixed_cameras.size() > kMaxFixedCameras)
     return refuse(source + ": fixed_cameras", "more than " + std::to_string(kMaxFixedCameras) + " cameras");
-  for (const FixedCameraConfig& c : world.fixed_cameras)
+  for (const SimulatedFixedCamera& c : world.fixed_cameras)
   {
     const std::string where = source + ": fixed camera '" + c.name + "'";
     if (const Status s = checkImage(c.width, c.height, c.camera.intrinsics(), where); !s)

@@ -196,7 +196,7 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
   if (map_lines.empty())
     return Error(ErrorCode::kNotEnoughData, "the 3D line map is empty: drive the robot through the camera's view");
   const cv::Mat median = median_.median();
-  DivisionModel distortion{0.0, Eigen::Vector2d(0.5 * (config_.image_width - 1), 0.5 * (config_.image_height - 1))};
+  DivisionModel distortion{0.0, imageCenter(config_.image_width, config_.image_height)};
   std::optional<FixedCameraResult> best;
   std::string last_error;
   for (int loop = 0; loop < options_.max_loops; ++loop)
@@ -286,11 +286,11 @@ FixedCameraStatus FixedCamera::status(const std::vector<Segment3d>& map_lines) c
       s.map_lines_visible += visibleInterval(*camera, l, config_.image_width, config_.image_height) ? 1 : 0;
   if (s.has_image && config_.correspondence_file.empty())
   {
-    const auto lines = extractImageLines(
-        median_.median(),
-        calibration_ ? calibration_->camera.distortion()
-                     : DivisionModel{0.0, Eigen::Vector2d(0.5 * config_.image_width, 0.5 * config_.image_height)},
-        options_.image_lines);
+    const auto lines =
+        extractImageLines(median_.median(),
+                          calibration_ ? calibration_->camera.distortion()
+                                       : DivisionModel{0.0, imageCenter(config_.image_width, config_.image_height)},
+                          options_.image_lines);
     s.image_lines = lines ? lines->size() : 0;
   }
   if (!config_.correspondence_file.empty())
