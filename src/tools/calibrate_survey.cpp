@@ -475,8 +475,9 @@ std::string openBag(rosbag::Bag& bag, const std::string& path)
   }
   catch (const rosbag::BagException& e)
   {
-    const bool active = path.size() > 7 && path.compare(path.size() - 7, 7, ".active") == 0;
-    return "cannot open " + path + ": " + e.what() + (active ? kReindexHint : "");
+    // A file that is there but cannot be read as a bag was most often cut short.
+    const bool present = std::filesystem::is_regular_file(path, ec) && std::filesystem::file_size(path, ec) > 0;
+    return "cannot open " + path + ": " + e.what() + (present ? kReindexHint : "");
   }
   return {};
 }
