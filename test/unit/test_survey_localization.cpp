@@ -122,11 +122,20 @@ TEST(SurveyLocalization, AdjustedMapKeepsTheCamerasConsistent)
   const Eigen::Vector3d spread = (squares / corrections.size() - mean.cwiseAbs2()).cwiseMax(0.0).cwiseSqrt();
   std::printf("keyframes after the adjustment, about their mean: x %.1f mm, y %.1f mm, yaw %.3f deg\n",
               1e3 * spread.x(), 1e3 * spread.y(), spread.z() * 180.0 / M_PI);
+  size_t refused = 0;
   for (size_t c = 0; c < simulator->world().fixed_cameras.size(); ++c)
   {
     const std::string& name = simulator->world().fixed_cameras[c].name;
     const auto result = survey.calibrate(name, "map");
-    ASSERT_TRUE(result) << name << ": " << result.error().describe();
+    // A camera the matched lines determine too weakly is refused with the reason (FixedCamera::check): never
+    // accepted with a small sigma and a large error. At most one of the three here.
+    if (!result)
+    {
+      std::printf("%s refused: %s\n", name.c_str(), result.error().describe().c_str());
+      EXPECT_FALSE(result.error().message().empty()) << name;
+      EXPECT_LE(++refused, 1u) << name << ": " << result.error().describe();
+      continue;
+    }
     const ic::CalibrationFile truth = simulator->groundTruth(static_cast<int>(c));
     const ic::CameraErrors e = ic::compareCameras(truth.camera, result->calibration.camera);
     const ic::CameraUncertainty& u = result->calibration.uncertainty;
@@ -137,8 +146,9 @@ TEST(SurveyLocalization, AdjustedMapKeepsTheCamerasConsistent)
         "limit %.2f), lambda %.2f %%\n",
         name.c_str(), 100.0 * e.focal_relative, rotation_deg, u.rotation_deg, limit.rotation_rad * 180.0 / M_PI,
         1e3 * e.center_m, 1e3 * u.position_m, 1e3 * limit.position_m, 100.0 * e.lambda_relative);
-    // Loose bounds (seed 13 is among the worst seen: cam_wide 75 mm, 0.87 deg): the goals (10 mm and
-    // 0.1 degrees relative, 1.5 times the limit absolute) are not reached on every seed yet.
+    // Loose bounds (seed 13 is among the worst seen: cam_wide 75 mm, 0.87 deg, now refused by the uncertainty
+    // check): the goals (10 mm and 0.1 degrees relative, 1.5 times the limit absolute) are not reached on
+    // every seed yet.
     EXPECT_LT(std::abs(e.focal_relative), 0.005) << name;
     EXPECT_LT(e.lambda_relative, 0.10) << name;
     EXPECT_LT(e.center_m, 0.1 + 1.5 * limit.position_m) << name;
