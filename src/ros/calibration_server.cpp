@@ -21,6 +21,15 @@ namespace insitu_calibration
 {
 namespace
 {
+// A service request that names no known camera: answered (true) with success false and the reason.
+template <typename Response>
+bool refuseRequest(Response& response, const std::string& reason)
+{
+  response.success = false;
+  response.message = reason;
+  return true;
+}
+
 // The parameter server's XmlRpc value as YAML text, for the core's configuration parser.
 void emitYaml(XmlRpc::XmlRpcValue& value, YAML::Emitter* out)
 {
@@ -536,11 +545,7 @@ bool CalibrationServer::calibrateService(Calibrate::Request& request, Calibrate:
   std::string error;
   const std::vector<std::string> names = selectCameras(request.camera, &error);  // cameras_ is fixed: no lock
   if (names.empty())
-  {
-    response.success = false;
-    response.message = error;
-    return true;
-  }
+    return refuseRequest(response, error);
   const CalibrationOutcome outcome = calibrateCameras(names, nullptr, nullptr);
   response.success = outcome.success;
   response.message = outcome.message;
@@ -588,11 +593,7 @@ bool CalibrationServer::statusService(CalibrationStatus::Request& request, Calib
   std::string error;
   const std::vector<std::string> names = selectCameras(request.camera, &error);  // cameras_ is fixed: no lock
   if (names.empty())
-  {
-    response.success = false;
-    response.message = error;
-    return true;
-  }
+    return refuseRequest(response, error);
   response.success = true;
   response.cameras = cameraStatuses(names, &response.message);
   return true;
@@ -615,11 +616,7 @@ bool CalibrationServer::resetService(Reset::Request& request, Reset::Response& r
   }
   std::string error;
   if (selectCameras(request.camera, &error).empty())
-  {
-    response.success = false;
-    response.message = error;
-    return true;
-  }
+    return refuseRequest(response, error);
   survey_->resetCamera(request.camera);
   ++reset_generation_;
   {
@@ -756,7 +753,7 @@ void CalibrationServer::loadSavedCalibrations()
     survey_->camera(name).setCalibration(*saved.calibration);
     ++loaded;
     ROS_INFO_STREAM("calibration_node: loaded the calibration of '" << name << "' from "
-                                                                     << store.calibrationPath(name));
+                                                                    << store.calibrationPath(name));
   }
   if (loaded > 0)
     publishCalibrations();
