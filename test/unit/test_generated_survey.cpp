@@ -14,6 +14,7 @@
 #include "insitu_calibration/simulation/world_generator.h"
 #include "insitu_calibration/survey/camera_config.h"
 #include "insitu_calibration/survey/survey.h"
+#include "simulated_survey.h"
 
 namespace ic = insitu_calibration;
 namespace sim = insitu_calibration::simulation;
@@ -23,34 +24,6 @@ namespace
 constexpr uint64_t kBuilding = 5;  // a room; seeds 2001-2010 are the README's benchmark set
 constexpr double kDuration = 30.0;
 
-void feed(const sim::SurveySimulator& simulator, ic::Survey& survey)
-{
-  for (const sim::SurveyEvent& event : simulator.events())
-  {
-    const double stamp = 1e-9 * static_cast<double>(event.stamp_ns);
-    if (event.kind == sim::SurveyEventKind::kXtion)
-    {
-      const sim::XtionFrame x = simulator.xtionFrame(event.index);
-      const sim::ViewCamera view = simulator.xtionCamera(x.stamp_ns);
-      ic::RgbdFrame frame;
-      cv::cvtColor(x.rgb, frame.rgb, cv::COLOR_RGB2BGR);
-      frame.depth = x.depth_mm;
-      frame.camera.width = view.width;
-      frame.camera.height = view.height;
-      frame.camera.intrinsics = view.intrinsics;
-      frame.T_map_camera = x.map_from_optical;
-      frame.stamp = stamp;
-      survey.addRgbdFrame(frame);
-    }
-    else if (event.kind == sim::SurveyEventKind::kFixed)
-    {
-      const sim::FixedFrame f = simulator.fixedFrame(event.camera, event.index);
-      cv::Mat grey;
-      cv::cvtColor(f.image, grey, cv::COLOR_RGB2GRAY);
-      survey.addFixedImage(simulator.world().fixed_cameras[event.camera].name, grey, stamp);
-    }
-  }
-}
 }  // namespace
 
 TEST(GeneratedSurvey, NoWrongCameraAcceptedInAGeneratedRoom)
@@ -73,7 +46,7 @@ TEST(GeneratedSurvey, NoWrongCameraAcceptedInAGeneratedRoom)
   for (const auto& entry : *configs)
     cameras.push_back(entry.camera);
   ic::Survey survey(cameras);
-  feed(*simulator, survey);
+  ic::test::feedSimulatedSurvey(*simulator, &survey);
 
   const auto map = survey.mapSegments();
   const auto sigmas = survey.mapLineSigmas();

@@ -15,6 +15,7 @@
 #include "insitu_calibration/simulation/world.h"
 #include "insitu_calibration/survey/camera_config.h"
 #include "insitu_calibration/survey/survey.h"
+#include "simulated_survey.h"
 
 namespace ic = insitu_calibration;
 namespace sim = insitu_calibration::simulation;
@@ -42,33 +43,8 @@ TEST(SurveyCalibration, DefaultWorldEveryCameraWithinTheThresholds)
     cameras.push_back(entry.camera);
   ic::Survey survey(cameras);
 
-  int xtion = 0;
-  for (const sim::SurveyEvent& event : simulator->events())
-  {
-    const double stamp = 1e-9 * static_cast<double>(event.stamp_ns);
-    if (event.kind == sim::SurveyEventKind::kXtion)
-    {
-      const sim::XtionFrame x = simulator->xtionFrame(event.index);
-      const sim::ViewCamera view = simulator->xtionCamera(x.stamp_ns);
-      ic::RgbdFrame frame;
-      cv::cvtColor(x.rgb, frame.rgb, cv::COLOR_RGB2BGR);
-      frame.depth = x.depth_mm;
-      frame.camera.width = view.width;
-      frame.camera.height = view.height;
-      frame.camera.intrinsics = view.intrinsics;
-      frame.T_map_camera = x.map_from_optical;
-      frame.stamp = stamp;
-      survey.addRgbdFrame(frame);
-      ++xtion;
-    }
-    else if (event.kind == sim::SurveyEventKind::kFixed)
-    {
-      const sim::FixedFrame f = simulator->fixedFrame(event.camera, event.index);
-      cv::Mat grey;
-      cv::cvtColor(f.image, grey, cv::COLOR_RGB2GRAY);
-      survey.addFixedImage(simulator->world().fixed_cameras[event.camera].name, grey, stamp);
-    }
-  }
+  const int xtion = ic::test::feedSimulatedSurvey(*simulator, &survey);
+
   std::printf("seed %llu: %d RGB-D frames, %zu keyframes, %zu map lines used\n", static_cast<unsigned long long>(kSeed),
               xtion, survey.stats().keyframes, survey.mapSegments().size());
 
