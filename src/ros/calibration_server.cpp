@@ -193,6 +193,10 @@ CalibrationServer::CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private
     publishMarkers();
   });
 
+  if (map_adjustment_period_s_ > 0.0)
+    adjustment_timer_ = work_nh_.createWallTimer(ros::WallDuration(map_adjustment_period_s_),
+                                                 [this](const ros::WallTimerEvent&) { refreshMapAdjustment(); });
+
   loadSavedCalibrations();
   // Only now: a service call must not see the node before its saved calibrations are loaded.
   service_spinner_->start();
@@ -231,6 +235,7 @@ bool CalibrationServer::loadParameters()
   private_nh_.param("localization_correlation_s", options.localization_correlation_s,
                     options.localization_correlation_s);
   private_nh_.param<std::string>("odom_frame", odom_frame_, "odom");
+  private_nh_.param("map_adjustment_period", map_adjustment_period_s_, map_adjustment_period_s_);
   FixedCameraOptions& camera_options = options.cameras;
   int median_images = 15;
   private_nh_.param("median_images", median_images, 15);
@@ -442,9 +447,31 @@ Status CalibrationServer::saveCalibration(const std::string& name)
   const auto last = survey_->camera(name).lastResult();
   const cv::Mat overlay =
       image.empty() ? cv::Mat()
-                    : drawOverlay(image, file.image_width, file.image_height, file.camera, survey_->mapSegments(),
+                    : drawOverlay(image, file.image_width, file.image_height, file.camera, survey_->latestMapSegments(),
                                   last ? last->matched_image_lines : std::vector<std::vector<Eigen::Vector2d>>{});
   return CalibrationStore(output_directory_).save(name, file, overlay);
+}
+
+void CalibrationServer::refreshMapAdjustment()
+{
+  std::lock_guard<std::mutex> serial(adjustment_mutex_);
+  std::vector<Keyframe> keyframes;
+  SurveyOptions options;
+  uint64_t generation = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!survey_->adjustmentDue())
+      return;
+    keyframes = survey_->keyframes();
+    options = survey_->options();
+    generation = survey_->keyframeGeneration();
+  }
+  MapAdjustment adjustment = Survey::computeAdjustment(keyframes, options, generation);
+  const double cpu_ms = adjustment.cpu_ms;
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (survey_->installAdjustment(std::move(adjustment)))
+    ROS_DEBUG_STREAM("calibration_node: line map adjusted with " << keyframes.size() << " keyframes in " << cpu_ms
+                                                                 << " ms of CPU");
 }
 
 void CalibrationServer::calibrateOne(const std::string& name, const std::function<void(const std::string&)>& stage,
@@ -454,11 +481,12 @@ void CalibrationServer::calibrateOne(const std::string& name, const std::functio
   std::vector<Segment3d> map;
   std::vector<double> sigmas;
   uint64_t generation = 0;
+  refreshMapAdjustment();
   {
     std::lock_guard<std::mutex> lock(mutex_);
     camera.emplace(survey_->camera(name));
-    map = survey_->mapSegments();
-    sigmas = survey_->mapLineSigmas();
+    map = survey_->latestMapSegments();
+    sigmas = survey_->latestMapLineSigmas();
     generation = reset_generation_;
   }
   stage("calibrating");
@@ -663,7 +691,7 @@ void CalibrationServer::publishCalibrations()
   std::vector<Segment3d> map;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    map = survey_->mapSegments();
+    map = survey_->latestMapSegments();
     for (const auto& [name, camera] : cameras_)
       if (survey_->camera(name).calibration())
         calibrated.emplace_back(name, survey_->camera(name));
@@ -701,7 +729,8 @@ void CalibrationServer::publishCalibrations()
 void CalibrationServer::publishMarkers()
 {
   visualization_msgs::MarkerArray markers;
-  markers.markers.push_back(lineList(world_frame_, "line_map", 0, survey_->mapSegments(), 0.75f, 0.75f, 0.75f, 0.01));
+  markers.markers.push_back(
+      lineList(world_frame_, "line_map", 0, survey_->latestMapSegments(), 0.75f, 0.75f, 0.75f, 0.01));
   int id = 0;
   for (const auto& [name, camera] : cameras_)
   {

@@ -45,17 +45,17 @@ std::vector<CameraStatus> CalibrationServer::cameraStatuses(const std::vector<st
   std::vector<Segment3d> map;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    map = survey_->mapSegments();
+    map = survey_->latestMapSegments();
     const SurveyStats& stats = survey_->stats();
     *summary = std::to_string(stats.frames) + " RGB-D frames received, " + std::to_string(stats.keyframes) +
-               " keyframes used, " + std::to_string(survey_->lineMap().size()) + " map lines (" +
+               " keyframes used, " + std::to_string(survey_->latestLineMap().size()) + " map lines (" +
                std::to_string(map.size()) + " seen at least " + std::to_string(survey_->options().min_map_support) +
                " times)";
     if (survey)
     {
       survey->rgbd_frames = static_cast<uint32_t>(stats.frames);
       survey->keyframes = static_cast<uint32_t>(stats.keyframes);
-      survey->map_lines = static_cast<uint32_t>(survey_->lineMap().size());
+      survey->map_lines = static_cast<uint32_t>(survey_->latestLineMap().size());
       survey->map_lines_used = static_cast<uint32_t>(map.size());
     }
     for (const auto& name : names)
@@ -100,7 +100,7 @@ void CalibrationServer::surveyDiagnostics(diagnostic_updater::DiagnosticStatusWr
     std::lock_guard<std::mutex> lock(mutex_);
     frames = survey_->stats().frames;
     keyframes = survey_->stats().keyframes;
-    map_lines = survey_->lineMap().size();
+    map_lines = survey_->latestLineMap().size();
     for (const auto& [name, camera] : cameras_)
       calibrated += survey_->camera(name).calibration() ? 1 : 0;
   }

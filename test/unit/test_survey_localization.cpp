@@ -171,3 +171,63 @@ TEST(SurveyLocalization, AdjustedMapKeepsTheCamerasConsistent)
       EXPECT_LT(rotation_deg, 1.2) << i << "-" << j;
     }
 }
+
+// The node's path: the adjustment computed apart from the survey (outside its lock) and installed; the latest*()
+// accessors never adjust; an adjustment from before a reset is not installed.
+TEST(SurveyLocalization, AdjustmentComputedApartIsInstalledUnlessReset)
+{
+  auto world = sim::loadWorldFile(kSource + "/config/worlds/waiting_room.yaml");
+  ASSERT_TRUE(world) << world.error().describe();
+  const auto configs = ic::loadCameraConfig(kSource + "/config/cameras.yaml");
+  ASSERT_TRUE(configs) << configs.error().describe();
+  sim::SimulationOptions sim_options;
+  sim_options.seed = kSeed;
+  sim_options.duration_s = 10.0;
+  sim_options.localization_sigma_m = 0.02;
+  sim_options.localization_sigma_deg = 0.5;
+  auto simulator = sim::SurveySimulator::create(*world, sim_options);
+  ASSERT_TRUE(simulator) << simulator.error().describe();
+  std::vector<ic::FixedCameraConfig> cameras;
+  for (const auto& entry : *configs)
+    cameras.push_back(entry.camera);
+  ic::Survey survey(cameras);
+  std::vector<double> stamps;
+  std::vector<Eigen::Vector3d> pivots;
+  feedSurvey(*simulator, &survey, &stamps, &pivots);
+  ASSERT_GT(survey.keyframes().size(), 10u);
+
+  ASSERT_TRUE(survey.adjustmentDue());
+  const size_t unadjusted_lines = survey.latestLineMap().size();
+  EXPECT_TRUE(survey.adjustmentDue()) << "latestLineMap() must not adjust";
+  ic::MapAdjustment adjustment =
+      ic::Survey::computeAdjustment(survey.keyframes(), survey.options(), survey.keyframeGeneration());
+  const ic::MapAdjustment again =
+      ic::Survey::computeAdjustment(survey.keyframes(), survey.options(), survey.keyframeGeneration());
+  ASSERT_EQ(adjustment.corrections.size(), survey.keyframes().size());
+  EXPECT_GT(adjustment.observations, 0u);
+  const double cpu_ms = adjustment.cpu_ms;
+  ASSERT_TRUE(survey.installAdjustment(std::move(adjustment)));
+  EXPECT_FALSE(survey.adjustmentDue());
+  EXPECT_EQ(survey.stats().adjustment_cpu_ms, cpu_ms);
+  // Installed is current: the lazy accessors use it as it is (no second adjustment) and agree with latest*().
+  const auto segments = survey.mapSegments();
+  EXPECT_EQ(survey.stats().adjustment_cpu_ms, cpu_ms);
+  const auto latest = survey.latestMapSegments();
+  ASSERT_EQ(segments.size(), latest.size());
+  ASSERT_FALSE(segments.empty());
+  for (size_t i = 0; i < segments.size(); ++i)
+    EXPECT_EQ((segments[i].a - latest[i].a).norm() + (segments[i].b - latest[i].b).norm(), 0.0) << i;
+  // Deterministic: the same keyframes give the same corrections.
+  const auto corrections = survey.poseCorrections();
+  for (size_t k = 0; k < corrections.size(); ++k)
+    EXPECT_EQ(corrections[k].x, again.corrections[k].x) << k;
+  std::printf("%zu keyframes: %zu map lines as inserted, %zu adjusted; adjustment %.0f ms CPU\n",
+              survey.keyframes().size(), unadjusted_lines, survey.latestLineMap().size(), cpu_ms);
+
+  const uint64_t before_reset = survey.keyframeGeneration();
+  survey.reset();
+  ic::MapAdjustment stale = again;
+  stale.generation = before_reset;
+  EXPECT_FALSE(survey.installAdjustment(std::move(stale)));
+  EXPECT_TRUE(survey.latestMapSegments().empty());
+}

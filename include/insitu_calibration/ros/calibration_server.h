@@ -93,6 +93,10 @@ private:
   void calibrateOne(const std::string& name, const std::function<void(const std::string&)>& stage,
                     CalibrationOutcome* outcome);
   void executeCalibrateAction(const CalibrateGoalConstPtr& goal);
+  // Adjusts the line map with the keyframe poses (seconds of CPU on a long survey) on a copy of the keyframes,
+  // without mutex_, so that images, RGB-D frames and ~status go on meanwhile; no-op when the map is current.
+  // Before every calibration and every map_adjustment_period_s during a survey (adjustment_timer_).
+  void refreshMapAdjustment();
 
   bool calibrateService(Calibrate::Request& request, Calibrate::Response& response);
 
@@ -157,12 +161,15 @@ private:
   ros::ServiceServer save_server_;
   ros::Publisher marker_publisher_;
   ros::WallTimer marker_timer_;
+  ros::WallTimer adjustment_timer_;
+  std::mutex adjustment_mutex_;  // one adjustment at a time
 
   // Parameters
   std::string world_frame_;
   std::string odom_frame_;  // empty: no odometry for the map adjustment
   std::string output_directory_;
   double tf_timeout_s_ = 0.2;
+  double map_adjustment_period_s_ = 10.0;  // 0: only before a calibration
 
   // State, guarded by mutex_ (callbacks run on an AsyncSpinner's threads).
   mutable std::mutex mutex_;

@@ -7,6 +7,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -62,6 +63,17 @@ struct SurveyStats
   double mean_correction_deg = 0.0;
 };
 
+// One map adjustment's outcome (Survey::computeAdjustment), for the keyframes it was computed from.
+struct MapAdjustment
+{
+  LineMap map;
+  std::vector<PoseCorrection> corrections;
+  size_t observations = 0;
+  size_t dropped = 0;
+  double cpu_ms = 0.0;
+  uint64_t generation = 0;  // Survey::keyframeGeneration() of its keyframes
+};
+
 class Survey
 {
 public:
@@ -113,8 +125,29 @@ public:
 
   const SurveyOptions& options() const { return options_; }
 
+  // The map adjustment apart from the survey, for a caller that must not hold the survey while it runs (the node
+  // holds its lock for every survey call; an adjustment takes seconds): under the lock, adjustmentDue() and a copy
+  // of keyframes() and keyframeGeneration(); without it, computeAdjustment(); under it again, installAdjustment(),
+  // which keeps the result (the latest*() accessors show it) and counts it as current if no keyframe came meanwhile.
+  bool adjustmentDue() const { return adjusting() && !adjusted_; }
+  uint64_t keyframeGeneration() const { return keyframe_generation_; }
+  static MapAdjustment computeAdjustment(const std::vector<Keyframe>& keyframes, const SurveyOptions& options,
+                                         uint64_t generation);
+  // False (nothing kept) for an adjustment computed before the last reset().
+  bool installAdjustment(MapAdjustment adjustment);
+  // The map as the last adjustment left it, never adjusting (status and display while the survey runs): the last
+  // installed adjustment, even if keyframes came since, else the map as inserted. Same meaning as the functions
+  // above otherwise.
+  const LineMap& latestLineMap() const;
+  std::vector<Segment3d> latestMapSegments() const;
+  std::vector<double> latestMapLineSigmas() const;
+
 private:
+  bool adjusting() const;
   void adjustMap() const;
+  void cacheAdjustment(MapAdjustment adjustment) const;  // the cache's members are mutable
+  std::vector<MapLine> usedLinesOf(const LineMap& map) const;
+  std::vector<double> sigmasOf(const std::vector<MapLine>& used) const;
 
   SurveyOptions options_;
   RgbdLineExtractor extractor_;
@@ -123,10 +156,14 @@ private:
   std::map<std::string, std::unique_ptr<FixedCamera>> cameras_;
   std::map<std::string, double> last_fixed_stamp_;
   std::vector<Keyframe> keyframe_data_;
-  // The adjusted map and corrections, a cache of keyframes_ (valid while adjusted_ is true).
+  // The adjusted map and corrections, a cache of keyframes_ (current while adjusted_ is true; has_adjustment_: one
+  // was computed, perhaps before the newest keyframes).
   mutable LineMap adjusted_map_;
   mutable std::vector<PoseCorrection> corrections_;
   mutable bool adjusted_ = false;
+  mutable bool has_adjustment_ = false;
+  uint64_t keyframe_generation_ = 0;  // counts keyframes added and resets
+  uint64_t reset_generation_ = 0;     // keyframe_generation_ at the last reset()
   mutable SurveyStats stats_;
 };
 

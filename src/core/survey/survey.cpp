@@ -72,6 +72,7 @@ Expected<bool> Survey::addRgbdFrame(const RgbdFrame& frame, const std::optional<
   if (T_odom_camera)
     keyframe_data_.back().T_odom_camera = *T_odom_camera;
   adjusted_ = false;
+  ++keyframe_generation_;
   ++stats_.keyframes;
   stats_.lines += lines->size();
   return true;
@@ -91,13 +92,23 @@ Expected<bool> Survey::addFixedImage(const std::string& camera, const cv::Mat& i
   return true;
 }
 
+bool Survey::adjusting() const
+{
+  return insitu_calibration::adjusting(options_) && !keyframe_data_.empty();
+}
+
 const LineMap& Survey::lineMap() const
 {
-  if (!adjusting(options_) || keyframe_data_.empty())
+  if (!adjusting())
     return map_;
   if (!adjusted_)
     adjustMap();
   return adjusted_map_;
+}
+
+const LineMap& Survey::latestLineMap() const
+{
+  return adjusting() && has_adjustment_ ? adjusted_map_ : map_;
 }
 
 namespace
@@ -147,53 +158,74 @@ std::vector<MapLine> unambiguousLines(const std::vector<MapLine>& lines, double 
 }
 }  // namespace
 
-void Survey::adjustMap() const
+MapAdjustment Survey::computeAdjustment(const std::vector<Keyframe>& keyframes, const SurveyOptions& options,
+                                        uint64_t generation)
 {
   const double start = threadCpuMs();
-  std::vector<PoseCorrection> corrections(keyframe_data_.size());
+  std::vector<PoseCorrection> corrections(keyframes.size());
   size_t used = 0, dropped = 0;
   // Graduated: the first rounds merge and associate with tolerances widened by the pose errors that may remain
   // (at tf's tolerances the observations of one edge from keyframes with different errors stay apart, and the
   // adjustment cannot tie those keyframes together), the last at the map's own.
-  for (int round = 0; round < options_.adjustment_rounds; ++round)
+  for (int round = 0; round < options.adjustment_rounds; ++round)
   {
     const double scale =
-        options_.adjustment_rounds > 1 ? 1.0 - static_cast<double>(round) / (options_.adjustment_rounds - 1) : 0.0;
-    const LineMapOptions widened = widenedMapOptions(options_, scale);
-    const LineMap current = rebuildLineMap(keyframe_data_, corrections, widened);
+        options.adjustment_rounds > 1 ? 1.0 - static_cast<double>(round) / (options.adjustment_rounds - 1) : 0.0;
+    const LineMapOptions widened = widenedMapOptions(options, scale);
+    const LineMap current = rebuildLineMap(keyframes, corrections, widened);
     // Every line seen twice, whatever its spread: the lines whose observations disagree because the poses do are
     // the ones that tell the poses apart (the robust loss and the outlier test keep wrong merges out).
-    std::vector<MapLine> lines = current.lines(options_.min_map_support);
+    std::vector<MapLine> lines = current.lines(options.min_map_support);
     if (scale > 0.0)
       lines = unambiguousLines(lines, 2.0 * (widened.max_lateral_m + 3.0 * widened.max_lateral_per_m),
                                widened.max_angle_deg);
     std::vector<AdjustedLine> starts;
     for (const auto& line : lines)
       starts.push_back({line.point, line.direction});
-    const auto observations = associateObservations(keyframe_data_, corrections, lines, widened);
-    const auto result = adjustLineMap(keyframe_data_, starts, observations, corrections, options_.adjustment);
+    const auto observations = associateObservations(keyframes, corrections, lines, widened);
+    const auto result = adjustLineMap(keyframes, starts, observations, corrections, options.adjustment);
     if (!result)
       break;  // nothing to adjust: the map stays as tf put it
     corrections = result->corrections;
     used = observations.size();
     dropped = result->dropped;
   }
-  const LineMap current = rebuildLineMap(keyframe_data_, corrections, options_.map);
-  adjusted_map_ = current;
-  corrections_ = corrections;
-  adjusted_ = true;
+  MapAdjustment out{rebuildLineMap(keyframes, corrections, options.map), corrections, used, dropped, 0.0, generation};
+  out.cpu_ms = cpuMsSince(start);
+  return out;
+}
+
+bool Survey::installAdjustment(MapAdjustment adjustment)
+{
+  if (adjustment.generation < reset_generation_ || adjustment.generation > keyframe_generation_)
+    return false;
+  cacheAdjustment(std::move(adjustment));
+  return true;
+}
+
+void Survey::cacheAdjustment(MapAdjustment adjustment) const
+{
   double sum_m = 0.0, sum_rad = 0.0;
-  for (const auto& c : corrections)
+  for (const auto& c : adjustment.corrections)
   {
     sum_m += c.x * c.x + c.y * c.y;
     sum_rad += c.yaw * c.yaw;
   }
-  const double n = std::max<size_t>(1, corrections.size());
-  stats_.adjusted_observations = used;
-  stats_.dropped_observations = dropped;
+  const double n = std::max<size_t>(1, adjustment.corrections.size());
+  stats_.adjusted_observations = adjustment.observations;
+  stats_.dropped_observations = adjustment.dropped;
   stats_.mean_correction_m = std::sqrt(sum_m / n);
   stats_.mean_correction_deg = std::sqrt(sum_rad / n) * 180.0 / M_PI;
-  stats_.adjustment_cpu_ms = cpuMsSince(start);
+  stats_.adjustment_cpu_ms = adjustment.cpu_ms;
+  adjusted_ = adjustment.generation == keyframe_generation_;
+  has_adjustment_ = true;
+  adjusted_map_ = std::move(adjustment.map);
+  corrections_ = std::move(adjustment.corrections);
+}
+
+void Survey::adjustMap() const
+{
+  cacheAdjustment(computeAdjustment(keyframe_data_, options_, keyframe_generation_));
 }
 
 std::vector<PoseCorrection> Survey::poseCorrections() const
@@ -209,7 +241,7 @@ MapPlacementUncertainty Survey::mapPlacement() const
     return out;
   for (const auto& kf : keyframe_data_)
     out.centre += kf.T_map_camera.translation() / static_cast<double>(keyframe_data_.size());
-  if (!adjusting(options_))
+  if (!adjusting())
     return out;
   // The mean of a stationary error with exponential correlation tau over a time T >> tau has the variance
   // sigma^2 * 2 tau / T; no fewer than one independent sample.
@@ -255,33 +287,61 @@ bool Survey::addMapPlacement(FixedCameraResult* result) const
   return true;
 }
 
-std::vector<MapLine> Survey::usedMapLines() const
+std::vector<MapLine> Survey::usedLinesOf(const LineMap& map) const
 {
   std::vector<MapLine> out;
-  for (const auto& line : lineMap().lines(options_.min_map_support))
+  for (const auto& line : map.lines(options_.min_map_support))
     if (line.spread() <= options_.max_map_spread_m)
       out.push_back(line);
   return out;
 }
 
-std::vector<double> Survey::mapLineSigmas() const
+std::vector<MapLine> Survey::usedMapLines() const
+{
+  return usedLinesOf(lineMap());
+}
+
+std::vector<double> Survey::sigmasOf(const std::vector<MapLine>& used) const
 {
   std::vector<double> out;
   // The map line's standard error predicted from its observations (it falls with their number, where the spread
   // does not: a line seen 20 times counted as much as one seen twice), with the floor for the errors the
   // observations share (an edge's depth bias seen from similar viewpoints); the spread when nothing is predicted.
-  for (const auto& line : usedMapLines())
+  for (const auto& line : used)
     out.push_back(line.sigma() > 0.0 ? std::hypot(options_.min_map_line_sigma_m, line.sigma())
                                      : std::max(options_.min_map_line_sigma_m, line.spread()));
   return out;
 }
 
-std::vector<Segment3d> Survey::mapSegments() const
+std::vector<double> Survey::mapLineSigmas() const
+{
+  return sigmasOf(usedMapLines());
+}
+
+std::vector<double> Survey::latestMapLineSigmas() const
+{
+  return sigmasOf(usedLinesOf(latestLineMap()));
+}
+
+namespace
+{
+std::vector<Segment3d> segmentsOf(const std::vector<MapLine>& lines)
 {
   std::vector<Segment3d> out;
-  for (const auto& line : usedMapLines())
+  for (const auto& line : lines)
     out.push_back({line.a(), line.b()});
   return out;
+}
+}  // namespace
+
+std::vector<Segment3d> Survey::mapSegments() const
+{
+  return segmentsOf(usedMapLines());
+}
+
+std::vector<Segment3d> Survey::latestMapSegments() const
+{
+  return segmentsOf(usedLinesOf(latestLineMap()));
 }
 
 std::vector<std::string> Survey::cameraNames() const
@@ -300,6 +360,8 @@ void Survey::reset()
   adjusted_map_.clear();
   corrections_.clear();
   adjusted_ = false;
+  has_adjustment_ = false;
+  reset_generation_ = ++keyframe_generation_;
   last_fixed_stamp_.clear();
   for (auto& [name, camera] : cameras_)
     camera->reset();
