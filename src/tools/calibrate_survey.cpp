@@ -3,27 +3,18 @@
 // medians, and every configured camera is calibrated and written like the node writes it.
 #include <algorithm>
 #include <chrono>
-#include <deque>
-#include <filesystem>
 #include <optional>
 #include <iostream>
 #include <random>
 #include <sstream>
 
 #include <opencv2/imgcodecs.hpp>
-#include <rosbag/bag.h>
-#include <rosbag/view.h>
-#include <sensor_msgs/CameraInfo.h>
-#include <sensor_msgs/Image.h>
-#include <tf2/buffer_core.h>
-#include <tf2/exceptions.h>
-#include <tf2_msgs/TFMessage.h>
 
 #include "command_line.h"
 #include "insitu_calibration/refine/refinement.h"
 #include "insitu_calibration/lines/line_evaluation.h"
 #include "insitu_calibration/metrics.h"
-#include "insitu_calibration/ros/conversions.h"
+#include "insitu_calibration/ros/survey_bag_reader.h"
 #include "insitu_calibration/simulation/survey.h"
 #include "insitu_calibration/simulation/true_edges.h"
 #include "insitu_calibration/survey/camera_config.h"
@@ -227,74 +218,84 @@ void reportMapAgainstTruth(const std::string& truth_dir, const ic::Survey& surve
     }
 }
 
-// Diagnostic: the image lines matched under the true camera (tight thresholds), calibrated like the pipeline does.
-void oracleCalibration(const std::string& truth_dir, const std::string& name, const ic::FixedCamera& camera,
-                       const std::vector<ic::Segment3d>& map, const ic::FixedCameraOptions& options,
-                       const std::vector<ic::MapLine>& map_lines, bool details)
+// The oracle's data: the image lines matched under the true camera and, as variants, the same matches with the
+// map lines replaced by their true edges (image-line errors only), with the image lines replaced by the true edges'
+// images (map-line errors only) and with both.
+struct OracleData
 {
-  const auto truth = ic::loadCalibrationFile(truth_dir + "/" + name + ".yaml");
-  if (!truth)
-    return;
-  const int w = truth->image_width, h = truth->image_height;
-  const auto lines = ic::extractImageLines(camera.medianImage(), truth->camera.distortion(), options.image_lines);
-  if (!lines)
-    return;
+  const ic::CalibrationFile& truth;
+  const std::vector<ic::Segment3d>& map;
   std::vector<std::vector<Eigen::Vector2d>> polylines;
-  for (const auto& l : *lines)
-    polylines.push_back(l.points);
-  const auto matches = ic::matchLines(map, polylines, truth->camera, w, h, 2.0, 3.0, options.matcher);
+  std::vector<ic::LineMatch> matches;
+  std::vector<ic::Segment3d> edges;  // the true edges
+  ic::CorrespondenceSet set, true_world, true_image, true_both;
+
+  OracleData(const ic::CalibrationFile& truth, const std::vector<ic::Segment3d>& map) : truth(truth), map(map) {}
+};
+
+// The correspondences of the matches the true camera makes (tight thresholds), as the pipeline forms them.
+ic::CorrespondenceSet oracleCorrespondences(OracleData& d, const ic::FixedCameraOptions& options)
+{
+  const int w = d.truth.image_width, h = d.truth.image_height;
+  d.matches = ic::matchLines(d.map, d.polylines, d.truth.camera, w, h, 2.0, 3.0, options.matcher);
   ic::CorrespondenceSet set;
   set.image_width = w;
   set.image_height = h;
-  for (const auto& m : matches)
+  for (const auto& m : d.matches)
   {
-    const auto interval = ic::visibleInterval(truth->camera, map[m.map_line], w, h);
+    const auto interval = ic::visibleInterval(d.truth.camera, d.map[m.map_line], w, h);
     ic::LineCorrespondence c;
-    c.image = polylines[m.image_line];
+    c.image = d.polylines[m.image_line];
     for (int k = 0; k < options.matcher.world_points_per_line; ++k)
-      c.world.push_back(map[m.map_line].pointAt(interval->first + (interval->second - interval->first) * k /
-                                                                      (options.matcher.world_points_per_line - 1.0)));
+      c.world.push_back(d.map[m.map_line].pointAt(interval->first + (interval->second - interval->first) * k /
+                                                                        (options.matcher.world_points_per_line - 1.0)));
     set.lines.push_back(c);
   }
-  // Variants: the map lines replaced by their true edges (image-line errors only), the image lines replaced by the
-  // true edges' images (map-line errors only).
-  const auto edges = ic::simulation::loadTrueEdges(truth_dir + "/edges.yaml");
-  std::vector<ic::Segment3d> segments;
-  if (edges)
-    for (const auto& e : *edges)
-      segments.push_back({e.start, e.end});
-  const ic::CameraModel& t = truth->camera;
-  ic::CorrespondenceSet true_world = set, true_image = set, true_both = set;
-  for (size_t i = 0; i < set.lines.size(); ++i)
+  return set;
+}
+
+// Prints the signed distances (px) of line i's image points to its true edge's image.
+void printImagePointDistances(const OracleData& d, size_t i, int edge, const Eigen::Vector2d& ua,
+                              const Eigen::Vector2d& ud)
+{
+  const ic::CameraModel& t = d.truth.camera;
+  std::printf("    line %zu (image %zu, edge %d):", i, d.matches[i].image_line, edge);
+  for (const auto& m2 : d.set.lines[i].image)
   {
-    const ic::Segment3d& m = map[matches[i].map_line];
-    const ic::Line3dError err = ic::measureLine3d(m.a, m.b, segments, 0.1, 5.0);
+    const auto u = t.distortion().undistort(m2);
+    if (!u)
+      continue;
+    const Eigen::Vector2d foot = ua + ud * ud.dot(*u - ua);
+    const auto back = t.distortion().distort(foot);
+    const Eigen::Vector2d n(-ud.y(), ud.x());
+    std::printf(" %+.3f", back ? n.dot(m2 - *back) : 0.0);
+  }
+  std::printf("\n");
+}
+
+// The true-3D and true-2D variants: each matched line's world points moved onto its true edge, its image points
+// onto that edge's image.
+void replaceByTruth(OracleData& d, bool details)
+{
+  const ic::CameraModel& t = d.truth.camera;
+  d.true_world = d.true_image = d.true_both = d.set;
+  for (size_t i = 0; i < d.set.lines.size(); ++i)
+  {
+    const ic::Segment3d& m = d.map[d.matches[i].map_line];
+    const ic::Line3dError err = ic::measureLine3d(m.a, m.b, d.edges, 0.1, 5.0);
     if (err.edge < 0)
       continue;
-    const ic::Segment3d& e = segments[err.edge];
-    const Eigen::Vector3d d = (e.b - e.a).normalized();
-    for (auto& x : true_world.lines[i].world)
-      x = e.a + d * d.dot(x - e.a);
+    const ic::Segment3d& e = d.edges[err.edge];
+    const Eigen::Vector3d dir = (e.b - e.a).normalized();
+    for (auto& x : d.true_world.lines[i].world)
+      x = e.a + dir * dir.dot(x - e.a);
     const auto ua = t.projectUndistorted(e.a), ub = t.projectUndistorted(e.b);
     if (!ua || !ub)
       continue;
     const Eigen::Vector2d ud = (*ub - *ua).normalized();
     if (details)
-    {
-      std::printf("    line %zu (image %zu, edge %d):", i, matches[i].image_line, err.edge);
-      for (const auto& m2 : set.lines[i].image)
-      {
-        const auto u = t.distortion().undistort(m2);
-        if (!u)
-          continue;
-        const Eigen::Vector2d foot = *ua + ud * ud.dot(*u - *ua);
-        const auto back = t.distortion().distort(foot);
-        const Eigen::Vector2d n(-ud.y(), ud.x());
-        std::printf(" %+.3f", back ? n.dot(m2 - *back) : 0.0);
-      }
-      std::printf("\n");
-    }
-    for (auto& m2 : true_image.lines[i].image)
+      printImagePointDistances(d, i, err.edge, *ua, ud);
+    for (auto& m2 : d.true_image.lines[i].image)
     {
       const auto u = t.distortion().undistort(m2);
       if (!u)
@@ -304,88 +305,133 @@ void oracleCalibration(const std::string& truth_dir, const std::string& name, co
         m2 = *back;
     }
   }
-  if (true)
-  {
-    std::vector<bool> matched(polylines.size(), false);
-    for (const auto& m : matches)
-      matched[m.image_line] = true;
-    for (size_t i = 0; i < polylines.size(); ++i)
-      if (!matched[i] && polylines[i].size() >= 3 && (polylines[i].back() - polylines[i].front()).norm() >= 100.0)
-        for (auto* s2 : {&set, &true_world, &true_image, &true_both})
-          s2->straight_lines.push_back(polylines[i]);
-    if (details)
-      std::printf("    %zu plumb lines\n", set.straight_lines.size());
-  }
-  for (size_t i = 0; i < set.lines.size(); ++i)
-  {
-    true_both.lines[i].world = true_world.lines[i].world;
-    true_both.lines[i].image = true_image.lines[i].image;
-  }
+}
+
+// The long unmatched image lines as plumb lines, as the final calibration uses them; then the both-true variant.
+void addPlumbLinesAndBothTrue(OracleData& d, bool details)
+{
+  std::vector<bool> matched(d.polylines.size(), false);
+  for (const auto& m : d.matches)
+    matched[m.image_line] = true;
+  for (size_t i = 0; i < d.polylines.size(); ++i)
+    if (!matched[i] && d.polylines[i].size() >= 3 && (d.polylines[i].back() - d.polylines[i].front()).norm() >= 100.0)
+      for (auto* s2 : {&d.set, &d.true_world, &d.true_image, &d.true_both})
+        s2->straight_lines.push_back(d.polylines[i]);
   if (details)
+    std::printf("    %zu plumb lines\n", d.set.straight_lines.size());
+  for (size_t i = 0; i < d.set.lines.size(); ++i)
   {
-    const auto images = ic::projectEdges(t, segments);
-    std::vector<int> map_edge(map.size(), -1);
-    for (size_t j = 0; j < map.size(); ++j)
-      map_edge[j] = ic::measureLine3d(map[j].a, map[j].b, segments, 0.1, 5.0).edge;
-    for (size_t i = 0; i < polylines.size(); ++i)
-    {
-      const ic::ImageLineError ie = ic::measureImageLine(polylines[i], t.distortion(), images, 3.0, 1.0, 0.6);
-      double length = 0.0;
-      for (size_t k = 1; k < polylines[i].size(); ++k)
-        length += (polylines[i][k] - polylines[i][k - 1]).norm();
-      std::string maps;
-      for (size_t j = 0; j < map.size(); ++j)
-        if (ie.edge >= 0 && map_edge[j] == ie.edge)
-        {
-          const auto vis = ic::visibleInterval(t, map[j], w, h);
-          char b[128];
-          std::snprintf(b, sizeof(b), " m%zu(%.2fm%s)", j, (map[j].b - map[j].a).norm(), vis ? "" : ",invisible");
-          maps += b;
-        }
-      std::string matched = "-";
-      for (const auto& m : matches)
-        if (m.image_line == i)
-          matched = "m" + std::to_string(m.map_line) + " d=" + std::to_string(m.distance_px);
-      std::printf("    image %2zu: %3zu pts %6.1f px, edge %3d rms %.2f px; match %s; map lines of the edge:%s\n", i,
-                  polylines[i].size(), length, ie.edge, ie.rms_px, matched.c_str(), maps.c_str());
-    }
+    d.true_both.lines[i].world = d.true_world.lines[i].world;
+    d.true_both.lines[i].image = d.true_image.lines[i].image;
   }
-  if (details)
-    for (size_t i = 0; i < set.lines.size(); ++i)
-    {
-      const ic::MapLine& ml = map_lines[matches[i].map_line];
-      const ic::Segment3d& m = map[matches[i].map_line];
-      const ic::Line3dError err = ic::measureLine3d(m.a, m.b, segments, 0.1, 5.0);
-      const auto vis = ic::visibleInterval(t, m, w, h);
-      const double range = (0.5 * (m.a + m.b) - t.pose().center()).norm();
-      std::printf(
-          "    match image %zu map %zu: support %d, length %.2f m (visible %.0f %%), weight %.3g, edge %d off %.1f "
-          "mm, %.2f deg, range %.2f m, image line %zu pts, spread %.1f mm\n",
-          matches[i].image_line, matches[i].map_line, ml.support, ml.length(),
-          vis ? 100.0 * (vis->second - vis->first) : 0.0, ml.weight, err.edge, 1000.0 * err.distance_m, err.angle_deg,
-          range, set.lines[i].image.size(), 1000.0 * ml.spread());
-    }
+}
+
+// Per image line: its true edge, its match and the map lines of that edge.
+void printImageLineDetails(const OracleData& d)
+{
+  const ic::CameraModel& t = d.truth.camera;
+  const auto images = ic::projectEdges(t, d.edges);
+  std::vector<int> map_edge(d.map.size(), -1);
+  for (size_t j = 0; j < d.map.size(); ++j)
+    map_edge[j] = ic::measureLine3d(d.map[j].a, d.map[j].b, d.edges, 0.1, 5.0).edge;
+  for (size_t i = 0; i < d.polylines.size(); ++i)
+  {
+    const ic::ImageLineError ie = ic::measureImageLine(d.polylines[i], t.distortion(), images, 3.0, 1.0, 0.6);
+    double length = 0.0;
+    for (size_t k = 1; k < d.polylines[i].size(); ++k)
+      length += (d.polylines[i][k] - d.polylines[i][k - 1]).norm();
+    std::string maps;
+    for (size_t j = 0; j < d.map.size(); ++j)
+      if (ie.edge >= 0 && map_edge[j] == ie.edge)
+      {
+        const auto vis = ic::visibleInterval(t, d.map[j], d.truth.image_width, d.truth.image_height);
+        char b[128];
+        std::snprintf(b, sizeof(b), " m%zu(%.2fm%s)", j, (d.map[j].b - d.map[j].a).norm(), vis ? "" : ",invisible");
+        maps += b;
+      }
+    std::string matched = "-";
+    for (const auto& m : d.matches)
+      if (m.image_line == i)
+        matched = "m" + std::to_string(m.map_line) + " d=" + std::to_string(m.distance_px);
+    std::printf("    image %2zu: %3zu pts %6.1f px, edge %3d rms %.2f px; match %s; map lines of the edge:%s\n", i,
+                d.polylines[i].size(), length, ie.edge, ie.rms_px, matched.c_str(), maps.c_str());
+  }
+}
+
+// Per match: the map line's support, visibility, weight, error against its true edge and spread.
+void printMatchDetails(const OracleData& d, const std::vector<ic::MapLine>& map_lines)
+{
+  const ic::CameraModel& t = d.truth.camera;
+  for (size_t i = 0; i < d.set.lines.size(); ++i)
+  {
+    const ic::MapLine& ml = map_lines[d.matches[i].map_line];
+    const ic::Segment3d& m = d.map[d.matches[i].map_line];
+    const ic::Line3dError err = ic::measureLine3d(m.a, m.b, d.edges, 0.1, 5.0);
+    const auto vis = ic::visibleInterval(t, m, d.truth.image_width, d.truth.image_height);
+    const double range = (0.5 * (m.a + m.b) - t.pose().center()).norm();
+    std::printf(
+        "    match image %zu map %zu: support %d, length %.2f m (visible %.0f %%), weight %.3g, edge %d off %.1f "
+        "mm, %.2f deg, range %.2f m, image line %zu pts, spread %.1f mm\n",
+        d.matches[i].image_line, d.matches[i].map_line, ml.support, ml.length(),
+        vis ? 100.0 * (vis->second - vis->first) : 0.0, ml.weight, err.edge, 1000.0 * err.distance_m, err.angle_deg,
+        range, d.set.lines[i].image.size(), 1000.0 * ml.spread());
+  }
+}
+
+// Each variant calibrated like the pipeline does, against the truth.
+void calibrateOracleVariants(const OracleData& d, const ic::FixedCameraOptions& options)
+{
   const std::vector<std::pair<const char*, const ic::CorrespondenceSet*>> variants = {
-      {"oracle", &set}, {"  true 3D", &true_world}, {"  true 2D", &true_image}, {"  both true", &true_both}};
+      {"oracle", &d.set}, {"  true 3D", &d.true_world}, {"  true 2D", &d.true_image}, {"  both true", &d.true_both}};
+  const ic::CameraModel& t = d.truth.camera;
   for (const auto& [label, data] : variants)
   {
     const auto calibration = ic::calibrateCamera(*data, options.matcher.calibration);
     if (!calibration)
     {
-      std::printf("  %s: %zu matches, calibration failed: %s\n", label, matches.size(),
+      std::printf("  %s: %zu matches, calibration failed: %s\n", label, d.matches.size(),
                   calibration.error().describe().c_str());
       continue;
     }
-    const ic::CameraErrors e = ic::compareCameras(truth->camera, calibration->camera);
+    const ic::CameraErrors e = ic::compareCameras(t, calibration->camera);
     const ic::CameraUncertainty& u = calibration->uncertainty;
     std::printf(
         "  %s: %zu matches (%zu inliers): focal %+.4f %%, pp %.2f px, lambda %.2f %%, rotation %.4f deg, position "
         "%.2f mm, RMS %.3f px; 1 sigma fx %.4f %%, lambda %.2f %%, rotation %.4f deg, position %.2f mm\n",
-        label, matches.size(), calibration->inlier_count, 100.0 * e.focal_relative, e.principal_point_px,
+        label, d.matches.size(), calibration->inlier_count, 100.0 * e.focal_relative, e.principal_point_px,
         100.0 * e.lambda_relative, e.rotation_rad * 180.0 / M_PI, 1000.0 * e.center_m, calibration->reprojection.rms_px,
-        100.0 * u.fx / truth->camera.intrinsics().fx, 100.0 * u.lambda / std::abs(truth->camera.distortion().lambda),
-        u.rotation_deg, 1000.0 * u.position_m);
+        100.0 * u.fx / t.intrinsics().fx, 100.0 * u.lambda / std::abs(t.distortion().lambda), u.rotation_deg,
+        1000.0 * u.position_m);
   }
+}
+
+// Diagnostic: the image lines matched under the true camera (tight thresholds), calibrated like the pipeline does,
+// and the variants with true 3D lines, true image lines and both.
+void oracleCalibration(const std::string& truth_dir, const std::string& name, const ic::FixedCamera& camera,
+                       const std::vector<ic::Segment3d>& map, const ic::FixedCameraOptions& options,
+                       const std::vector<ic::MapLine>& map_lines, bool details)
+{
+  const auto truth = ic::loadCalibrationFile(truth_dir + "/" + name + ".yaml");
+  if (!truth)
+    return;
+  const auto lines = ic::extractImageLines(camera.medianImage(), truth->camera.distortion(), options.image_lines);
+  if (!lines)
+    return;
+  OracleData d(*truth, map);
+  for (const auto& l : *lines)
+    d.polylines.push_back(l.points);
+  d.set = oracleCorrespondences(d, options);
+  if (const auto edges = ic::simulation::loadTrueEdges(truth_dir + "/edges.yaml"))
+    for (const auto& e : *edges)
+      d.edges.push_back({e.start, e.end});
+  replaceByTruth(d, details);
+  addPlumbLinesAndBothTrue(d, details);
+  if (details)
+  {
+    printImageLineDetails(d);
+    printMatchDetails(d, map_lines);
+  }
+  calibrateOracleVariants(d, options);
 }
 
 std::vector<double> numbers(const std::string& list)
@@ -436,55 +482,171 @@ std::optional<ic::CameraPrior> priorFromTruth(const std::string& truth_dir, cons
   return prior;
 }
 
-// The camera in the odometry frame at stamp, when tf has it (empty frame name: odometry not used).
-std::optional<Eigen::Isometry3d> odometryPose(const tf2::BufferCore& tf, const std::string& odom_frame,
-                                              const std::string& camera_frame, const ros::Time& stamp)
-{
-  if (odom_frame.empty())
-    return std::nullopt;
-  try
-  {
-    return ic::toEigen(tf.lookupTransform(odom_frame, camera_frame, stamp).transform);
-  }
-  catch (const tf2::TransformException&)
-  {
-    return std::nullopt;
-  }
-}
-
 double seconds(std::chrono::steady_clock::time_point start)
 {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
-const char* kReindexHint =
-    " (a recording that was interrupted leaves the bag without its index: `rosbag reindex BAG` repairs it)";
 
-// Opens a bag for reading; an empty string, or what is wrong with a hint at the usual cause.
-std::string openBag(rosbag::Bag& bag, const std::string& path)
+// The survey's options from the command line; false (after saying why) on a malformed value.
+bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options)
 {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec))
-    return path + " is a directory; give a bag file";
-  try
+  options->min_map_support = static_cast<int>(cli.number("min-support", 2));
+  options->max_map_spread_m = cli.number("max-spread", options->max_map_spread_m);
+  if (cli.has("odometry-sigma"))
   {
-    bag.open(path, rosbag::bagmode::Read);
+    const std::vector<double> v = numbers(cli.value("odometry-sigma"));
+    if (v.size() != 4)
+    {
+      std::cerr << "calibrate_survey: --odometry-sigma takes M,PER_M,DEG,PER_DEG\n";
+      return false;
+    }
+    options->adjustment.odometry_sigma_m = v[0];
+    options->adjustment.odometry_sigma_per_m = v[1];
+    options->adjustment.odometry_sigma_deg = v[2];
+    options->adjustment.odometry_sigma_per_deg = v[3];
   }
-  catch (const rosbag::BagUnindexedException& e)
+  if (cli.has("localization-sigma"))
   {
-    return "cannot open " + path + ": " + e.what() + kReindexHint;
+    const std::vector<double> v = numbers(cli.value("localization-sigma"));
+    if (v.size() < 2 || v.size() > 3)
+    {
+      std::cerr << "calibrate_survey: --localization-sigma takes M,DEG[,TAU]\n";
+      return false;
+    }
+    options->localization_sigma_m = v[0];
+    options->localization_sigma_deg = v[1];
+    if (v.size() == 3)
+      options->localization_correlation_s = v[2];
   }
-  catch (const rosbag::BagException& e)
+  options->cameras.matcher.calibration.refine = !cli.flag("no-refine");
+  options->cameras.matcher.calibration.ransac = !cli.flag("no-ransac");
+  options->cameras.matcher.search_starts = static_cast<int>(cli.number("search-starts", 4));
+  if (cli.flag("trace"))
+    options->cameras.matcher.trace = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
+  if (!cli.error().empty())
   {
-    // A file that is there but cannot be read as a bag was most often cut short.
-    const bool present = std::filesystem::is_regular_file(path, ec) && std::filesystem::file_size(path, ec) > 0;
-    return "cannot open " + path + ": " + e.what() + (present ? kReindexHint : "");
+    std::cerr << "calibrate_survey: " << cli.error() << "\n\n" << kUsage;
+    return false;
   }
-  return {};
+  return true;
+}
+
+// The configured cameras, with --prior-from-truth's priors; false (after saying why) when one cannot be made.
+bool loadCameras(const ic::CommandLine& cli, std::vector<ic::FixedCameraConfig>* cameras,
+                 std::map<std::string, std::string>* camera_of_topic)
+{
+  const auto configs = ic::loadCameraConfig(cli.value("cameras"));
+  if (!configs)
+  {
+    std::cerr << "calibrate_survey: " << configs.error().describe() << "\n";
+    return false;
+  }
+  std::mt19937 rng(0);
+  std::vector<double> prior_offsets;
+  if (cli.has("prior-from-truth"))
+  {
+    prior_offsets = numbers(cli.value("prior-from-truth"));
+    if (prior_offsets.size() == 4)
+      rng.seed(static_cast<unsigned>(prior_offsets[3]));
+    if (prior_offsets.size() < 3 || !cli.has("truth-dir"))
+    {
+      std::cerr << "calibrate_survey: --prior-from-truth needs P,D,F[,SEED] and --truth-dir\n";
+      return false;
+    }
+  }
+  for (const auto& entry : *configs)
+  {
+    cameras->push_back(entry.camera);
+    (*camera_of_topic)[entry.camera.image_topic] = entry.camera.name;
+    if (prior_offsets.empty() || !entry.camera.prior)
+      continue;
+    const auto prior = priorFromTruth(cli.value("truth-dir"), entry.camera.name, *entry.camera.prior, prior_offsets,
+                                      numbers(cli.value("prior-sigmas")), rng);
+    if (!prior)
+    {
+      std::cerr << "calibrate_survey: no truth for " << entry.camera.name << "\n";
+      return false;
+    }
+    cameras->back().prior = *prior;
+    if (!cli.flag("quiet"))
+      std::printf("%s: prior from the truth at %.3f %.3f %.3f, direction %.3f %.3f %.3f, roll %.2f deg, fov %.2f deg\n",
+                  entry.camera.name.c_str(), prior->position.x(), prior->position.y(), prior->position.z(),
+                  prior->direction.x(), prior->direction.y(), prior->direction.z(), prior->roll_deg,
+                  prior->horizontal_fov_deg);
+  }
+  return true;
+}
+
+void printSurveySummary(const ic::Survey& survey, size_t frames_without_pose, double survey_s)
+{
+  const ic::SurveyStats& stats = survey.stats();
+  const size_t used = survey.mapSegments().size();
+  std::printf(
+      "survey: %zu RGB-D frames, %zu keyframes, %zu 3D lines, %zu map lines (%zu seen %d+ times), %zu "
+      "frames without a pose; %.1f s\n",
+      stats.frames, stats.keyframes, stats.lines, survey.lineMap().size(), used, survey.options().min_map_support,
+      frames_without_pose, survey_s);
+  if (stats.adjusted_observations > 0)
+    std::printf(
+        "map adjustment: %zu observations (%zu dropped), keyframes moved by RMS %.1f mm, %.3f deg; "
+        "%zu map lines (%zu used); %.2f s CPU\n",
+        stats.adjusted_observations, stats.dropped_observations, 1000.0 * stats.mean_correction_m,
+        stats.mean_correction_deg, survey.lineMap().size(), used, 1e-3 * stats.adjustment_cpu_ms);
+}
+
+// Calibrates one camera and writes its calibration and overlay; false when either failed.
+bool calibrateAndSave(const ic::CommandLine& cli, ic::Survey& survey, const std::string& name,
+                      const std::vector<ic::Segment3d>& map)
+{
+  const auto calibration_start = std::chrono::steady_clock::now();
+  ic::FixedCamera& camera = survey.camera(name);
+  const auto result = survey.calibrate(name, cli.value("world-frame", "map"));
+  if (!result)
+  {
+    std::printf("%s: FAILED: %s\n", name.c_str(), result.error().describe().c_str());
+    if (cli.has("truth-dir") && camera.lastRefused())
+      reportRefusedAgainstTruth(cli.value("truth-dir"), name, *camera.lastRefused());
+    return false;
+  }
+  const ic::CalibrationStore store(cli.value("out-dir"));
+  const cv::Mat overlay = ic::drawOverlay(camera.medianImage(), result->file.image_width, result->file.image_height,
+                                          result->file.camera, map, result->matched_image_lines);
+  if (const ic::Status saved = store.save(name, result->file, overlay); !saved)
+  {
+    std::printf("%s: %s\n", name.c_str(), saved.error().describe().c_str());
+    return false;
+  }
+  std::printf("%s: %s (%.1f s) -> %s\n", name.c_str(), result->summary.c_str(), seconds(calibration_start),
+              store.calibrationPath(name).c_str());
+  if (cli.has("truth-dir"))
+    reportAgainstTruth(cli.value("truth-dir"), name, *result);
+  return true;
+}
+
+// Every selected camera calibrated (or, with --oracle, the oracle's diagnostics); the exit status.
+int calibrateCameras(const ic::CommandLine& cli, ic::Survey& survey)
+{
+  const std::vector<ic::Segment3d> map = survey.mapSegments();
+  const auto selected = [&](const std::string& name) { return !cli.has("camera") || cli.value("camera") == name; };
+  int status = 0;
+  for (const auto& name : survey.cameraNames())
+    if (selected(name) && !cli.flag("oracle") && !calibrateAndSave(cli, survey, name, map))
+      status = 1;
+  if (cli.has("truth-dir"))
+    reportMapAgainstTruth(cli.value("truth-dir"), survey);
+  if (cli.flag("oracle") && cli.has("truth-dir"))
+    for (const auto& name : survey.cameraNames())
+      if (selected(name))
+      {
+        std::printf("%s:\n", name.c_str());
+        oracleCalibration(cli.value("truth-dir"), name, survey.camera(name), map, survey.options().cameras,
+                          survey.usedMapLines(), cli.flag("oracle-details"));
+      }
+  return status;
 }
 }  // namespace
 
 int main(int argc, char** argv)
-try
 {
   ic::quietSolverLogging();
   ic::CommandLine cli(
@@ -497,8 +659,6 @@ try
     std::cout << kUsage;
     return 0;
   }
-  const int min_support = static_cast<int>(cli.number("min-support", 2));
-  const bool quiet = cli.flag("quiet");
   if (!cli.error().empty() || cli.positional().size() != 1 || !cli.has("cameras") || !cli.has("out-dir"))
   {
     std::cerr << "calibrate_survey: "
@@ -506,231 +666,22 @@ try
               << kUsage;
     return 2;
   }
-  const std::string world_frame = cli.value("world-frame", "map");
-  const std::string odom_frame = cli.flag("no-odometry") ? "" : cli.value("odom-frame", "odom");
-  const std::string out_dir = cli.value("out-dir");
-  const auto configs = ic::loadCameraConfig(cli.value("cameras"));
-  if (!configs)
-  {
-    std::cerr << "calibrate_survey: " << configs.error().describe() << "\n";
-    return 2;
-  }
   ic::SurveyOptions options;
-  options.min_map_support = min_support;
-  options.max_map_spread_m = cli.number("max-spread", options.max_map_spread_m);
-  if (cli.has("odometry-sigma"))
-  {
-    const std::vector<double> v = numbers(cli.value("odometry-sigma"));
-    if (v.size() != 4)
-    {
-      std::cerr << "calibrate_survey: --odometry-sigma takes M,PER_M,DEG,PER_DEG\n";
-      return 2;
-    }
-    options.adjustment.odometry_sigma_m = v[0];
-    options.adjustment.odometry_sigma_per_m = v[1];
-    options.adjustment.odometry_sigma_deg = v[2];
-    options.adjustment.odometry_sigma_per_deg = v[3];
-  }
-  if (cli.has("localization-sigma"))
-  {
-    const std::vector<double> v = numbers(cli.value("localization-sigma"));
-    if (v.size() < 2 || v.size() > 3)
-    {
-      std::cerr << "calibrate_survey: --localization-sigma takes M,DEG[,TAU]\n";
-      return 2;
-    }
-    options.localization_sigma_m = v[0];
-    options.localization_sigma_deg = v[1];
-    if (v.size() == 3)
-      options.localization_correlation_s = v[2];
-  }
-  options.cameras.matcher.calibration.refine = !cli.flag("no-refine");
-  options.cameras.matcher.calibration.ransac = !cli.flag("no-ransac");
-  options.cameras.matcher.search_starts = static_cast<int>(cli.number("search-starts", 4));
-  if (cli.flag("trace"))
-    options.cameras.matcher.trace = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
   std::vector<ic::FixedCameraConfig> cameras;
-  std::map<std::string, std::string> topic_to_camera;
-  std::mt19937 rng(0);
-  std::vector<double> prior_offsets;
-  if (cli.has("prior-from-truth"))
-  {
-    prior_offsets = numbers(cli.value("prior-from-truth"));
-    if (prior_offsets.size() == 4)
-      rng.seed(static_cast<unsigned>(prior_offsets[3]));
-    if (prior_offsets.size() < 3 || !cli.has("truth-dir"))
-    {
-      std::cerr << "calibrate_survey: --prior-from-truth needs P,D,F[,SEED] and --truth-dir\n";
-      return 2;
-    }
-  }
-  for (const auto& entry : *configs)
-  {
-    cameras.push_back(entry.camera);
-    if (!prior_offsets.empty() && entry.camera.prior)
-    {
-      const auto prior = priorFromTruth(cli.value("truth-dir"), entry.camera.name, *entry.camera.prior, prior_offsets,
-                                        numbers(cli.value("prior-sigmas")), rng);
-      if (!prior)
-      {
-        std::cerr << "calibrate_survey: no truth for " << entry.camera.name << "\n";
-        return 2;
-      }
-      cameras.back().prior = *prior;
-      if (!quiet)
-        std::printf(
-            "%s: prior from the truth at %.3f %.3f %.3f, direction %.3f %.3f %.3f, roll %.2f deg, fov %.2f deg\n",
-            entry.camera.name.c_str(), prior->position.x(), prior->position.y(), prior->position.z(),
-            prior->direction.x(), prior->direction.y(), prior->direction.z(), prior->roll_deg,
-            prior->horizontal_fov_deg);
-    }
-    topic_to_camera[entry.camera.image_topic] = entry.camera.name;
-  }
+  ic::SurveyBagOptions bag_options;
+  if (!parseSurveyOptions(cli, &options) || !loadCameras(cli, &cameras, &bag_options.camera_of_topic))
+    return 2;
   ic::Survey survey(cameras, options);
-
-  rosbag::Bag bag;
-  if (const std::string problem = openBag(bag, cli.positional()[0]); !problem.empty())
+  bag_options.world_frame = cli.value("world-frame", "map");
+  bag_options.odom_frame = cli.flag("no-odometry") ? "" : cli.value("odom-frame", "odom");
+  const auto start = std::chrono::steady_clock::now();
+  const auto read = ic::readSurveyBag(cli.positional()[0], bag_options, &survey);
+  if (!read)
   {
-    std::cerr << "calibrate_survey: " << problem << "\n";
+    std::cerr << "calibrate_survey: " << read.error().message() << "\n";
     return 2;
   }
-  const auto start = std::chrono::steady_clock::now();
-
-  // Pass 1: every transform, so that each frame finds its pose whatever the order of the messages.
-  rosbag::View all(bag);
-  const ros::Duration span = all.getEndTime() - all.getBeginTime();
-  tf2::BufferCore tf(span + ros::Duration(10.0));
-  for (const auto& m : rosbag::View(bag, rosbag::TopicQuery(std::vector<std::string>{"/tf", "/tf_static"})))
-  {
-    const auto msg = m.instantiate<tf2_msgs::TFMessage>();
-    if (!msg)
-      continue;
-    const bool is_static = m.getTopic() == "/tf_static";
-    for (const auto& t : msg->transforms)
-      tf.setTransform(t, "bag", is_static);
-  }
-
-  // Pass 2: RGB-D frames (matched by stamp) and fixed-camera images.
-  std::vector<std::string> topics = {"/camera/rgb/image_raw", "/camera/depth_registered/image_raw",
-                                     "/camera/rgb/camera_info"};
-  for (const auto& [topic, name] : topic_to_camera)
-    topics.push_back(topic);
-  std::map<ros::Time, sensor_msgs::ImageConstPtr> rgbs;
-  std::map<ros::Time, sensor_msgs::ImageConstPtr> depths;
-  std::map<ros::Time, sensor_msgs::CameraInfoConstPtr> infos;
-  size_t no_pose = 0;
-  const auto tryFrame = [&](const ros::Time& stamp) {
-    if (!rgbs.count(stamp) || !depths.count(stamp) || !infos.count(stamp))
-      return;
-    const auto rgb = rgbs[stamp];
-    geometry_msgs::TransformStamped pose;
-    try
-    {
-      pose = tf.lookupTransform(world_frame, rgb->header.frame_id, stamp);
-    }
-    catch (const tf2::TransformException&)
-    {
-      ++no_pose;
-      rgbs.erase(stamp);
-      return;
-    }
-    const auto frame = ic::toRgbdFrame(*rgb, *depths[stamp], *infos[stamp], ic::toEigen(pose.transform));
-    if (frame)
-      survey.addRgbdFrame(*frame, odometryPose(tf, odom_frame, rgb->header.frame_id, stamp));
-    rgbs.erase(stamp);
-    depths.erase(stamp);
-    infos.erase(stamp);
-  };
-  for (const auto& m : rosbag::View(bag, rosbag::TopicQuery(topics)))
-  {
-    if (const auto info = m.instantiate<sensor_msgs::CameraInfo>())
-    {
-      infos[info->header.stamp] = info;
-      tryFrame(info->header.stamp);
-      continue;
-    }
-    const auto image = m.instantiate<sensor_msgs::Image>();
-    if (!image)
-      continue;
-    if (m.getTopic() == "/camera/rgb/image_raw")
-    {
-      rgbs[image->header.stamp] = image;
-      tryFrame(image->header.stamp);
-    }
-    else if (m.getTopic() == "/camera/depth_registered/image_raw")
-    {
-      depths[image->header.stamp] = image;
-      tryFrame(image->header.stamp);
-    }
-    else if (topic_to_camera.count(m.getTopic()))
-    {
-      const auto grey = ic::toGrey(*image);
-      if (grey)
-        survey.addFixedImage(topic_to_camera[m.getTopic()], *grey, image->header.stamp.toSec());
-    }
-  }
-  const double survey_s = seconds(start);
-  const ic::SurveyStats& stats = survey.stats();
-  if (!quiet)
-    std::printf(
-        "survey: %zu RGB-D frames, %zu keyframes, %zu 3D lines, %zu map lines (%zu seen %d+ times), %zu "
-        "frames without a pose; %.1f s\n",
-        stats.frames, stats.keyframes, stats.lines, survey.lineMap().size(), survey.mapSegments().size(), min_support,
-        no_pose, survey_s);
-
-  const std::vector<ic::Segment3d> map = survey.mapSegments();
-  if (!quiet && stats.adjusted_observations > 0)
-    std::printf(
-        "map adjustment: %zu observations (%zu dropped), keyframes moved by RMS %.1f mm, %.3f deg; "
-        "%zu map lines (%zu used); %.2f s CPU\n",
-        stats.adjusted_observations, stats.dropped_observations, 1000.0 * stats.mean_correction_m,
-        stats.mean_correction_deg, survey.lineMap().size(), map.size(), 1e-3 * stats.adjustment_cpu_ms);
-  int status = 0;
-  for (const auto& name : survey.cameraNames())
-  {
-    if ((cli.has("camera") && cli.value("camera") != name) || cli.flag("oracle"))
-      continue;
-    const auto calibration_start = std::chrono::steady_clock::now();
-    ic::FixedCamera& camera = survey.camera(name);
-    const auto result = survey.calibrate(name, world_frame);
-    if (!result)
-    {
-      std::printf("%s: FAILED: %s\n", name.c_str(), result.error().describe().c_str());
-      if (cli.has("truth-dir") && camera.lastRefused())
-        reportRefusedAgainstTruth(cli.value("truth-dir"), name, *camera.lastRefused());
-      status = 1;
-      continue;
-    }
-    const ic::CalibrationStore store(out_dir);
-    const std::string path = store.calibrationPath(name);
-    const cv::Mat overlay = ic::drawOverlay(camera.medianImage(), result->file.image_width, result->file.image_height,
-                                            result->file.camera, map, result->matched_image_lines);
-    if (const ic::Status saved = store.save(name, result->file, overlay); !saved)
-    {
-      std::printf("%s: %s\n", name.c_str(), saved.error().describe().c_str());
-      status = 1;
-      continue;
-    }
-    std::printf("%s: %s (%.1f s) -> %s\n", name.c_str(), result->summary.c_str(), seconds(calibration_start),
-                path.c_str());
-    if (cli.has("truth-dir"))
-      reportAgainstTruth(cli.value("truth-dir"), name, *result);
-  }
-  if (cli.has("truth-dir"))
-    reportMapAgainstTruth(cli.value("truth-dir"), survey);
-  if (cli.flag("oracle") && cli.has("truth-dir"))
-    for (const auto& name : survey.cameraNames())
-      if (!cli.has("camera") || cli.value("camera") == name)
-      {
-        std::printf("%s:\n", name.c_str());
-        oracleCalibration(cli.value("truth-dir"), name, survey.camera(name), map, options.cameras,
-                          survey.usedMapLines(), cli.flag("oracle-details"));
-      }
-  return status;
-}
-catch (const rosbag::BagException& e)
-{
-  // A bag cut short (a recording killed before it closed the file) fails while it is read.
-  std::cerr << "calibrate_survey: the bag cannot be read to its end: " << e.what() << kReindexHint << "\n";
-  return 2;
+  if (!cli.flag("quiet"))
+    printSurveySummary(survey, read->frames_without_pose, seconds(start));
+  return calibrateCameras(cli, survey);
 }
