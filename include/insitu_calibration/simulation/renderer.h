@@ -68,6 +68,21 @@ public:
 
 private:
   struct Prepared;
+  Prepared prepare(const ViewCamera& camera) const;
+  void toCamera(const Prepared& p, const std::vector<Eigen::Vector3d>& ring, std::vector<Eigen::Vector3d>* out) const;
+  // The nearest of the candidate surfaces that the ray (optical frame, z = 1) meets, at least near_m away, and its
+  // depth; -1 when none.
+  int nearestSurface(const Prepared& p, const int* candidates, size_t count, const Eigen::Vector3d& ray, double near_m,
+                     double* depth) const;
+  void renderVisibility(const ViewCamera& camera, const Prepared& p, const RenderOptions& options,
+                        RenderedView* view) const;
+  // Per image tile of 16 x 16 pixels, the surfaces whose distorted image may reach it.
+  std::vector<std::vector<int>> surfacesPerTile(const ViewCamera& camera, const Prepared& p,
+                                                const RenderOptions& options) const;
+  Color shadeAt(const Prepared& p, int id, const Eigen::Vector3d& point, int* region) const;
+  void shadePixels(const ViewCamera& camera, const Prepared& p, RenderedView* view) const;
+  void antialias(const ViewCamera& camera, const Prepared& p, const RenderOptions& options, int samples,
+                 RenderedView* view) const;
   void rasterize(const ViewCamera& camera, const Prepared& p, const RenderOptions& options, cv::Mat& inverse_depth,
                  cv::Mat& surface) const;
   void rayCast(const ViewCamera& camera, const Prepared& p, const RenderOptions& options, cv::Mat& depth,
