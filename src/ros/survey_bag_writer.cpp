@@ -107,13 +107,116 @@ tf2_msgs::TFMessage toTf(const std::vector<sim::NamedTransform>& transforms, con
   }
   return msg;
 }
+
+// A header that marks /tf_static latched, as static_transform_publisher's.
+boost::shared_ptr<ros::M_string> latchedTfHeader()
+{
+  auto latched = boost::make_shared<ros::M_string>();
+  (*latched)["callerid"] = "/camera_base_link";
+  (*latched)["latching"] = "1";
+  (*latched)["type"] = ros::message_traits::datatype<tf2_msgs::TFMessage>();
+  (*latched)["md5sum"] = ros::message_traits::md5sum<tf2_msgs::TFMessage>();
+  (*latched)["message_definition"] = ros::message_traits::definition<tf2_msgs::TFMessage>();
+  return latched;
+}
+
+// Writes the simulator's events into an open bag as the robot's drivers would publish them; counts messages and the
+// time spent writing (as opposed to rendering).
+class SurveyEventWriter
+{
+public:
+  SurveyEventWriter(const sim::SurveySimulator& survey, rosbag::Bag& bag, SurveyBagSummary* summary, double* write_s)
+      : survey_(survey),
+        bag_(bag),
+        summary_(summary),
+        write_s_(write_s),
+        xtion_info_(xtionCameraInfo(survey.world().xtion)),
+        latched_(latchedTfHeader())
+  {
+    for (const auto& c : survey.world().fixed_cameras)
+    {
+      fixed_info_.push_back(nominalCameraInfo(c.width, c.height));
+      fixed_info_.back().header.frame_id = fixedOpticalFrame(c.name);
+    }
+  }
+
+  void write(const sim::SurveyEvent& e, const std::function<void(size_t, size_t)>& progress)
+  {
+    ros::Time stamp;
+    stamp.fromNSec(static_cast<uint64_t>(survey_.options().start_time_ns + e.stamp_ns));
+    switch (e.kind)
+    {
+      case sim::SurveyEventKind::kStaticTf:
+        timed([&] { bag_.write("/tf_static", stamp, toTf(survey_.staticTransforms(), stamp), latched_); });
+        ++summary_->messages;
+        break;
+      case sim::SurveyEventKind::kTf:
+        timed([&] { bag_.write("/tf", stamp, toTf(survey_.dynamicTransforms(e.stamp_ns), stamp)); });
+        ++summary_->messages;
+        break;
+      case sim::SurveyEventKind::kXtion:
+        writeXtion(survey_.xtionFrame(e.index), stamp);
+        if (progress)
+          progress(++frames_, survey_.xtionFrameCount());
+        break;
+      case sim::SurveyEventKind::kFixed:
+        writeFixed(e.camera, survey_.fixedFrame(e.camera, e.index), stamp);
+        break;
+    }
+  }
+
+private:
+  template <typename Write>
+  void timed(Write&& write)
+  {
+    const auto t0 = Clock::now();
+    write();
+    *write_s_ += std::chrono::duration<double>(Clock::now() - t0).count();
+  }
+
+  void writeXtion(const sim::XtionFrame& f, const ros::Time& stamp)
+  {
+    timed([&] {
+      sensor_msgs::CameraInfo info = xtion_info_;
+      info.header.stamp = stamp;
+      bag_.write(kXtionRgbImageTopic, stamp,
+                 toImage(f.rgb, sensor_msgs::image_encodings::RGB8, kXtionOpticalFrame, stamp));
+      bag_.write(kXtionRgbInfoTopic, stamp, info);
+      bag_.write(kXtionDepthImageTopic, stamp,
+                 toImage(f.depth_mm, sensor_msgs::image_encodings::TYPE_16UC1, kXtionOpticalFrame, stamp));
+      bag_.write(kXtionDepthInfoTopic, stamp, info);
+    });
+    summary_->messages += 4;
+  }
+
+  void writeFixed(int camera, const sim::FixedFrame& f, const ros::Time& stamp)
+  {
+    timed([&] {
+      const std::string& name = survey_.world().fixed_cameras[camera].name;
+      sensor_msgs::CameraInfo info = fixed_info_[camera];
+      info.header.stamp = stamp;
+      bag_.write(fixedImageTopic(name), stamp,
+                 toImage(f.image, sensor_msgs::image_encodings::RGB8, fixedOpticalFrame(name), stamp));
+      bag_.write(fixedInfoTopic(name), stamp, info);
+    });
+    summary_->messages += 2;
+  }
+
+  const sim::SurveySimulator& survey_;
+  rosbag::Bag& bag_;
+  SurveyBagSummary* summary_;
+  double* write_s_;
+  const sensor_msgs::CameraInfo xtion_info_;
+  std::vector<sensor_msgs::CameraInfo> fixed_info_;
+  const boost::shared_ptr<ros::M_string> latched_;
+  size_t frames_ = 0;
+};
 }  // namespace
 
 Expected<SurveyBagSummary> writeSurveyBag(const sim::SurveySimulator& survey, const std::string& path,
                                           const std::function<void(size_t, size_t)>& progress)
 {
   const auto start = Clock::now();
-  const sim::World& world = survey.world();
   const std::string active = path + ".active";
   SurveyBagSummary summary;
   double write_s = 0.0;
@@ -122,79 +225,9 @@ Expected<SurveyBagSummary> writeSurveyBag(const sim::SurveySimulator& survey, co
     rosbag::Bag bag;
     bag.open(active, rosbag::bagmode::Write);
     bag.setCompression(rosbag::compression::LZ4);
-    const int64_t start_ns = survey.options().start_time_ns;
-    auto stampOf = [&](int64_t t) {
-      ros::Time time;
-      time.fromNSec(static_cast<uint64_t>(start_ns + t));
-      return time;
-    };
-    const sensor_msgs::CameraInfo xtion_info = xtionCameraInfo(world.xtion);
-    std::vector<sensor_msgs::CameraInfo> fixed_info;
-    for (const auto& c : world.fixed_cameras)
-    {
-      fixed_info.push_back(nominalCameraInfo(c.width, c.height));
-      fixed_info.back().header.frame_id = fixedOpticalFrame(c.name);
-    }
-    // /tf_static is latched, as static_transform_publisher's.
-    auto latched = boost::make_shared<ros::M_string>();
-    (*latched)["callerid"] = "/camera_base_link";
-    (*latched)["latching"] = "1";
-    (*latched)["type"] = ros::message_traits::datatype<tf2_msgs::TFMessage>();
-    (*latched)["md5sum"] = ros::message_traits::md5sum<tf2_msgs::TFMessage>();
-    (*latched)["message_definition"] = ros::message_traits::definition<tf2_msgs::TFMessage>();
-
-    size_t frames = 0;
+    SurveyEventWriter writer(survey, bag, &summary, &write_s);
     for (const sim::SurveyEvent& e : survey.events())
-    {
-      const ros::Time stamp = stampOf(e.stamp_ns);
-      switch (e.kind)
-      {
-        case sim::SurveyEventKind::kStaticTf: {
-          const auto t0 = Clock::now();
-          bag.write("/tf_static", stamp, toTf(survey.staticTransforms(), stamp), latched);
-          write_s += std::chrono::duration<double>(Clock::now() - t0).count();
-          ++summary.messages;
-          break;
-        }
-        case sim::SurveyEventKind::kTf: {
-          const auto t0 = Clock::now();
-          bag.write("/tf", stamp, toTf(survey.dynamicTransforms(e.stamp_ns), stamp));
-          write_s += std::chrono::duration<double>(Clock::now() - t0).count();
-          ++summary.messages;
-          break;
-        }
-        case sim::SurveyEventKind::kXtion: {
-          const sim::XtionFrame f = survey.xtionFrame(e.index);
-          const auto t0 = Clock::now();
-          sensor_msgs::CameraInfo info = xtion_info;
-          info.header.stamp = stamp;
-          bag.write(kXtionRgbImageTopic, stamp,
-                    toImage(f.rgb, sensor_msgs::image_encodings::RGB8, kXtionOpticalFrame, stamp));
-          bag.write(kXtionRgbInfoTopic, stamp, info);
-          bag.write(kXtionDepthImageTopic, stamp,
-                    toImage(f.depth_mm, sensor_msgs::image_encodings::TYPE_16UC1, kXtionOpticalFrame, stamp));
-          bag.write(kXtionDepthInfoTopic, stamp, info);
-          write_s += std::chrono::duration<double>(Clock::now() - t0).count();
-          summary.messages += 4;
-          if (progress)
-            progress(++frames, survey.xtionFrameCount());
-          break;
-        }
-        case sim::SurveyEventKind::kFixed: {
-          const sim::FixedFrame f = survey.fixedFrame(e.camera, e.index);
-          const auto t0 = Clock::now();
-          const std::string& name = world.fixed_cameras[e.camera].name;
-          sensor_msgs::CameraInfo info = fixed_info[e.camera];
-          info.header.stamp = stamp;
-          bag.write(fixedImageTopic(name), stamp,
-                    toImage(f.image, sensor_msgs::image_encodings::RGB8, fixedOpticalFrame(name), stamp));
-          bag.write(fixedInfoTopic(name), stamp, info);
-          write_s += std::chrono::duration<double>(Clock::now() - t0).count();
-          summary.messages += 2;
-          break;
-        }
-      }
-    }
+      writer.write(e, progress);
     const auto t0 = Clock::now();
     bag.close();
     write_s += std::chrono::duration<double>(Clock::now() - t0).count();
