@@ -1,4 +1,5 @@
 // render_world: renders views of a simulator world to PNG files, to look at a world while editing it.
+#include <filesystem>
 #include <cstdio>
 #include <iostream>
 
@@ -30,43 +31,11 @@ Options:
   --seed N         noise seed (default 0)
   -h, --help       this text
 )";
-}  // namespace
 
-int main(int argc, char** argv)
+// Each fixed camera's clean image, with its distortion and tilt printed.
+void renderFixedCameras(const sim::SurveySimulator& survey, const std::string& dir)
 {
-  ic::CommandLine cli(argc, argv, {"world", "out-dir", "time", "seed"}, {});
-  if (cli.help())
-  {
-    std::cout << kUsage;
-    return 0;
-  }
-  if (!cli.error().empty() || !cli.has("world") || !cli.has("out-dir"))
-  {
-    std::cerr << "render_world: " << (cli.error().empty() ? "--world and --out-dir are required" : cli.error())
-              << "\n\n"
-              << kUsage;
-    return 2;
-  }
-  auto world = sim::loadWorldFile(cli.value("world"));
-  if (!world)
-  {
-    std::cerr << "render_world: " << world.error().describe() << "\n";
-    return 2;
-  }
-  sim::SimulationOptions options;
-  options.seed = static_cast<uint64_t>(cli.number("seed", 0));
-  options.duration_s = 1e4;
-  auto survey = sim::SurveySimulator::create(std::move(*world), options);
-  if (!survey)
-  {
-    std::cerr << "render_world: " << survey.error().describe() << "\n";
-    return 2;
-  }
-  const std::string dir = cli.value("out-dir");
-  std::system(("mkdir -p '" + dir + "'").c_str());
-  const sim::World& w = survey->world();
-  std::printf("world %s: %zu surfaces, route lap %.1f s\n", w.name.c_str(), w.surfaces.size(),
-              survey->trajectory().lapDuration());
+  const sim::World& w = survey.world();
   for (size_t c = 0; c < w.fixed_cameras.size(); ++c)
   {
     const sim::SimulatedFixedCamera& f = w.fixed_cameras[c];
@@ -81,39 +50,92 @@ int main(int argc, char** argv)
     std::printf("camera %-10s %dx%d  corners displaced %.1f px  height %.2f m  looking down %.1f deg\n", f.name.c_str(),
                 f.width, f.height, corner, f.camera.pose().center().z(), std::asin(-forward.z()) * 180.0 / M_PI);
     cv::Mat bgr;
-    cv::cvtColor(survey->fixedCleanImage(static_cast<int>(c)), bgr, cv::COLOR_RGB2BGR);
+    cv::cvtColor(survey.fixedCleanImage(static_cast<int>(c)), bgr, cv::COLOR_RGB2BGR);
     cv::imwrite(dir + "/" + f.name + ".png", bgr);
   }
-  std::vector<double> times{0, 10, 20, 30};
-  if (cli.has("time"))
+}
+
+// --time T1,T2,... (default 0, 10, 20, 30 s).
+std::vector<double> surveyTimes(const ic::CommandLine& cli)
+{
+  if (!cli.has("time"))
+    return {0, 10, 20, 30};
+  std::vector<double> times;
+  const std::string list = cli.value("time");
+  for (size_t start = 0; start <= list.size();)
   {
-    times.clear();
-    std::string list = cli.value("time");
-    for (size_t start = 0; start <= list.size();)
-    {
-      const size_t comma = std::min(list.find(',', start), list.size());
-      times.push_back(std::atof(list.substr(start, comma - start).c_str()));
-      start = comma + 1;
-    }
+    const size_t comma = std::min(list.find(',', start), list.size());
+    times.push_back(std::atof(list.substr(start, comma - start).c_str()));
+    start = comma + 1;
   }
-  for (const double t : times)
+  return times;
+}
+
+// The Xtion's RGB and false-colour depth at survey time t.
+void renderXtionView(const sim::SurveySimulator& survey, double t, const std::string& dir)
+{
+  const sim::World& w = survey.world();
+  const int64_t stamp = static_cast<int64_t>(t * 1e9);
+  const sim::ViewCamera cam = survey.xtionCamera(stamp);
+  sim::RenderOptions ro;
+  ro.supersampling = w.xtion.supersampling;
+  const sim::RenderedView view = survey.renderer().render(cam, ro);
+  const cv::Mat depth = sim::simulateXtionDepth(view, w, cam, w.xtion.depth, true, 1);
+  char name[64];
+  std::snprintf(name, sizeof(name), "xtion_%05.1f", t);
+  cv::Mat bgr;
+  cv::cvtColor(view.rgb, bgr, cv::COLOR_RGB2BGR);
+  cv::imwrite(dir + "/" + name + ".png", bgr);
+  cv::Mat d8, colour;
+  depth.convertTo(d8, CV_8U, 255.0 / 5000.0);
+  cv::applyColorMap(d8, colour, cv::COLORMAP_JET);
+  colour.setTo(cv::Scalar(0, 0, 0), depth == 0);
+  cv::imwrite(dir + "/" + name + "_depth.png", colour);
+}
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  ic::CommandLine cli(argc, argv, {"world", "out-dir", "time", "seed"}, {});
+  if (cli.help())
   {
-    const int64_t stamp = static_cast<int64_t>(t * 1e9);
-    const sim::ViewCamera cam = survey->xtionCamera(stamp);
-    sim::RenderOptions ro;
-    ro.supersampling = w.xtion.supersampling;
-    const sim::RenderedView view = survey->renderer().render(cam, ro);
-    const cv::Mat depth = sim::simulateXtionDepth(view, w, cam, w.xtion.depth, true, 1);
-    char name[64];
-    std::snprintf(name, sizeof(name), "xtion_%05.1f", t);
-    cv::Mat bgr;
-    cv::cvtColor(view.rgb, bgr, cv::COLOR_RGB2BGR);
-    cv::imwrite(dir + "/" + name + ".png", bgr);
-    cv::Mat d8, colour;
-    depth.convertTo(d8, CV_8U, 255.0 / 5000.0);
-    cv::applyColorMap(d8, colour, cv::COLORMAP_JET);
-    colour.setTo(cv::Scalar(0, 0, 0), depth == 0);
-    cv::imwrite(dir + "/" + name + "_depth.png", colour);
+    std::cout << kUsage;
+    return 0;
   }
+  sim::SimulationOptions options;
+  options.seed = static_cast<uint64_t>(cli.number("seed", 0));
+  options.duration_s = 1e4;
+  if (!cli.error().empty() || !cli.has("world") || !cli.has("out-dir"))
+  {
+    std::cerr << "render_world: " << (cli.error().empty() ? "--world and --out-dir are required" : cli.error())
+              << "\n\n"
+              << kUsage;
+    return 2;
+  }
+  auto world = sim::loadWorldFile(cli.value("world"));
+  if (!world)
+  {
+    std::cerr << "render_world: " << world.error().describe() << "\n";
+    return 2;
+  }
+  auto survey = sim::SurveySimulator::create(std::move(*world), options);
+  if (!survey)
+  {
+    std::cerr << "render_world: " << survey.error().describe() << "\n";
+    return 2;
+  }
+  const std::string dir = cli.value("out-dir");
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec)
+  {
+    std::cerr << "render_world: cannot create " << dir << ": " << ec.message() << "\n";
+    return 2;
+  }
+  std::printf("world %s: %zu surfaces, route lap %.1f s\n", survey->world().name.c_str(),
+              survey->world().surfaces.size(), survey->trajectory().lapDuration());
+  renderFixedCameras(*survey, dir);
+  for (const double t : surveyTimes(cli))
+    renderXtionView(*survey, t, dir);
   return 0;
 }

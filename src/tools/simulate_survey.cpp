@@ -104,6 +104,58 @@ void printTimings(const sim::SurveySimulator& survey, double wall_s)
               t.xtion_frames, t.fixed_frames, wall_s, 1e3 * wall_s / std::max(1, t.xtion_frames),
               t.xtion_frames / std::max(1e-9, wall_s));
 }
+
+// The simulation's options from the command line; an empty string, or what is wrong.
+std::string readSimulationOptions(ic::CommandLine& cli, sim::SimulationOptions* options)
+{
+  options->duration_s = cli.number("duration", options->duration_s);
+  options->rate_hz = cli.number("rate", options->rate_hz);
+  options->seed = static_cast<uint64_t>(cli.number("seed", 0));
+  if (cli.has("fixed-rate"))
+    options->fixed_rate_hz = cli.number("fixed-rate", 1.0);
+  const double start_time_s = cli.number("start-time", 1.7e9);
+  // ros::Time holds unsigned 32-bit seconds; checked in checkRunOptions before it is used.
+  options->start_time_ns =
+      start_time_s >= 0.0 && start_time_s <= kMaxStartTimeS ? static_cast<int64_t>(start_time_s) * 1000000000LL : -1;
+  options->depth_noise = !cli.flag("no-depth-noise");
+  options->image_noise = !cli.flag("no-image-noise");
+  options->odom_drift = cli.flag("odom-drift");
+  if (!cli.has("localization-error"))
+    return {};
+  std::vector<double> v;
+  std::stringstream list(cli.value("localization-error"));
+  for (std::string item; std::getline(list, item, ',');)
+    v.push_back(std::atof(item.c_str()));
+  if (v.size() < 2 || v.size() > 3)
+    return "--localization-error takes SIGMA_M,SIGMA_DEG[,TAU_S]";
+  options->localization_sigma_m = v[0];
+  options->localization_sigma_deg = v[1];
+  if (v.size() == 3)
+    options->localization_tau_s = v[2];
+  return {};
+}
+
+// The bag and its ground truth; the exit status.
+int writeBagAndTruth(const sim::SurveySimulator& survey, const std::string& out, bool quiet)
+{
+  const auto summary = ic::writeSurveyBag(survey, out, [&](size_t done, size_t total) {
+    if (!quiet && (done % 50 == 0 || done == total))
+      std::printf("  %zu/%zu RGB-D frames\n", done, total);
+  });
+  if (!summary)
+    return fail(summary.error().describe(), 1);
+  const std::string truth = sim::truthDirectoryFor(out);
+  if (const auto s = sim::writeGroundTruth(survey, truth, ic::surveyTopics(survey.world())); !s)
+    return fail(s.error().describe(), 1);
+  if (!quiet)
+  {
+    std::printf("wrote %s: %zu messages, %.1f MB, in %.1f s (bag writing %.1f s); ground truth in %s/\n", out.c_str(),
+                summary->messages, summary->bytes / 1e6, summary->total_s, summary->bag_write_s, truth.c_str());
+    std::printf("| stage | count | time | per frame | rate |\n|---|---|---|---|---|\n");
+    printTimings(survey, summary->total_s);
+  }
+  return 0;
+}
 }  // namespace
 
 int main(int argc, char** argv)
@@ -117,31 +169,8 @@ int main(int argc, char** argv)
     return 0;
   }
   sim::SimulationOptions options;
-  options.duration_s = cli.number("duration", options.duration_s);
-  options.rate_hz = cli.number("rate", options.rate_hz);
-  options.seed = static_cast<uint64_t>(cli.number("seed", 0));
-  if (cli.has("fixed-rate"))
-    options.fixed_rate_hz = cli.number("fixed-rate", 1.0);
-  const double start_time_s = cli.number("start-time", 1.7e9);
-  // ros::Time holds unsigned 32-bit seconds; checked in checkRunOptions before it is used.
-  options.start_time_ns =
-      start_time_s >= 0.0 && start_time_s <= kMaxStartTimeS ? static_cast<int64_t>(start_time_s) * 1000000000LL : -1;
-  options.depth_noise = !cli.flag("no-depth-noise");
-  options.image_noise = !cli.flag("no-image-noise");
-  options.odom_drift = cli.flag("odom-drift");
-  if (cli.has("localization-error"))
-  {
-    std::vector<double> v;
-    std::stringstream list(cli.value("localization-error"));
-    for (std::string item; std::getline(list, item, ',');)
-      v.push_back(std::atof(item.c_str()));
-    if (v.size() < 2 || v.size() > 3)
-      return fail("--localization-error takes SIGMA_M,SIGMA_DEG[,TAU_S]\n\n" + std::string(kUsage), 2);
-    options.localization_sigma_m = v[0];
-    options.localization_sigma_deg = v[1];
-    if (v.size() == 3)
-      options.localization_tau_s = v[2];
-  }
+  if (const std::string problem = readSimulationOptions(cli, &options); !problem.empty())
+    return fail(problem + "\n\n" + std::string(kUsage), 2);
   const bool benchmark = cli.flag("benchmark");
   if (!cli.error().empty() || !cli.positional().empty() || !cli.has("world") || !cli.has("seed") ||
       (!benchmark && !cli.has("out")))
@@ -150,7 +179,6 @@ int main(int argc, char** argv)
                                              : std::string("--world, --seed and --out are required")) +
                     "\n\n" + kUsage,
                 2);
-
   if (const std::string problem = checkRunOptions(cli, options); !problem.empty())
     return fail(problem, 2);
   auto world = sim::loadWorldFile(cli.value("world"));
@@ -164,32 +192,12 @@ int main(int argc, char** argv)
     std::printf("simulate_survey: world %s, seed %llu, %.1f s at %.1f Hz (%zu RGB-D frames, tf at %.1f Hz)\n",
                 survey->world().name.c_str(), static_cast<unsigned long long>(options.seed), options.duration_s,
                 options.rate_hz, survey->xtionFrameCount(), survey->tfRateHz());
-
+  if (!benchmark)
+    return writeBagAndTruth(*survey, cli.value("out"), quiet);
   const auto start = std::chrono::steady_clock::now();
-  if (benchmark)
-  {
-    sim::renderWholeSurvey(*survey);
-    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    std::printf("| stage | count | time | per frame | rate |\n|---|---|---|---|---|\n");
-    printTimings(*survey, wall);
-    return 0;
-  }
-  const std::string out = cli.value("out");
-  const auto summary = ic::writeSurveyBag(*survey, out, [&](size_t done, size_t total) {
-    if (!quiet && (done % 50 == 0 || done == total))
-      std::printf("  %zu/%zu RGB-D frames\n", done, total);
-  });
-  if (!summary)
-    return fail(summary.error().describe(), 1);
-  const std::string truth = sim::truthDirectoryFor(out);
-  if (const auto s = sim::writeGroundTruth(*survey, truth, ic::surveyTopics(survey->world())); !s)
-    return fail(s.error().describe(), 1);
-  if (!quiet)
-  {
-    std::printf("wrote %s: %zu messages, %.1f MB, in %.1f s (bag writing %.1f s); ground truth in %s/\n", out.c_str(),
-                summary->messages, summary->bytes / 1e6, summary->total_s, summary->bag_write_s, truth.c_str());
-    std::printf("| stage | count | time | per frame | rate |\n|---|---|---|---|---|\n");
-    printTimings(*survey, summary->total_s);
-  }
+  sim::renderWholeSurvey(*survey);
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::printf("| stage | count | time | per frame | rate |\n|---|---|---|---|---|\n");
+  printTimings(*survey, wall);
   return 0;
 }
