@@ -4,6 +4,7 @@
 #ifndef INSITU_CALIBRATION_LINES_RGBD_LINES_H
 #define INSITU_CALIBRATION_LINES_RGBD_LINES_H
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -58,6 +59,10 @@ public:
   const RgbdLineOptions& options() const { return options_; }
 
 private:
+  // One segment's 3D line from the depth along it, in the map frame; none (counted in st) without one.
+  std::optional<Line3d> liftSegment(const RgbdFrame& frame, const cv::Mat& depth_m, const Segment2d& segment,
+                                    uint32_t seed, RgbdLineStats* st) const;
+
   RgbdLineOptions options_;
   SegmentDetector detector_;
 };

@@ -16,6 +16,70 @@ RgbdLineOptions::RgbdLineOptions()
 
 RgbdLineExtractor::RgbdLineExtractor(const RgbdLineOptions& options) : options_(options), detector_(options.detector) {}
 
+namespace
+{
+// Each segment's ends refined on the image gradient (kept as detected where the refinement fails).
+Status refineSegments(const cv::Mat& rgb, const RefinerOptions& options, std::vector<Segment2d>* segments)
+{
+  auto refiner = LineRefiner::create(rgb, options);
+  if (!refiner)
+    return refiner.error();
+  for (auto& s : *segments)
+  {
+    auto refined = refiner->refineSegment(s.a, s.b);
+    if (refined)
+    {
+      s.a = refined->a;
+      s.b = refined->b;
+    }
+  }
+  return Success{};
+}
+
+// Why a frame gave no 3D line, for the stats' note.
+std::string noLineNote(const RgbdLineStats& st, double min_length_px)
+{
+  if (st.segments == 0)
+    return "no line segment of at least " + std::to_string(min_length_px) + " px in the RGB image";
+  return std::to_string(st.segments) + " segments, none became a 3D line (" + std::to_string(st.no_depth) +
+         " without depth, " + std::to_string(st.no_line) + " without a consensus, " + std::to_string(st.too_short) +
+         " too short)";
+}
+}  // namespace
+
+std::optional<Line3d> RgbdLineExtractor::liftSegment(const RgbdFrame& frame, const cv::Mat& depth_m,
+                                                     const Segment2d& segment, uint32_t seed, RgbdLineStats* st) const
+{
+  double t = threadCpuMs();
+  const std::vector<DepthSample> samples = sampleDepthAlongSegment(depth_m, segment, options_.sampler);
+  st->depth_ms += cpuMsSince(t);
+  Line3dFitOptions fit = options_.fit;
+  if (samples.size() < static_cast<size_t>(std::max(2, fit.min_inliers)))
+  {
+    ++st->no_depth;
+    return std::nullopt;
+  }
+  t = threadCpuMs();
+  fit.seed = seed;
+  auto line = fitLine3dToDepthSamples(segment, samples, frame.camera, fit);
+  st->fit_ms += cpuMsSince(t);
+  if (!line)
+  {
+    if (line.error().code() == ErrorCode::kDegenerate)
+      ++st->too_short;
+    else if (line.error().code() == ErrorCode::kNotEnoughData)
+      ++st->no_depth;
+    else
+      ++st->no_line;
+    return std::nullopt;
+  }
+  line->a = frame.T_map_camera * line->a;
+  line->b = frame.T_map_camera * line->b;
+  line->sensor = frame.T_map_camera.translation();
+  line->stamp = frame.stamp;
+  return *line;
+}
+
 Expected<std::vector<Line3d>> RgbdLineExtractor::extract(const RgbdFrame& frame, RgbdLineStats* stats)
 {
   RgbdLineStats local;
@@ -40,65 +104,18 @@ Expected<std::vector<Line3d>> RgbdLineExtractor::extract(const RgbdFrame& frame,
   if (options_.refine_segments && !segments->empty())
   {
     t = threadCpuMs();
-    auto refiner = LineRefiner::create(frame.rgb, options_.refiner);
-    if (!refiner)
-      return refiner.error();
-    for (auto& s : *segments)
-    {
-      auto refined = refiner->refineSegment(s.a, s.b);
-      if (refined)
-      {
-        s.a = refined->a;
-        s.b = refined->b;
-      }
-    }
+    if (const Status refined = refineSegments(frame.rgb, options_.refiner, &*segments); !refined)
+      return refined.error();
     st.refine_ms = cpuMsSince(t);
   }
 
   std::vector<Line3d> lines;
-  Line3dFitOptions fit = options_.fit;
   for (size_t i = 0; i < segments->size(); ++i)
-  {
-    const Segment2d& segment = (*segments)[i];
-    t = threadCpuMs();
-    const std::vector<DepthSample> samples = sampleDepthAlongSegment(*depth, segment, options_.sampler);
-    st.depth_ms += cpuMsSince(t);
-    if (samples.size() < static_cast<size_t>(std::max(2, fit.min_inliers)))
-    {
-      ++st.no_depth;
-      continue;
-    }
-    t = threadCpuMs();
-    fit.seed = options_.fit.seed + static_cast<uint32_t>(i);
-    auto line = fitLine3dToDepthSamples(segment, samples, frame.camera, fit);
-    st.fit_ms += cpuMsSince(t);
-    if (!line)
-    {
-      if (line.error().code() == ErrorCode::kDegenerate)
-        ++st.too_short;
-      else if (line.error().code() == ErrorCode::kNotEnoughData)
-        ++st.no_depth;
-      else
-        ++st.no_line;
-      continue;
-    }
-    line->a = frame.T_map_camera * line->a;
-    line->b = frame.T_map_camera * line->b;
-    line->sensor = frame.T_map_camera.translation();
-    line->stamp = frame.stamp;
-    lines.push_back(*line);
-  }
+    if (auto line = liftSegment(frame, *depth, (*segments)[i], options_.fit.seed + static_cast<uint32_t>(i), &st))
+      lines.push_back(*line);
   st.lines = static_cast<int>(lines.size());
   if (lines.empty())
-  {
-    if (st.segments == 0)
-      st.note =
-          "no line segment of at least " + std::to_string(options_.detector.min_length_px) + " px in the RGB image";
-    else
-      st.note = std::to_string(st.segments) + " segments, none became a 3D line (" + std::to_string(st.no_depth) +
-                " without depth, " + std::to_string(st.no_line) + " without a consensus, " +
-                std::to_string(st.too_short) + " too short)";
-  }
+    st.note = noLineNote(st, options_.detector.min_length_px);
   return lines;
 }
 
