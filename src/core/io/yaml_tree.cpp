@@ -20,7 +20,7 @@ struct ExpansionRefused
 
 uint32_t checkedIndex(size_t value)
 {
-  if (value > std::numeric_limits<uint32_t>::max())
+  if (value >= YamlTreeData::kInlineNull)
     throw std::bad_alloc();  // more nodes than an index holds: `guarded` reports it as too large
   return static_cast<uint32_t>(value);
 }
@@ -37,7 +37,9 @@ public:
   void OnDocumentEnd() override {}
   void OnNull(const YAML::Mark& mark, YAML::anchor_t anchor) override
   {
-    const uint32_t node = addNode(YamlKind::kNull, mark);
+    noteLine(mark);
+    const uint32_t node =
+        YamlTreeData::kInlineNull | (static_cast<uint32_t>(std::max(mark.pos, 0)) & YamlTreeData::kPosMask);
     setAnchor(anchor, node, 1);
     attach(node, 1);
   }
@@ -90,11 +92,16 @@ private:
     const uint32_t pos = static_cast<uint32_t>(std::max(mark.pos, 0)) & YamlTreeData::kPosMask;
     tree_.kind_pos.push_back((static_cast<uint32_t>(kind) << YamlTreeData::kPosBits) | pos);
     tree_.data.push_back(0);  // a scalar's text or a container's children, set by the caller
-    // Line numbers: one entry per line on which a node starts, so that Mark() can be recomputed from a position.
+    noteLine(mark);
+    return index;
+  }
+
+  // Line numbers: one entry per line on which a node starts, so that Mark() can be recomputed from a position.
+  void noteLine(const YAML::Mark& mark)
+  {
     if (mark.pos >= 0 && mark.line >= 0 && mark.column >= 0 &&
         (tree_.line_starts.empty() || tree_.line_starts.back().second != static_cast<uint32_t>(mark.line)))
       tree_.line_starts.emplace_back(static_cast<uint32_t>(mark.pos - mark.column), mark.line);
-    return index;
   }
 
   void setAnchor(YAML::anchor_t anchor, uint32_t node, uint64_t weight)
@@ -325,15 +332,18 @@ Expected<YamlTree> parseYamlTree(const std::string& text, size_t max_nodes, cons
     TextBuffer buffer(text);
     std::istream stream(&buffer);
     YAML::Parser parser(stream);
-    TreeBuilder builder(*tree.data_, max_nodes);
-    parser.HandleNextDocument(builder);
-    if (builder.hasRoot())
+    bool has_root = false;
+    {
+      TreeBuilder builder(*tree.data_, max_nodes);
+      parser.HandleNextDocument(builder);
+      has_root = builder.hasRoot();
+    }  // frees the builder's stacks before the arrays are shrunk
+    if (has_root)
       shrink(*tree.data_);
     else
     {
       tree.data_ = std::make_unique<YamlTreeData>();
-      tree.data_->kind_pos.push_back(static_cast<uint32_t>(YamlKind::kNull) << YamlTreeData::kPosBits);
-      tree.data_->data.push_back(0);
+      tree.data_->root = YamlTreeData::kInlineNull;
     }
   }
   catch (const ExpansionRefused&)

@@ -34,10 +34,10 @@ enum class YamlKind : uint8_t
   kMap = 3,
 };
 
-// The document's arrays. Node i: kind_pos[i] holds its kind (top 2 bits) and the byte position of its first token
-// (for Mark()); data[i] is, for a scalar, the offset of its text in `chars` (a varint length, then the bytes) and,
-// for a container, the offset in `children` of its child count followed by the children's node indices (a map's
-// as key, value, key, value...). An alias is the anchored node's index in its parent's children.
+// The document's arrays. Node i (but a null, see kInlineNull): kind_pos[i] holds its kind (top 2 bits) and the byte
+// position of its first token (for Mark()); data[i] is, for a scalar, the offset of its text in `chars` (a varint
+// length, then the bytes) and, for a container, the offset in `children` of its child count followed by the children's
+// node indices (a map's as key, value, key, value...). An alias is the anchored node's index in its parent's children.
 struct YamlTreeData
 {
   std::vector<uint32_t> kind_pos;
@@ -49,8 +49,13 @@ struct YamlTreeData
 
   static constexpr uint32_t kPosBits = 30;
   static constexpr uint32_t kPosMask = (uint32_t{1} << kPosBits) - 1;
-  YamlKind kind(uint32_t i) const { return static_cast<YamlKind>(kind_pos[i] >> kPosBits); }
-  uint32_t pos(uint32_t i) const { return kind_pos[i] & kPosMask; }
+  // A null (most often a map's missing value) has no entry in the arrays: its index is this bit and its position.
+  static constexpr uint32_t kInlineNull = uint32_t{1} << 31;
+  YamlKind kind(uint32_t i) const
+  {
+    return (i & kInlineNull) ? YamlKind::kNull : static_cast<YamlKind>(kind_pos[i] >> kPosBits);
+  }
+  uint32_t pos(uint32_t i) const { return (i & kInlineNull) ? (i & kPosMask) : (kind_pos[i] & kPosMask); }
   std::string_view scalar(uint32_t i) const;
   YAML::Mark mark(uint32_t i) const;
 };
