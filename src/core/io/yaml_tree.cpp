@@ -106,11 +106,20 @@ private:
   }
 
   // Line numbers: one entry per line on which a node starts, so that Mark() can be recomputed from a position.
+  // Events come in the text's order except a few (the null of a complex key's missing value comes after the
+  // value's key), so a line seen late is inserted where it belongs.
   void noteLine(const YAML::Mark& mark)
   {
-    if (mark.pos >= 0 && mark.line >= 0 && mark.column >= 0 &&
-        (tree_.line_starts.empty() || tree_.line_starts.back().second != static_cast<uint32_t>(mark.line)))
-      tree_.line_starts.emplace_back(static_cast<uint32_t>(mark.pos - mark.column), mark.line);
+    if (mark.pos < 0 || mark.line < 0 || mark.column < 0 || mark.column > mark.pos)
+      return;
+    auto& starts = tree_.line_starts;
+    const std::pair<uint32_t, uint32_t> line(static_cast<uint32_t>(mark.pos - mark.column), mark.line);
+    if (starts.empty() || line.first > starts.back().first)
+      starts.push_back(line);
+    else if (const auto at = std::lower_bound(starts.begin(), starts.end(), line,
+                                              [](const auto& a, const auto& b) { return a.first < b.first; });
+             at == starts.end() || at->first != line.first)
+      starts.insert(at, line);
   }
 
   void setAnchor(YAML::anchor_t anchor, uint32_t node, uint64_t weight)
@@ -213,6 +222,8 @@ std::string_view YamlTreeData::scalar(uint32_t i) const
 
 YAML::Mark YamlTreeData::mark(uint32_t i) const
 {
+  if (kind_pos.empty() && line_starts.empty())
+    return YAML::Mark::null_mark();  // an empty document, as yaml-cpp's
   const uint32_t p = pos(i);
   auto line = std::upper_bound(line_starts.begin(), line_starts.end(), p,
                                [](uint32_t value, const std::pair<uint32_t, uint32_t>& s) { return value < s.first; });
