@@ -146,7 +146,7 @@ Expected<CalibrationFile> parseDocument(const std::string& yaml_text)
   const auto root = yaml_util::parseYaml(yaml_text, "calibration file");
   if (!root)
     return root.error();
-  const YAML::Node& doc = *root;
+  const yaml_util::YamlNode doc = root->root();
   if (!doc.IsMap())
     return Error(ErrorCode::kParseError, "calibration file: expected a map");
   CalibrationFile c;
@@ -162,7 +162,7 @@ Expected<CalibrationFile> parseDocument(const std::string& yaml_text)
     return k.error();
   c.camera.intrinsics() = Intrinsics::fromMatrix(*k);
 
-  const YAML::Node division = doc["division_model"];
+  const yaml_util::YamlNode division = doc["division_model"];
   if (division)
   {
     if (!division.IsMap())
@@ -187,7 +187,8 @@ Expected<CalibrationFile> parseDocument(const std::string& yaml_text)
   {
     c.camera.distortion() = DivisionModel{0.0, c.camera.intrinsics().principalPoint()};
   }
-  if (const YAML::Node d = yaml_util::child(doc, "distortion_coefficients"); d && d["data"] && d["data"].IsSequence())
+  if (const yaml_util::YamlNode d = yaml_util::child(doc, "distortion_coefficients");
+      d && d["data"] && d["data"].IsSequence())
   {
     if (d["data"].size() > 16)
       return Error(ErrorCode::kParseError, "distortion_coefficients.data: expected at most 16 numbers");
@@ -198,7 +199,7 @@ Expected<CalibrationFile> parseDocument(const std::string& yaml_text)
       c.plumb_bob.coefficients[i] = (*coefficients)[i];
   }
 
-  const YAML::Node pose = doc["camera_pose"];
+  const yaml_util::YamlNode pose = doc["camera_pose"];
   if (!pose || !pose.IsMap())
     return Error(ErrorCode::kParseError, "camera_pose: missing (this file has intrinsics but no pose in the world)");
   c.world_frame = pose["frame_id"] && pose["frame_id"].IsScalar() ? pose["frame_id"].Scalar() : "map";
@@ -216,7 +217,7 @@ Expected<CalibrationFile> parseDocument(const std::string& yaml_text)
   world_from_camera.translation() = *position;
   c.camera.pose() = CameraPose::fromWorldFromCamera(world_from_camera);
 
-  if (const YAML::Node quality = doc["quality"]; quality && quality.IsMap())
+  if (const yaml_util::YamlNode quality = doc["quality"]; quality && quality.IsMap())
   {
     CalibrationQuality q;
     for (const auto& kv : quality)

@@ -8,7 +8,8 @@ namespace insitu_calibration
 namespace
 {
 template <int N>
-Expected<std::vector<Eigen::Matrix<double, N, 1>>> toPointList(const YAML::Node& node, const std::string& where)
+Expected<std::vector<Eigen::Matrix<double, N, 1>>> toPointList(const yaml_util::YamlNode& node,
+                                                               const std::string& where)
 {
   if (!node || !node.IsSequence())
     return Error(ErrorCode::kParseError, where + ": expected a list of [" + (N == 2 ? "u, v" : "x, y, z") + "]");
@@ -65,7 +66,7 @@ Expected<CorrespondenceSet> parseDocument(const std::string& yaml_text)
   const auto root = yaml_util::parseYaml(yaml_text, "correspondence file");
   if (!root)
     return root.error();
-  const YAML::Node& doc = *root;
+  const yaml_util::YamlNode doc = root->root();
   if (!doc.IsMap())
     return Error(ErrorCode::kParseError, "correspondence file: expected a map with image_width, image_height, lines");
   CorrespondenceSet set;
@@ -81,7 +82,7 @@ Expected<CorrespondenceSet> parseDocument(const std::string& yaml_text)
   set.image_height = *height;
   if (!doc["lines"] && !doc["points"])
     return Error(ErrorCode::kParseError, "correspondence file: neither 'lines' nor 'points' is present");
-  if (const YAML::Node lines = doc["lines"]; lines && !lines.IsNull())
+  if (const yaml_util::YamlNode lines = doc["lines"]; lines && !lines.IsNull())
   {
     if (!lines.IsSequence())
       return Error(ErrorCode::kParseError, "lines: expected a list");
@@ -102,7 +103,7 @@ Expected<CorrespondenceSet> parseDocument(const std::string& yaml_text)
       line.image = std::move(*image);
       line.world = std::move(*world);
       // Optional: the noise of this line's world points, m per axis (0: exact, a BIM model's line).
-      if (const YAML::Node sigma = lines[i]["world_sigma"]; sigma)
+      if (const yaml_util::YamlNode sigma = lines[i]["world_sigma"]; sigma)
       {
         const auto value = yaml_util::toDouble(sigma, where + ".world_sigma");
         if (!value)
@@ -114,7 +115,7 @@ Expected<CorrespondenceSet> parseDocument(const std::string& yaml_text)
       set.lines.push_back(std::move(line));
     }
   }
-  if (const YAML::Node points = doc["points"]; points && !points.IsNull())
+  if (const yaml_util::YamlNode points = doc["points"]; points && !points.IsNull())
   {
     if (!points.IsSequence())
       return Error(ErrorCode::kParseError, "points: expected a list");

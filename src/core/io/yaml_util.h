@@ -1,5 +1,5 @@
-// yaml-cpp helpers shared by the file formats: conversions that report where the content is wrong instead of
-// throwing. Internal to the core library.
+// YAML helpers shared by the file formats (read through io/yaml_tree.h, written with YAML::Emitter): conversions that
+// report where the content is wrong instead of throwing. Internal to the core library.
 #ifndef INSITU_CALIBRATION_SRC_CORE_IO_YAML_UTIL_H
 #define INSITU_CALIBRATION_SRC_CORE_IO_YAML_UTIL_H
 
@@ -12,12 +12,13 @@
 #include <yaml-cpp/yaml.h>
 
 #include "insitu_calibration/error.h"
+#include "yaml_tree.h"
 
 namespace insitu_calibration
 {
 namespace yaml_util
 {
-inline Expected<double> toDouble(const YAML::Node& node, const std::string& where)
+inline Expected<double> toDouble(const YamlNode& node, const std::string& where)
 {
   if (!node || !node.IsScalar())
     return Error(ErrorCode::kParseError, where + ": expected a number");
@@ -34,7 +35,7 @@ inline Expected<double> toDouble(const YAML::Node& node, const std::string& wher
   }
 }
 
-inline Expected<int> toInt(const YAML::Node& node, const std::string& where)
+inline Expected<int> toInt(const YamlNode& node, const std::string& where)
 {
   if (!node || !node.IsScalar())
     return Error(ErrorCode::kParseError, where + ": expected an integer");
@@ -48,7 +49,7 @@ inline Expected<int> toInt(const YAML::Node& node, const std::string& where)
   }
 }
 
-inline Expected<std::vector<double>> toNumbers(const YAML::Node& node, const std::string& where,
+inline Expected<std::vector<double>> toNumbers(const YamlNode& node, const std::string& where,
                                                std::optional<size_t> size = std::nullopt)
 {
   if (!node || !node.IsSequence())
@@ -68,7 +69,7 @@ inline Expected<std::vector<double>> toNumbers(const YAML::Node& node, const std
 }
 
 template <int N>
-Expected<Eigen::Matrix<double, N, 1>> toVector(const YAML::Node& node, const std::string& where)
+Expected<Eigen::Matrix<double, N, 1>> toVector(const YamlNode& node, const std::string& where)
 {
   const auto numbers = toNumbers(node, where, N);
   if (!numbers)
@@ -78,7 +79,7 @@ Expected<Eigen::Matrix<double, N, 1>> toVector(const YAML::Node& node, const std
 
 // {rows: R, cols: C, data: [...]} in row-major order, as camera_calibration_parsers writes matrices.
 template <int R, int C>
-Expected<Eigen::Matrix<double, R, C>> toMatrix(const YAML::Node& node, const std::string& where)
+Expected<Eigen::Matrix<double, R, C>> toMatrix(const YamlNode& node, const std::string& where)
 {
   if (!node || !node.IsMap())
     return Error(ErrorCode::kParseError, where + ": expected {rows, cols, data}");
@@ -95,56 +96,21 @@ Expected<Eigen::Matrix<double, R, C>> toMatrix(const YAML::Node& node, const std
   return Eigen::Matrix<double, R, C>(Eigen::Map<const Eigen::Matrix<double, R, C, Eigen::RowMajor>>(data->data()));
 }
 
-// The largest YAML document a reader accepts: yaml-cpp needs about 70 bytes per node, so this bounds a reader's
-// memory to a few hundred MB whatever the file.
+// The largest YAML document a reader accepts. The tree takes about 12 bytes per node and a document has at most
+// about one node per byte, so this bounds a reader's memory to about 100 MB whatever the file.
 constexpr size_t kMaxYamlBytes = size_t{8} << 20;
 
-// yaml-cpp shares an aliased node instead of copying it, so a small file can describe an exponentially large tree
-// (a "billion laughs") and an anchor used inside itself a cyclic one, while every reader walks the expanded tree.
-// The walk stops once the tree has more nodes than an alias-free document of that many bytes could hold (at most
-// one node per byte, with an allowance for tiny documents), which bounds every reader's work by its file's size.
-inline Status checkExpandedSize(const YAML::Node& root, size_t text_bytes, const std::string& source)
-{
-  const size_t max_nodes = 2 * text_bytes + 1024;
-  std::vector<YAML::Node> stack{root};
-  size_t visited = 0;
-  while (!stack.empty())
-  {
-    const YAML::Node node = stack.back();
-    stack.pop_back();
-    if (++visited + stack.size() > max_nodes)
-      return Error(ErrorCode::kInvalidInput,
-                   source + ": the document expands to more than " + std::to_string(max_nodes) +
-                       " nodes (aliases that repeat or contain themselves?); write the values out instead");
-    if (node.IsSequence())
-      for (const auto& child : node)
-        stack.push_back(child);
-    else if (node.IsMap())
-      for (const auto& entry : node)
-      {
-        stack.push_back(entry.first);
-        stack.push_back(entry.second);
-      }
-  }
-  return Success{};
-}
-
-inline Expected<YAML::Node> parseYaml(const std::string& text, const std::string& source)
+// Parses a reader's document. An alias is shared, not copied, so a small file could describe an exponentially large
+// tree (a "billion laughs") or, with an anchor used inside itself, a cyclic one, while every reader walks the
+// expanded tree: the parse stops once the expansion has more nodes than an alias-free document of that many bytes
+// could hold (at most one node per byte, with an allowance for tiny documents), which bounds every reader's work by
+// its file's size.
+inline Expected<YamlTree> parseYaml(const std::string& text, const std::string& source)
 {
   if (text.size() > kMaxYamlBytes)
     return Error(ErrorCode::kInvalidInput, source + ": " + std::to_string(text.size()) + " bytes, more than the " +
                                                std::to_string(kMaxYamlBytes >> 20) + " MiB a file may have");
-  try
-  {
-    YAML::Node root = YAML::Load(text);
-    if (const Status bounded = checkExpandedSize(root, text.size(), source); !bounded)
-      return bounded.error();
-    return root;
-  }
-  catch (const YAML::Exception& e)
-  {
-    return Error(ErrorCode::kParseError, source + ": not valid YAML: " + e.what());
-  }
+  return parseYamlTree(text, 2 * text.size() + 1024, source);
 }
 
 // Runs a reader's parse so that no yaml-cpp exception escapes it: a conversion that no explicit check caught (a
@@ -167,12 +133,12 @@ Expected<T> guarded(const std::string& source, Parse&& parse)
 }
 
 // node[key] that never throws: undefined unless node is a map holding key.
-inline YAML::Node child(const YAML::Node& node, const std::string& key)
+inline YamlNode child(const YamlNode& node, const std::string& key)
 {
   if (node && node.IsMap())
-    if (YAML::Node value = node[key])
+    if (YamlNode value = node[key])
       return value;
-  return YAML::Node(YAML::NodeType::Undefined);
+  return YamlNode();
 }
 
 // A count read from the file, refused above its documented limit before anything is allocated for it.

@@ -371,11 +371,17 @@ Status writeGroundTruth(const SurveySimulator& survey, const std::string& direct
 
 Expected<std::vector<LocalizationSample>> loadLocalizationErrors(const std::string& path)
 {
+  const auto text = readFile(path);
+  if (!text)
+    return text.error();
+  // The simulator's own output, as long as the survey: no size cap, only the aliases' expansion is bounded.
+  const auto tree = yaml_util::parseYamlTree(*text, 2 * text->size() + 1024, path);
+  if (!tree)
+    return tree.error();
   try
   {
-    const YAML::Node root = YAML::LoadFile(path);
     std::vector<LocalizationSample> out;
-    for (const auto& row : root["frames"])
+    for (const auto& row : tree->root()["frames"])
     {
       if (row.size() != 4)
         return Error(ErrorCode::kParseError, path + ": each frame needs [stamp, x, y, yaw_deg]");

@@ -237,7 +237,7 @@ Expected<std::vector<TrueEdge>> loadTrueEdges(const std::string& path)
   const auto root = yaml_util::parseYaml(*text, path);
   if (!root)
     return root.error();
-  const YAML::Node list = (*root)["edges"];
+  const yaml_util::YamlNode list = yaml_util::child(root->root(), "edges");
   if (!list || !list.IsSequence())
     return Error(ErrorCode::kParseError, path + ": missing key 'edges' (a list)");
   std::vector<TrueEdge> edges;

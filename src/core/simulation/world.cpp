@@ -44,7 +44,7 @@ std::string fmt(double value)
 class MapReader
 {
 public:
-  MapReader(const YAML::Node& node, std::string where) : node_(node), where_(std::move(where)) {}
+  MapReader(const yaml_util::YamlNode& node, std::string where) : node_(node), where_(std::move(where)) {}
 
   Status check(const std::set<std::string>& allowed) const
   {
@@ -64,7 +64,7 @@ public:
     return Success{};
   }
   bool has(const std::string& key) const { return static_cast<bool>(node_[key]); }
-  YAML::Node operator[](const std::string& key) const { return node_[key]; }
+  yaml_util::YamlNode operator[](const std::string& key) const { return node_[key]; }
   std::string at(const std::string& key) const { return where_ + "." + key; }
   const std::string& where() const { return where_; }
 
@@ -131,7 +131,7 @@ public:
   }
 
 private:
-  YAML::Node node_;
+  yaml_util::YamlNode node_;
   std::string where_;
 };
 
@@ -152,7 +152,7 @@ private:
       return _status.error();    \
   } while (false)
 
-Expected<Color> parseColor(const YAML::Node& node, const std::string& where)
+Expected<Color> parseColor(const yaml_util::YamlNode& node, const std::string& where)
 {
   const auto v = yaml_util::toNumbers(node, where, 3);
   if (!v)
@@ -163,7 +163,7 @@ Expected<Color> parseColor(const YAML::Node& node, const std::string& where)
   return Color(static_cast<float>((*v)[0]), static_cast<float>((*v)[1]), static_cast<float>((*v)[2]));
 }
 
-Expected<Eigen::Vector2d> parsePair(const YAML::Node& node, const std::string& where)
+Expected<Eigen::Vector2d> parsePair(const yaml_util::YamlNode& node, const std::string& where)
 {
   if (node && node.IsScalar())
   {
@@ -175,7 +175,7 @@ Expected<Eigen::Vector2d> parsePair(const YAML::Node& node, const std::string& w
   return yaml_util::toVector<2>(node, where);
 }
 
-Expected<Texture> parseTexture(const YAML::Node& node, const std::string& where)
+Expected<Texture> parseTexture(const yaml_util::YamlNode& node, const std::string& where)
 {
   Texture texture;
   if (!node)
@@ -208,7 +208,7 @@ Expected<Texture> parseTexture(const YAML::Node& node, const std::string& where)
     TRY_ASSIGN(texture.offset, parsePair(m["offset"], m.at("offset")));
   if (m.has("rects"))
   {
-    const YAML::Node rects = m["rects"];
+    const yaml_util::YamlNode rects = m["rects"];
     if (!rects.IsSequence())
       return parseError(m.at("rects"), "expected a list of {min, max, color}");
     if (rects.size() > 1000)
@@ -230,7 +230,7 @@ Expected<Texture> parseTexture(const YAML::Node& node, const std::string& where)
   return texture;
 }
 
-Expected<std::vector<Eigen::Vector3d>> parseRing(const YAML::Node& node, const std::string& where)
+Expected<std::vector<Eigen::Vector3d>> parseRing(const yaml_util::YamlNode& node, const std::string& where)
 {
   if (!node || !node.IsSequence())
     return parseError(where, "expected a list of [x, y, z] vertices");
@@ -258,7 +258,7 @@ Surface makeQuad(const std::string& name, const Eigen::Vector3d& origin, const E
   return s;
 }
 
-Expected<std::vector<Surface>> parseSurface(const YAML::Node& node, size_t index, const std::string& source)
+Expected<std::vector<Surface>> parseSurface(const yaml_util::YamlNode& node, size_t index, const std::string& source)
 {
   std::string where = source + ": surfaces[" + std::to_string(index) + "]";
   const MapReader m(node, where);
@@ -442,7 +442,7 @@ Expected<std::vector<Surface>> parseSurface(const YAML::Node& node, size_t index
   return out;
 }
 
-Expected<Route> parseRoute(const YAML::Node& node, const std::string& where)
+Expected<Route> parseRoute(const yaml_util::YamlNode& node, const std::string& where)
 {
   const MapReader m(node, where);
   TRY(m.check({"waypoints", "speed", "turn_rate_deg", "loop"}));
@@ -466,7 +466,7 @@ Expected<Route> parseRoute(const YAML::Node& node, const std::string& where)
   return route;
 }
 
-Expected<XtionConfig> parseXtion(const YAML::Node& node, const std::string& where)
+Expected<XtionConfig> parseXtion(const yaml_util::YamlNode& node, const std::string& where)
 {
   XtionConfig x;
   if (!node)
@@ -515,7 +515,8 @@ Expected<XtionConfig> parseXtion(const YAML::Node& node, const std::string& wher
   return x;
 }
 
-Expected<SimulatedFixedCamera> parseFixedCamera(const YAML::Node& node, size_t index, const std::string& source)
+Expected<SimulatedFixedCamera> parseFixedCamera(const yaml_util::YamlNode& node, size_t index,
+                                                const std::string& source)
 {
   std::string where = source + ": fixed_cameras[" + std::to_string(index) + "]";
   const MapReader m(node, where);
@@ -607,7 +608,7 @@ Expected<SimulatedFixedCamera> parseFixedCamera(const YAML::Node& node, size_t i
   return c;
 }
 
-Expected<Lighting> parseLighting(const YAML::Node& node, const std::string& where)
+Expected<Lighting> parseLighting(const yaml_util::YamlNode& node, const std::string& where)
 {
   Lighting l;
   if (!node)
@@ -768,7 +769,7 @@ Expected<World> parseWorldEntries(const std::string& yaml_text, const std::strin
   const auto root = yaml_util::parseYaml(yaml_text, source);
   if (!root)
     return root.error();
-  const MapReader m(*root, source);
+  const MapReader m(root->root(), source);
   TRY(m.check({"name", "description", "lighting", "surfaces", "route", "xtion", "fixed_cameras"}));
   World world;
   world.source = source;

@@ -29,7 +29,7 @@ std::string calibratedInfoTopic(const std::string& image_topic)
   return (slash == std::string::npos ? std::string() : image_topic.substr(0, slash)) + "/camera_info_calibrated";
 }
 
-Status readOptional(const YAML::Node& map, const char* key, const std::string& where, double* out)
+Status readOptional(const yaml_util::YamlNode& map, const char* key, const std::string& where, double* out)
 {
   if (!map[key])
     return Success{};
@@ -41,10 +41,10 @@ Status readOptional(const YAML::Node& map, const char* key, const std::string& w
 }
 
 // A string entry: a scalar, or the fallback when absent (a list or map where a name is due is refused).
-Expected<std::string> optionalText(const YAML::Node& map, const char* key, const std::string& where,
+Expected<std::string> optionalText(const yaml_util::YamlNode& map, const char* key, const std::string& where,
                                    const std::string& fallback)
 {
-  const YAML::Node value = map[key];
+  const yaml_util::YamlNode value = map[key];
   if (!value)
     return fallback;
   if (!value.IsScalar() || value.Scalar().empty())
@@ -68,7 +68,8 @@ Expected<std::vector<CameraConfigEntry>> parseCameraList(const std::string& yaml
   const auto root = yaml_util::parseYaml(yaml_text, "camera configuration");
   if (!root)
     return root.error();
-  const YAML::Node list = root->IsMap() ? (*root)["cameras"] : *root;
+  const yaml_util::YamlNode doc = root->root();
+  const yaml_util::YamlNode list = doc.IsMap() ? doc["cameras"] : doc;
   if (!list || !list.IsSequence() || list.size() == 0)
     return Error(ErrorCode::kParseError, "camera configuration: expected a non-empty list `cameras:`");
   if (const Status s = yaml_util::checkCount(list.size(), kMaxCameras, "camera configuration", "cameras"); !s)
@@ -78,7 +79,7 @@ Expected<std::vector<CameraConfigEntry>> parseCameraList(const std::string& yaml
   std::map<std::string, std::string> info_topics;  // topic -> camera
   for (size_t i = 0; i < list.size(); ++i)
   {
-    const YAML::Node c = list[i];
+    const yaml_util::YamlNode c = list[i];
     const std::string where = "cameras[" + std::to_string(i) + "]";
     if (!c.IsMap() || !c["name"])
       return Error(ErrorCode::kParseError, where + ": needs at least a name");
@@ -106,7 +107,7 @@ Expected<std::vector<CameraConfigEntry>> parseCameraList(const std::string& yaml
     if (!correspondence_file)
       return correspondence_file.error();
     config.correspondence_file = expandHome(*correspondence_file);
-    if (const YAML::Node p = c["prior"])
+    if (const yaml_util::YamlNode p = c["prior"])
     {
       const std::string pw = where + ".prior";
       if (!p.IsMap())
