@@ -258,6 +258,187 @@ Surface makeQuad(const std::string& name, const Eigen::Vector3d& origin, const E
   return s;
 }
 
+Expected<std::vector<Surface>> parsePolygon(const MapReader& m, const std::string& where, const std::string& name,
+                                            const Texture& texture)
+{
+  Surface s;
+  s.name = name;
+  s.texture = texture;
+  std::vector<Eigen::Vector3d> ring;
+  TRY_ASSIGN(ring, parseRing(m["polygon"], where + ".polygon"));
+  s.rings.push_back(ring);
+  if (m.has("holes"))
+  {
+    if (!m["holes"].IsSequence())
+      return parseError(where + ".holes", "expected a list of vertex lists");
+    for (size_t h = 0; h < m["holes"].size(); ++h)
+    {
+      TRY_ASSIGN(ring, parseRing(m["holes"][h], where + ".holes[" + std::to_string(h) + "]"));
+      s.rings.push_back(ring);
+    }
+  }
+  return std::vector<Surface>{s};
+}
+
+Expected<std::vector<Surface>> parseRectangle(const MapReader& m, const std::string& where, const std::string& name,
+                                              const Texture& texture)
+{
+  const MapReader r(m["rectangle"], where + ".rectangle");
+  TRY(r.check({"center", "normal", "up", "size"}));
+  Eigen::Vector3d center, normal, up = Eigen::Vector3d::UnitZ();
+  Eigen::Vector2d size;
+  TRY_ASSIGN(center, r.vector<3>("center"));
+  TRY_ASSIGN(normal, r.vector<3>("normal"));
+  if (r.has("up"))
+    TRY_ASSIGN(up, r.vector<3>("up"));
+  TRY(r.require("size"));
+  TRY_ASSIGN(size, parsePair(r["size"], r.at("size")));
+  if (!(size.minCoeff() > 0.0))
+    return invalid(r.at("size"), "width and height must be positive");
+  if (normal.norm() < 1e-9)
+    return invalid(r.at("normal"), "the normal is zero");
+  normal.normalize();
+  if (!r.has("up") && std::abs(normal.z()) > 0.99)
+    up = Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d right = up.cross(normal);
+  if (right.norm() < 1e-6)
+    return invalid(r.at("up"), "'up' is parallel to the normal");
+  const Eigen::Vector3d u = right.normalized();
+  const Eigen::Vector3d v = normal.cross(u);
+  return std::vector<Surface>{
+      makeQuad(name, center - 0.5 * size.x() * u - 0.5 * size.y() * v, size.x() * u, size.y() * v, texture)};
+}
+
+Expected<std::vector<Surface>> parseBox(const MapReader& m, const std::string& where, const std::string& name,
+                                        const Texture& texture)
+{
+  const MapReader b(m["box"], where + ".box");
+  TRY(b.check({"min", "max", "yaw_deg", "bottom"}));
+  Eigen::Vector3d lo, hi;
+  TRY_ASSIGN(lo, b.vector<3>("min"));
+  TRY_ASSIGN(hi, b.vector<3>("max"));
+  double yaw = 0.0;
+  TRY_ASSIGN(yaw, b.number("yaw_deg", 0.0));
+  bool bottom = false;
+  TRY_ASSIGN(bottom, b.boolean("bottom", false));
+  if (!((hi - lo).minCoeff() > 0.0))
+    return invalid(b.where(), "max must be greater than min in x, y and z");
+  const Eigen::Vector3d c = 0.5 * (lo + hi);
+  const Eigen::Vector3d e = hi - lo;
+  const Eigen::Matrix3d rot = Eigen::AngleAxisd(yaw * kDegToRad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const Eigen::Vector3d ex = rot * Eigen::Vector3d(e.x(), 0, 0);
+  const Eigen::Vector3d ey = rot * Eigen::Vector3d(0, e.y(), 0);
+  const Eigen::Vector3d ez(0, 0, e.z());
+  const Eigen::Vector3d p000 = c - 0.5 * (ex + ey + ez);
+  // Side faces: u horizontal (counter-clockwise seen from above), v up, normals outwards.
+  std::vector<Surface> out;
+  out.push_back(makeQuad(name + "/-y", p000, ex, ez, texture));
+  out.push_back(makeQuad(name + "/+x", p000 + ex, ey, ez, texture));
+  out.push_back(makeQuad(name + "/+y", p000 + ex + ey, -ex, ez, texture));
+  out.push_back(makeQuad(name + "/-x", p000 + ey, -ey, ez, texture));
+  out.push_back(makeQuad(name + "/top", p000 + ez, ex, ey, texture));
+  if (bottom)
+    out.push_back(makeQuad(name + "/bottom", p000 + ey, ex, -ey, texture));
+  return out;
+}
+
+// A door or window in a wall: along the wall from its start, above its base (m).
+struct WallOpening
+{
+  double offset, width, height, sill;
+};
+
+// The wall's openings, sorted along it; each strictly inside the wall and none overlapping.
+Expected<std::vector<WallOpening>> parseOpenings(const MapReader& w, double length, double height)
+{
+  std::vector<WallOpening> openings;
+  if (!w.has("openings"))
+    return openings;
+  if (!w["openings"].IsSequence())
+    return parseError(w.at("openings"), "expected a list of {offset, width, height, sill}");
+  for (size_t i = 0; i < w["openings"].size(); ++i)
+  {
+    const MapReader o(w["openings"][i], w.at("openings") + "[" + std::to_string(i) + "]");
+    TRY(o.check({"offset", "width", "height", "sill"}));
+    WallOpening op{};
+    TRY_ASSIGN(op.offset, o.number("offset"));
+    TRY_ASSIGN(op.width, o.positive("width"));
+    TRY_ASSIGN(op.height, o.positive("height"));
+    TRY_ASSIGN(op.sill, o.number("sill", 0.0));
+    if (op.offset <= 0.0 || op.offset + op.width >= length || op.sill < 0.0 || op.sill + op.height >= height)
+      return invalid(o.where(), "the opening must lie strictly inside the wall (length " + fmt(length) + " m, height " +
+                                    fmt(height) + " m)");
+    openings.push_back(op);
+  }
+  std::sort(openings.begin(), openings.end(),
+            [](const WallOpening& a, const WallOpening& b) { return a.offset < b.offset; });
+  for (size_t i = 1; i < openings.size(); ++i)
+    if (openings[i].offset <= openings[i - 1].offset + openings[i - 1].width)
+      return invalid(w.where(), "openings overlap");
+  return openings;
+}
+
+// A vertical wall from `from` to `to` (its base at height base): a doorway (sill 0) is a notch in the outline, a
+// window a hole.
+Surface makeWall(const std::string& name, const Texture& texture, const Eigen::Vector2d& from,
+                 const Eigen::Vector2d& to, double base, double height, const std::vector<WallOpening>& openings)
+{
+  const double length = (to - from).norm();
+  const Eigen::Vector3d u(((to - from) / length).x(), ((to - from) / length).y(), 0.0);
+  const Eigen::Vector3d origin(from.x(), from.y(), base);
+  auto at = [&](double s, double h) -> Eigen::Vector3d { return origin + s * u + h * Eigen::Vector3d::UnitZ(); };
+  Surface s;
+  s.name = name;
+  s.texture = texture;
+  std::vector<Eigen::Vector3d> outline{at(0, 0)};
+  std::vector<std::vector<Eigen::Vector3d>> holes;
+  for (const WallOpening& op : openings)
+  {
+    if (op.sill == 0.0)
+    {
+      outline.push_back(at(op.offset, 0));
+      outline.push_back(at(op.offset, op.height));
+      outline.push_back(at(op.offset + op.width, op.height));
+      outline.push_back(at(op.offset + op.width, 0));
+    }
+    else
+    {
+      holes.push_back({at(op.offset, op.sill), at(op.offset + op.width, op.sill),
+                       at(op.offset + op.width, op.sill + op.height), at(op.offset, op.sill + op.height)});
+    }
+  }
+  outline.push_back(at(length, 0));
+  outline.push_back(at(length, height));
+  outline.push_back(at(0, height));
+  s.rings.push_back(outline);
+  for (auto& h : holes)
+    s.rings.push_back(h);
+  s.origin = origin;
+  s.axis_u = u;
+  s.axis_v = Eigen::Vector3d::UnitZ();
+  return s;
+}
+
+Expected<std::vector<Surface>> parseWall(const MapReader& m, const std::string& where, const std::string& name,
+                                         const Texture& texture)
+{
+  const MapReader w(m["wall"], where + ".wall");
+  TRY(w.check({"from", "to", "height", "base", "openings"}));
+  Eigen::Vector2d from, to;
+  double height = 0.0, base = 0.0;
+  TRY_ASSIGN(from, w.vector<2>("from"));
+  TRY_ASSIGN(to, w.vector<2>("to"));
+  TRY_ASSIGN(height, w.positive("height"));
+  TRY_ASSIGN(base, w.number("base", 0.0));
+  const double length = (to - from).norm();
+  if (!(length > 1e-6))
+    return invalid(w.where(), "'from' and 'to' are the same point");
+  std::vector<WallOpening> openings;
+  TRY_ASSIGN(openings, parseOpenings(w, length, height));
+  return std::vector<Surface>{makeWall(name, texture, from, to, base, height, openings)};
+}
+
+// One entry of surfaces: a polygon (with holes), a rectangle, a box (its 5 or 6 faces) or a wall (with openings).
 Expected<std::vector<Surface>> parseSurface(const yaml_util::YamlNode& node, size_t index, const std::string& source)
 {
   std::string where = source + ": surfaces[" + std::to_string(index) + "]";
@@ -268,174 +449,22 @@ Expected<std::vector<Surface>> parseSurface(const yaml_util::YamlNode& node, siz
   where += " '" + name + "'";
   Texture texture;
   TRY_ASSIGN(texture, parseTexture(m["texture"], where + ".texture"));
-
   const int shapes = m.has("polygon") + m.has("rectangle") + m.has("box") + m.has("wall");
   if (shapes != 1)
     return parseError(where, shapes == 0 ? "missing key: one of 'polygon', 'rectangle', 'box' or 'wall'"
                                          : "give only one of 'polygon', 'rectangle', 'box' or 'wall'");
   if (m.has("holes") && !m.has("polygon"))
     return parseError(where, "'holes' belongs to a 'polygon'");
-
   std::vector<Surface> out;
-  std::vector<bool> frame_set;
-  if (m.has("polygon"))
+  TRY_ASSIGN(out, m.has("polygon")     ? parsePolygon(m, where, name, texture)
+                  : m.has("rectangle") ? parseRectangle(m, where, name, texture)
+                  : m.has("box")       ? parseBox(m, where, name, texture)
+                                       : parseWall(m, where, name, texture));
+  // A polygon's texture frame comes from its vertices; the other shapes set their own.
+  const bool frame_set = !m.has("polygon");
+  for (Surface& surface : out)
   {
-    Surface s;
-    s.name = name;
-    s.texture = texture;
-    std::vector<Eigen::Vector3d> ring;
-    TRY_ASSIGN(ring, parseRing(m["polygon"], where + ".polygon"));
-    s.rings.push_back(ring);
-    if (m.has("holes"))
-    {
-      if (!m["holes"].IsSequence())
-        return parseError(where + ".holes", "expected a list of vertex lists");
-      for (size_t h = 0; h < m["holes"].size(); ++h)
-      {
-        TRY_ASSIGN(ring, parseRing(m["holes"][h], where + ".holes[" + std::to_string(h) + "]"));
-        s.rings.push_back(ring);
-      }
-    }
-    out.push_back(s);
-    frame_set.push_back(false);
-  }
-  else if (m.has("rectangle"))
-  {
-    const MapReader r(m["rectangle"], where + ".rectangle");
-    TRY(r.check({"center", "normal", "up", "size"}));
-    Eigen::Vector3d center, normal, up = Eigen::Vector3d::UnitZ();
-    Eigen::Vector2d size;
-    TRY_ASSIGN(center, r.vector<3>("center"));
-    TRY_ASSIGN(normal, r.vector<3>("normal"));
-    if (r.has("up"))
-      TRY_ASSIGN(up, r.vector<3>("up"));
-    TRY(r.require("size"));
-    TRY_ASSIGN(size, parsePair(r["size"], r.at("size")));
-    if (!(size.minCoeff() > 0.0))
-      return invalid(r.at("size"), "width and height must be positive");
-    if (normal.norm() < 1e-9)
-      return invalid(r.at("normal"), "the normal is zero");
-    normal.normalize();
-    if (!r.has("up") && std::abs(normal.z()) > 0.99)
-      up = Eigen::Vector3d::UnitY();
-    const Eigen::Vector3d right = up.cross(normal);
-    if (right.norm() < 1e-6)
-      return invalid(r.at("up"), "'up' is parallel to the normal");
-    const Eigen::Vector3d u = right.normalized();
-    const Eigen::Vector3d v = normal.cross(u);
-    out.push_back(
-        makeQuad(name, center - 0.5 * size.x() * u - 0.5 * size.y() * v, size.x() * u, size.y() * v, texture));
-    frame_set.push_back(true);
-  }
-  else if (m.has("box"))
-  {
-    const MapReader b(m["box"], where + ".box");
-    TRY(b.check({"min", "max", "yaw_deg", "bottom"}));
-    Eigen::Vector3d lo, hi;
-    TRY_ASSIGN(lo, b.vector<3>("min"));
-    TRY_ASSIGN(hi, b.vector<3>("max"));
-    double yaw = 0.0;
-    TRY_ASSIGN(yaw, b.number("yaw_deg", 0.0));
-    bool bottom = false;
-    TRY_ASSIGN(bottom, b.boolean("bottom", false));
-    if (!((hi - lo).minCoeff() > 0.0))
-      return invalid(b.where(), "max must be greater than min in x, y and z");
-    const Eigen::Vector3d c = 0.5 * (lo + hi);
-    const Eigen::Vector3d e = hi - lo;
-    const Eigen::Matrix3d rot = Eigen::AngleAxisd(yaw * kDegToRad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-    const Eigen::Vector3d ex = rot * Eigen::Vector3d(e.x(), 0, 0);
-    const Eigen::Vector3d ey = rot * Eigen::Vector3d(0, e.y(), 0);
-    const Eigen::Vector3d ez(0, 0, e.z());
-    const Eigen::Vector3d p000 = c - 0.5 * (ex + ey + ez);
-    // Side faces: u horizontal (counter-clockwise seen from above), v up, normals outwards.
-    out.push_back(makeQuad(name + "/-y", p000, ex, ez, texture));
-    out.push_back(makeQuad(name + "/+x", p000 + ex, ey, ez, texture));
-    out.push_back(makeQuad(name + "/+y", p000 + ex + ey, -ex, ez, texture));
-    out.push_back(makeQuad(name + "/-x", p000 + ey, -ey, ez, texture));
-    out.push_back(makeQuad(name + "/top", p000 + ez, ex, ey, texture));
-    if (bottom)
-      out.push_back(makeQuad(name + "/bottom", p000 + ey, ex, -ey, texture));
-    frame_set.assign(out.size(), true);
-  }
-  else
-  {
-    const MapReader w(m["wall"], where + ".wall");
-    TRY(w.check({"from", "to", "height", "base", "openings"}));
-    Eigen::Vector2d from, to;
-    double height = 0.0, base = 0.0;
-    TRY_ASSIGN(from, w.vector<2>("from"));
-    TRY_ASSIGN(to, w.vector<2>("to"));
-    TRY_ASSIGN(height, w.positive("height"));
-    TRY_ASSIGN(base, w.number("base", 0.0));
-    const double length = (to - from).norm();
-    if (!(length > 1e-6))
-      return invalid(w.where(), "'from' and 'to' are the same point");
-    struct Opening
-    {
-      double offset, width, height, sill;
-    };
-    std::vector<Opening> openings;
-    if (w.has("openings"))
-    {
-      if (!w["openings"].IsSequence())
-        return parseError(w.at("openings"), "expected a list of {offset, width, height, sill}");
-      for (size_t i = 0; i < w["openings"].size(); ++i)
-      {
-        const MapReader o(w["openings"][i], w.at("openings") + "[" + std::to_string(i) + "]");
-        TRY(o.check({"offset", "width", "height", "sill"}));
-        Opening op{};
-        TRY_ASSIGN(op.offset, o.number("offset"));
-        TRY_ASSIGN(op.width, o.positive("width"));
-        TRY_ASSIGN(op.height, o.positive("height"));
-        TRY_ASSIGN(op.sill, o.number("sill", 0.0));
-        if (op.offset <= 0.0 || op.offset + op.width >= length || op.sill < 0.0 || op.sill + op.height >= height)
-          return invalid(o.where(), "the opening must lie strictly inside the wall (length " + fmt(length) +
-                                        " m, height " + fmt(height) + " m)");
-        openings.push_back(op);
-      }
-    }
-    std::sort(openings.begin(), openings.end(), [](const Opening& a, const Opening& b) { return a.offset < b.offset; });
-    for (size_t i = 1; i < openings.size(); ++i)
-      if (openings[i].offset <= openings[i - 1].offset + openings[i - 1].width)
-        return invalid(w.where(), "openings overlap");
-    const Eigen::Vector3d u(((to - from) / length).x(), ((to - from) / length).y(), 0.0);
-    const Eigen::Vector3d origin(from.x(), from.y(), base);
-    auto at = [&](double s, double h) -> Eigen::Vector3d { return origin + s * u + h * Eigen::Vector3d::UnitZ(); };
-    Surface s;
-    s.name = name;
-    s.texture = texture;
-    std::vector<Eigen::Vector3d> outline{at(0, 0)};
-    std::vector<std::vector<Eigen::Vector3d>> holes;
-    for (const Opening& op : openings)
-    {
-      if (op.sill == 0.0)  // a doorway: a notch in the outline
-      {
-        outline.push_back(at(op.offset, 0));
-        outline.push_back(at(op.offset, op.height));
-        outline.push_back(at(op.offset + op.width, op.height));
-        outline.push_back(at(op.offset + op.width, 0));
-      }
-      else  // a window: a hole
-      {
-        holes.push_back({at(op.offset, op.sill), at(op.offset + op.width, op.sill),
-                         at(op.offset + op.width, op.sill + op.height), at(op.offset, op.sill + op.height)});
-      }
-    }
-    outline.push_back(at(length, 0));
-    outline.push_back(at(length, height));
-    outline.push_back(at(0, height));
-    s.rings.push_back(outline);
-    for (auto& h : holes)
-      s.rings.push_back(h);
-    s.origin = origin;
-    s.axis_u = u;
-    s.axis_v = Eigen::Vector3d::UnitZ();
-    out.push_back(s);
-    frame_set.push_back(true);
-  }
-  for (size_t i = 0; i < out.size(); ++i)
-  {
-    const Status s = finalizeSurface(out[i], frame_set[i]);
+    const Status s = finalizeSurface(surface, frame_set);
     if (!s)
       return Error(s.error().code(), where + ": " + s.error().message());
   }
