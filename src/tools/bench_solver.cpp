@@ -95,6 +95,57 @@ double naiveSolve(const ic::CorrespondenceSet& data, const Eigen::Vector2d& cent
   *lambda_out = best_lambda * in.scale * in.scale;
   return best_residual;
 }
+
+// One row of the table: both solvers on n constraints of one shape, the best of `repeat` runs each (one for the
+// naive solve at 10^6, which takes minutes). False when the library's solve fails.
+bool benchmarkRow(const ic::CameraModel& camera, const ic::SyntheticCameraOptions& camera_options, bool dense, double n,
+                  int repeat, std::mt19937& rng)
+{
+  ic::SyntheticLineOptions options;
+  options.image_points_per_line = dense ? 11 : 2;
+  options.world_points_per_line = dense ? 10 : 2;
+  options.image_noise_px = 0.5;
+  const int per_line = dense ? 100 : 2;
+  options.lines = std::max(7, static_cast<int>(n / per_line));
+  const ic::SyntheticLines lines =
+      ic::makeSyntheticLines(camera, camera_options.image_width, camera_options.image_height, options, rng);
+  ic::DltOptions dlt;
+  dlt.method = ic::DltMethod::kLines;
+  dlt.estimate_distortion = true;
+  const Eigen::Vector2d center = camera.distortion().center;
+  double library_ms = std::numeric_limits<double>::infinity();
+  double library_lambda = 0.0;
+  size_t constraints = 0;
+  for (int k = 0; k < repeat; ++k)
+  {
+    const auto start = Clock::now();
+    const auto solved = ic::solveDltLinear(lines.data, dlt, center);
+    library_ms = std::min(library_ms, millisecondsSince(start));
+    if (!solved)
+    {
+      std::cerr << "bench_solver: " << solved.error().describe() << "\n";
+      return false;
+    }
+    library_lambda = solved->lambda;
+    constraints = solved->constraints;
+  }
+  double naive_ms = std::numeric_limits<double>::infinity();
+  double naive_lambda = 0.0;
+  for (int k = 0; k < (n >= 1e6 ? 1 : repeat); ++k)
+  {
+    const auto start = Clock::now();
+    naiveSolve(lines.data, center, &naive_lambda);
+    naive_ms = std::min(naive_ms, millisecondsSince(start));
+  }
+  const double truth = camera.distortion().lambda;
+  std::printf("| %-6s | %11zu | %7zu | %10.3f | %8.1f | %7.0fx | %23.3g | %12.2f %% / %10.2f %% |\n",
+              dense ? "dense" : "sparse", constraints, lines.data.lines.size(), library_ms, naive_ms,
+              naive_ms / library_ms, constraints / (library_ms * 1e-3),
+              100.0 * std::abs(library_lambda - truth) / std::abs(truth),
+              100.0 * std::abs(naive_lambda - truth) / std::abs(truth));
+  std::fflush(stdout);
+  return true;
+}
 }  // namespace
 
 int main(int argc, char** argv)
@@ -124,57 +175,10 @@ int main(int argc, char** argv)
   std::printf(
       "|--------|-------------|---------|------------|----------|----------|-------------------------|"
       "------------------------------|\n");
-
   for (const bool dense : {true, false})
-  {
     for (double n = 100; n <= max_constraints * 1.0001; n *= 10)
-    {
-      ic::SyntheticLineOptions options;
-      options.image_points_per_line = dense ? 11 : 2;
-      options.world_points_per_line = dense ? 10 : 2;
-      options.image_noise_px = 0.5;
-      const int per_line = dense ? 100 : 2;
-      options.lines = std::max(7, static_cast<int>(n / per_line));
-      const ic::SyntheticLines lines =
-          ic::makeSyntheticLines(camera, camera_options.image_width, camera_options.image_height, options, rng);
-      ic::DltOptions dlt;
-      dlt.method = ic::DltMethod::kLines;
-      dlt.estimate_distortion = true;
-      const Eigen::Vector2d center = camera.distortion().center;
-
-      double library_ms = std::numeric_limits<double>::infinity();
-      double library_lambda = 0.0;
-      size_t constraints = 0;
-      for (int k = 0; k < repeat; ++k)
-      {
-        const auto start = Clock::now();
-        const auto solved = ic::solveDltLinear(lines.data, dlt, center);
-        library_ms = std::min(library_ms, millisecondsSince(start));
-        if (!solved)
-        {
-          std::cerr << "bench_solver: " << solved.error().describe() << "\n";
-          return 1;
-        }
-        library_lambda = solved->lambda;
-        constraints = solved->constraints;
-      }
-      double naive_ms = std::numeric_limits<double>::infinity();
-      double naive_lambda = 0.0;
-      for (int k = 0; k < (n >= 1e6 ? 1 : repeat); ++k)
-      {
-        const auto start = Clock::now();
-        naiveSolve(lines.data, center, &naive_lambda);
-        naive_ms = std::min(naive_ms, millisecondsSince(start));
-      }
-      const double truth = camera.distortion().lambda;
-      std::printf("| %-6s | %11zu | %7zu | %10.3f | %8.1f | %7.0fx | %23.3g | %12.2f %% / %10.2f %% |\n",
-                  dense ? "dense" : "sparse", constraints, lines.data.lines.size(), library_ms, naive_ms,
-                  naive_ms / library_ms, constraints / (library_ms * 1e-3),
-                  100.0 * std::abs(library_lambda - truth) / std::abs(truth),
-                  100.0 * std::abs(naive_lambda - truth) / std::abs(truth));
-      std::fflush(stdout);
-    }
-  }
+      if (!benchmarkRow(camera, camera_options, dense, n, repeat, rng))
+        return 1;
   std::cout << "\nlambda error: against the true lambda. The library polishes the generalised eigenproblem's root to "
                "the joint least-squares minimum of ||(B1 + lambda B2) p||; the naive route keeps the paper's root of "
                "B1^T (B1 + lambda B2) p = 0.\n";

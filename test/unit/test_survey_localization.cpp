@@ -70,6 +70,64 @@ void feedSurvey(const sim::SurveySimulator& simulator, ic::Survey* survey, std::
     }
   }
 }
+
+// The keyframes' remaining pose errors about their mean after the adjustment (the map's internal consistency).
+void printKeyframeSpread(const sim::SurveySimulator& simulator, const ic::Survey& survey,
+                         const std::vector<double>& stamps)
+{
+  const auto corrections = survey.poseCorrections();
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero(), squares = sum;
+  for (size_t k = 0; k < corrections.size(); ++k)
+  {
+    const sim::Pose2d e = simulator.localizationError(std::llround(stamps[k] * 1e9));
+    const Eigen::Vector3d after(e.x + corrections[k].x, e.y + corrections[k].y, e.yaw + corrections[k].yaw);
+    sum += after;
+    squares += after.cwiseAbs2();
+  }
+  const Eigen::Vector3d mean = sum / corrections.size();
+  const Eigen::Vector3d spread = (squares / corrections.size() - mean.cwiseAbs2()).cwiseMax(0.0).cwiseSqrt();
+  std::printf("keyframes after the adjustment, about their mean: x %.1f mm, y %.1f mm, yaw %.3f deg\n",
+              1e3 * spread.x(), 1e3 * spread.y(), spread.z() * 180.0 / M_PI);
+}
+
+// One camera's calibration against the truth and its own sigmas. Loose bounds (seed 13 is among the worst seen:
+// cam_wide 75 mm, 0.87 deg, now refused by the uncertainty check): the goals (10 mm and 0.1 degrees
+// relative, 1.5 times the limit absolute) are not reached on every seed yet.
+void expectCalibrationNearTruth(const std::string& name, const ic::CalibrationFile& truth,
+                                const ic::CameraCalibration& found, const sim::PlacementLimit& limit)
+{
+  const ic::CameraErrors e = ic::compareCameras(truth.camera, found.camera);
+  const ic::CameraUncertainty& u = found.uncertainty;
+  const double rotation_deg = e.rotation_rad * 180.0 / M_PI;
+  std::printf(
+      "%s: focal %+.3f %%, rotation %.4f deg (sigma %.4f, limit %.4f), position %.2f mm (sigma %.2f, "
+      "limit %.2f), lambda %.2f %%\n",
+      name.c_str(), 100.0 * e.focal_relative, rotation_deg, u.rotation_deg, limit.rotation_rad * 180.0 / M_PI,
+      1e3 * e.center_m, 1e3 * u.position_m, 1e3 * limit.position_m, 100.0 * e.lambda_relative);
+  EXPECT_LT(std::abs(e.focal_relative), 0.005) << name;
+  EXPECT_LT(e.lambda_relative, 0.10) << name;
+  EXPECT_LT(e.center_m, 0.1 + 1.5 * limit.position_m) << name;
+  EXPECT_LT(rotation_deg, 1.2) << name;
+  ASSERT_TRUE(u.available) << name;
+  EXPECT_LT(e.center_m, 3.0 * u.position_m) << name;
+  EXPECT_LT(rotation_deg, 3.0 * u.rotation_deg) << name;
+}
+
+// The calibrated cameras' poses relative to each other against the truth's.
+void expectRelativePosesNearTruth(const std::vector<ic::CameraPose>& found, const std::vector<ic::CameraPose>& truths)
+{
+  for (size_t i = 0; i < found.size(); ++i)
+    for (size_t j = i + 1; j < found.size(); ++j)
+    {
+      const auto [p, r] = relativePose(found[i], found[j]);
+      const auto [pt, rt] = relativePose(truths[i], truths[j]);
+      const double position_mm = 1e3 * (p - pt).norm();
+      const double rotation_deg = Eigen::AngleAxisd(r * rt.transpose()).angle() * 180.0 / M_PI;
+      std::printf("relative %zu-%zu: %.2f mm, %.4f deg\n", i, j, position_mm, rotation_deg);
+      EXPECT_LT(position_mm, 200.0) << i << "-" << j;
+      EXPECT_LT(rotation_deg, 1.2) << i << "-" << j;
+    }
+}
 }  // namespace
 
 TEST(SurveyLocalization, AdjustedMapKeepsTheCamerasConsistent)
@@ -100,28 +158,12 @@ TEST(SurveyLocalization, AdjustedMapKeepsTheCamerasConsistent)
       static_cast<unsigned long long>(kSeed), stats.keyframes, survey.mapSegments().size(),
       1e-3 * stats.adjustment_cpu_ms, 1e3 * stats.mean_correction_m, stats.mean_correction_deg);
   EXPECT_LT(stats.adjustment_cpu_ms, 5000.0);  // the goal for a 40 s survey
+  printKeyframeSpread(*simulator, survey, stamps);
 
+  std::vector<sim::LocalizationSample> errors;
+  for (const int64_t t : simulator->xtionStamps())
+    errors.push_back({1e-9 * static_cast<double>(t), simulator->localizationError(t)});
   std::vector<ic::CameraPose> found, truths;
-  const std::vector<sim::LocalizationSample> errors = [&] {
-    std::vector<sim::LocalizationSample> out;
-    for (const int64_t t : simulator->xtionStamps())
-      out.push_back({1e-9 * static_cast<double>(t), simulator->localizationError(t)});
-    return out;
-  }();
-  // The keyframes' remaining pose errors about their mean (the map's internal consistency).
-  const auto corrections = survey.poseCorrections();
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero(), squares = sum;
-  for (size_t k = 0; k < corrections.size(); ++k)
-  {
-    const sim::Pose2d e = simulator->localizationError(std::llround(stamps[k] * 1e9));
-    const Eigen::Vector3d after(e.x + corrections[k].x, e.y + corrections[k].y, e.yaw + corrections[k].yaw);
-    sum += after;
-    squares += after.cwiseAbs2();
-  }
-  const Eigen::Vector3d mean = sum / corrections.size();
-  const Eigen::Vector3d spread = (squares / corrections.size() - mean.cwiseAbs2()).cwiseMax(0.0).cwiseSqrt();
-  std::printf("keyframes after the adjustment, about their mean: x %.1f mm, y %.1f mm, yaw %.3f deg\n",
-              1e3 * spread.x(), 1e3 * spread.y(), spread.z() * 180.0 / M_PI);
   size_t refused = 0;
   for (size_t c = 0; c < simulator->world().fixed_cameras.size(); ++c)
   {
@@ -137,39 +179,12 @@ TEST(SurveyLocalization, AdjustedMapKeepsTheCamerasConsistent)
       continue;
     }
     const ic::CalibrationFile truth = simulator->groundTruth(static_cast<int>(c));
-    const ic::CameraErrors e = ic::compareCameras(truth.camera, result->calibration.camera);
-    const ic::CameraUncertainty& u = result->calibration.uncertainty;
-    const double rotation_deg = e.rotation_rad * 180.0 / M_PI;
-    const auto limit = sim::placementLimit(errors, stamps, pivots, truth.camera.pose().center());
-    std::printf(
-        "%s: focal %+.3f %%, rotation %.4f deg (sigma %.4f, limit %.4f), position %.2f mm (sigma %.2f, "
-        "limit %.2f), lambda %.2f %%\n",
-        name.c_str(), 100.0 * e.focal_relative, rotation_deg, u.rotation_deg, limit.rotation_rad * 180.0 / M_PI,
-        1e3 * e.center_m, 1e3 * u.position_m, 1e3 * limit.position_m, 100.0 * e.lambda_relative);
-    // Loose bounds (seed 13 is among the worst seen: cam_wide 75 mm, 0.87 deg, now refused by the uncertainty
-    // check): the goals (10 mm and 0.1 degrees relative, 1.5 times the limit absolute) are not reached on
-    // every seed yet.
-    EXPECT_LT(std::abs(e.focal_relative), 0.005) << name;
-    EXPECT_LT(e.lambda_relative, 0.10) << name;
-    EXPECT_LT(e.center_m, 0.1 + 1.5 * limit.position_m) << name;
-    EXPECT_LT(rotation_deg, 1.2) << name;
-    ASSERT_TRUE(u.available) << name;
-    EXPECT_LT(e.center_m, 3.0 * u.position_m) << name;
-    EXPECT_LT(rotation_deg, 3.0 * u.rotation_deg) << name;
+    expectCalibrationNearTruth(name, truth, result->calibration,
+                               sim::placementLimit(errors, stamps, pivots, truth.camera.pose().center()));
     found.push_back(result->calibration.camera.pose());
     truths.push_back(truth.camera.pose());
   }
-  for (size_t i = 0; i < found.size(); ++i)
-    for (size_t j = i + 1; j < found.size(); ++j)
-    {
-      const auto [p, r] = relativePose(found[i], found[j]);
-      const auto [pt, rt] = relativePose(truths[i], truths[j]);
-      const double position_mm = 1e3 * (p - pt).norm();
-      const double rotation_deg = Eigen::AngleAxisd(r * rt.transpose()).angle() * 180.0 / M_PI;
-      std::printf("relative %zu-%zu: %.2f mm, %.4f deg\n", i, j, position_mm, rotation_deg);
-      EXPECT_LT(position_mm, 200.0) << i << "-" << j;
-      EXPECT_LT(rotation_deg, 1.2) << i << "-" << j;
-    }
+  expectRelativePosesNearTruth(found, truths);
 }
 
 // The node's path: the adjustment computed apart from the survey (outside its lock) and installed; the latest*()

@@ -60,6 +60,47 @@ void polishLambda(const DltSystem& system, DltSystemSolution* solution)
   solution->residual = current.value;
   solution->null_space_gap = current.gap;
 }
+// The lambdas that start the residual minimisation, from the pencil C11 p = mu C12 p (lambda = -mu), solved by QZ;
+// counts the real roots into *real_candidates and the finite ones into *finite.
+Expected<std::vector<double>> lambdaCandidates(const DltSystem& system, bool polish_lambda, int* real_candidates,
+                                               int* finite)
+{
+  // QZ gives (alpha, beta) pairs; beta ~ 0 is an infinite eigenvalue, which C12's rank deficiency always produces.
+  // mu is unchanged when both matrices are scaled alike; scaled to 1, extreme inputs cannot overflow inside QZ (at
+  // 1e155 px its iterations never ended). Eigen's QZ stops after 40 sweeps per eigenvalue and then reports failure.
+  const double scale = std::max(system.c11().cwiseAbs().maxCoeff(), system.c12().cwiseAbs().maxCoeff());
+  if (!(scale > 0.0) || !(scale < 1e200))
+    return Error(ErrorCode::kInvalidInput, "the linear system is zero or beyond double range; normalise the input");
+  Eigen::GeneralizedEigenSolver<Matrix12d> gep(system.c11() / scale, system.c12() / scale, false);
+  if (gep.info() != Eigen::Success)
+    return Error(ErrorCode::kNoSolution, "the generalised eigenvalue problem did not converge (QZ failed)");
+  const auto alphas = gep.alphas();
+  const auto betas = gep.betas();
+  // lambda = 0 is always a start: when the data fit a pin-hole camera exactly, C11 and C12 share the left null vector
+  // p (C12^T p = B2^T B1 p = 0), the pencil is singular and QZ returns arbitrary values instead of 0. Under noise the
+  // roots near the true lambda can turn into a complex pair; their real part still starts the polish in the right
+  // valley.
+  std::vector<double> candidates = {0.0};
+  for (int i = 0; i < 12; ++i)
+  {
+    const double beta = betas(i);
+    const std::complex<double> alpha = alphas(i);
+    if (std::abs(beta) <= 1e-12 * std::max(std::abs(alpha), 1e-300))
+      continue;  // infinite
+    ++*finite;
+    const std::complex<double> mu = alpha / beta;
+    const double lambda = -mu.real();
+    // In normalised coordinates (mean radius sqrt(2)) |lambda| beyond 1e3 would fold the image onto itself.
+    if (!std::isfinite(lambda) || std::abs(lambda) > 1e3)
+      continue;
+    if (std::abs(mu.imag()) <= 1e-8 * std::max(1.0, std::abs(mu.real())))
+      ++*real_candidates;
+    else if (!polish_lambda)
+      continue;  // a complex root is only a starting point for the polish
+    candidates.push_back(lambda);
+  }
+  return candidates;
+}
 }  // namespace
 
 Expected<DltSystemSolution> solveDltSystem(const DltSystem& system, bool estimate_lambda, bool polish_lambda)
@@ -76,44 +117,10 @@ Expected<DltSystemSolution> solveDltSystem(const DltSystem& system, bool estimat
     best.null_space_gap = e.gap;
     return best;
   }
-
-  // C11 p = mu C12 p with lambda = -mu. QZ gives (alpha, beta) pairs; beta ~ 0 is an infinite eigenvalue, which C12's
-  // rank deficiency always produces.
-  // mu is unchanged when both matrices are scaled alike; scaled to 1, extreme inputs cannot overflow inside QZ (at
-  // 1e155 px its iterations never ended). Eigen's QZ stops after 40 sweeps per eigenvalue and then reports failure.
-  const double scale = std::max(system.c11().cwiseAbs().maxCoeff(), system.c12().cwiseAbs().maxCoeff());
-  if (!(scale > 0.0) || !(scale < 1e200))
-    return Error(ErrorCode::kInvalidInput, "the linear system is zero or beyond double range; normalise the input");
-  Eigen::GeneralizedEigenSolver<Matrix12d> gep(system.c11() / scale, system.c12() / scale, false);
-  if (gep.info() != Eigen::Success)
-    return Error(ErrorCode::kNoSolution, "the generalised eigenvalue problem did not converge (QZ failed)");
-  const auto alphas = gep.alphas();
-  const auto betas = gep.betas();
-
-  // Starting points for the residual minimisation. lambda = 0 is always one: when the data fit a pin-hole camera
-  // exactly, C11 and C12 share the left null vector p (C12^T p = B2^T B1 p = 0), the pencil is singular and QZ
-  // returns arbitrary values instead of 0. Under noise the roots near the true lambda can turn into a complex pair;
-  // their real part still starts the polish in the right valley.
-  std::vector<double> candidates = {0.0};
   int finite = 0;
-  for (int i = 0; i < 12; ++i)
-  {
-    const double beta = betas(i);
-    const std::complex<double> alpha = alphas(i);
-    if (std::abs(beta) <= 1e-12 * std::max(std::abs(alpha), 1e-300))
-      continue;  // infinite
-    ++finite;
-    const std::complex<double> mu = alpha / beta;
-    const double lambda = -mu.real();
-    // In normalised coordinates (mean radius sqrt(2)) |lambda| beyond 1e3 would fold the image onto itself.
-    if (!std::isfinite(lambda) || std::abs(lambda) > 1e3)
-      continue;
-    if (std::abs(mu.imag()) <= 1e-8 * std::max(1.0, std::abs(mu.real())))
-      ++best.real_candidates;
-    else if (!polish_lambda)
-      continue;  // a complex root is only a starting point for the polish
-    candidates.push_back(lambda);
-  }
+  const auto candidates = lambdaCandidates(system, polish_lambda, &best.real_candidates, &finite);
+  if (!candidates)
+    return candidates.error();
   // Without a finite (or, unpolished, a real) root only an exact pin-hole fit (the singular pencil above) is an answer.
   if (finite == 0 || (!polish_lambda && best.real_candidates == 0))
   {
@@ -124,7 +131,7 @@ Expected<DltSystemSolution> solveDltSystem(const DltSystem& system, bool estimat
                    "model; calibrate without distortion or check the correspondences");
   }
   best.residual = std::numeric_limits<double>::infinity();
-  for (double lambda : candidates)
+  for (double lambda : *candidates)
   {
     const SmallestEigen e = smallestEigen(system.normalMatrix(lambda));
     if (e.value < best.residual)
@@ -137,9 +144,9 @@ Expected<DltSystemSolution> solveDltSystem(const DltSystem& system, bool estimat
   }
   if (polish_lambda)
   {
-    const int candidates = best.real_candidates;
+    const int real_candidates = best.real_candidates;
     polishLambda(system, &best);
-    best.real_candidates = candidates;
+    best.real_candidates = real_candidates;
   }
   return best;
 }
