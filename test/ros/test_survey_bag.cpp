@@ -146,6 +146,79 @@ TEST_F(SurveyBag, SameSeedSameBag)
                                               "/fixed/cam_east/image_raw", "/fixed/cam_wide/image_raw"}));
 }
 
+namespace
+{
+// An image: the Xtion's as openni2_launch publishes them, a fixed camera's as a network camera driver does.
+void expectImageLike(const sensor_msgs::Image& image, const std::string& topic, const sim::World& world)
+{
+  if (topic == "/camera/rgb/image_raw" || topic == "/camera/depth_registered/image_raw")
+  {
+    EXPECT_EQ(image.header.frame_id, "camera_rgb_optical_frame");
+    EXPECT_EQ(image.width, 640u);
+    EXPECT_EQ(image.height, 480u);
+    EXPECT_EQ(image.encoding, topic == "/camera/rgb/image_raw" ? "rgb8" : "16UC1");
+    EXPECT_EQ(image.step, topic == "/camera/rgb/image_raw" ? 1920u : 1280u);
+    return;
+  }
+  const std::string name = topic.substr(7, topic.size() - 7 - 10);  // /fixed/<name>/image_raw
+  const auto it = std::find_if(world.fixed_cameras.begin(), world.fixed_cameras.end(),
+                               [&](const sim::SimulatedFixedCamera& c) { return c.name == name; });
+  ASSERT_NE(it, world.fixed_cameras.end()) << topic;
+  EXPECT_EQ(image.header.frame_id, name + "_optical_frame");
+  EXPECT_EQ(static_cast<int>(image.width), it->width);
+  EXPECT_EQ(static_cast<int>(image.height), it->height);
+  EXPECT_EQ(image.encoding, "rgb8");
+}
+
+// A camera_info: the Xtion's factory intrinsics, or only the nominal size for an uncalibrated network camera.
+void expectCameraInfoLike(const sensor_msgs::CameraInfo& info, const std::string& topic, const sim::World& world)
+{
+  if (topic.rfind("/camera/", 0) == 0)
+  {
+    EXPECT_EQ(info.header.frame_id, "camera_rgb_optical_frame");
+    EXPECT_EQ(info.distortion_model, "plumb_bob");
+    EXPECT_EQ(info.D, std::vector<double>(5, 0.0));
+    EXPECT_DOUBLE_EQ(info.K[0], world.xtion.intrinsics.fx);
+    EXPECT_DOUBLE_EQ(info.K[4], world.xtion.intrinsics.fy);
+    EXPECT_DOUBLE_EQ(info.K[2], 319.5);
+    EXPECT_DOUBLE_EQ(info.P[0], world.xtion.intrinsics.fx);
+    return;
+  }
+  EXPECT_GT(info.width, 0u);
+  EXPECT_GT(info.height, 0u);
+  EXPECT_TRUE(info.distortion_model.empty());
+  EXPECT_TRUE(info.D.empty());
+  for (double k : info.K)
+    EXPECT_EQ(k, 0.0);
+  for (double p : info.P)
+    EXPECT_EQ(p, 0.0);
+}
+
+// /tf_static: the Xtion's frames, latched; /tf: map -> odom -> base_link.
+void expectTransformsLike(const rosbag::MessageInstance& m)
+{
+  const auto tf = m.instantiate<tf2_msgs::TFMessage>();
+  ASSERT_TRUE(tf);
+  if (m.getTopic() == "/tf_static")
+  {
+    std::set<std::string> pairs;
+    for (const auto& t : tf->transforms)
+      pairs.insert(t.header.frame_id + ">" + t.child_frame_id);
+    EXPECT_EQ(pairs,
+              (std::set<std::string>{"base_link>camera_link", "camera_link>camera_rgb_frame",
+                                     "camera_rgb_frame>camera_rgb_optical_frame", "camera_link>camera_depth_frame",
+                                     "camera_depth_frame>camera_depth_optical_frame"}));
+    EXPECT_EQ(m.getConnectionHeader()->at("latching"), "1");
+    return;
+  }
+  ASSERT_EQ(tf->transforms.size(), 2u);
+  EXPECT_EQ(tf->transforms[0].header.frame_id, "map");
+  EXPECT_EQ(tf->transforms[0].child_frame_id, "odom");
+  EXPECT_EQ(tf->transforms[1].header.frame_id, "odom");
+  EXPECT_EQ(tf->transforms[1].child_frame_id, "base_link");
+}
+}  // namespace
+
 TEST_F(SurveyBag, MessagesLookLikeOpenni2AndNetworkCameras)
 {
   const auto world = sim::loadWorldFile(kWorld);
@@ -159,75 +232,15 @@ TEST_F(SurveyBag, MessagesLookLikeOpenni2AndNetworkCameras)
     if (const auto image = m.instantiate<sensor_msgs::Image>())
     {
       EXPECT_EQ(image->header.stamp, m.getTime());
-      if (topic == "/camera/rgb/image_raw" || topic == "/camera/depth_registered/image_raw")
-      {
-        EXPECT_EQ(image->header.frame_id, "camera_rgb_optical_frame");
-        EXPECT_EQ(image->width, 640u);
-        EXPECT_EQ(image->height, 480u);
-        EXPECT_EQ(image->encoding, topic == "/camera/rgb/image_raw" ? "rgb8" : "16UC1");
-        EXPECT_EQ(image->step, topic == "/camera/rgb/image_raw" ? 1920u : 1280u);
-      }
-      else
-      {
-        const std::string name = topic.substr(7, topic.size() - 7 - 10);  // /fixed/<name>/image_raw
-        const auto it = std::find_if(world->fixed_cameras.begin(), world->fixed_cameras.end(),
-                                     [&](const sim::SimulatedFixedCamera& c) { return c.name == name; });
-        ASSERT_NE(it, world->fixed_cameras.end()) << topic;
-        EXPECT_EQ(image->header.frame_id, name + "_optical_frame");
-        EXPECT_EQ(static_cast<int>(image->width), it->width);
-        EXPECT_EQ(static_cast<int>(image->height), it->height);
-        EXPECT_EQ(image->encoding, "rgb8");
-      }
+      expectImageLike(*image, topic, *world);
     }
     if (const auto info = m.instantiate<sensor_msgs::CameraInfo>())
     {
       EXPECT_EQ(info->header.stamp, m.getTime());
-      if (topic.rfind("/camera/", 0) == 0)
-      {
-        EXPECT_EQ(info->header.frame_id, "camera_rgb_optical_frame");
-        EXPECT_EQ(info->distortion_model, "plumb_bob");
-        EXPECT_EQ(info->D, std::vector<double>(5, 0.0));
-        EXPECT_DOUBLE_EQ(info->K[0], world->xtion.intrinsics.fx);
-        EXPECT_DOUBLE_EQ(info->K[4], world->xtion.intrinsics.fy);
-        EXPECT_DOUBLE_EQ(info->K[2], 319.5);
-        EXPECT_DOUBLE_EQ(info->P[0], world->xtion.intrinsics.fx);
-      }
-      else
-      {
-        // Only the nominal size: an uncalibrated network camera.
-        EXPECT_GT(info->width, 0u);
-        EXPECT_GT(info->height, 0u);
-        EXPECT_TRUE(info->distortion_model.empty());
-        EXPECT_TRUE(info->D.empty());
-        for (double k : info->K)
-          EXPECT_EQ(k, 0.0);
-        for (double p : info->P)
-          EXPECT_EQ(p, 0.0);
-      }
+      expectCameraInfoLike(*info, topic, *world);
     }
-    if (topic == "/tf_static")
-    {
-      const auto tf = m.instantiate<tf2_msgs::TFMessage>();
-      ASSERT_TRUE(tf);
-      std::set<std::string> pairs;
-      for (const auto& t : tf->transforms)
-        pairs.insert(t.header.frame_id + ">" + t.child_frame_id);
-      EXPECT_EQ(pairs,
-                (std::set<std::string>{"base_link>camera_link", "camera_link>camera_rgb_frame",
-                                       "camera_rgb_frame>camera_rgb_optical_frame", "camera_link>camera_depth_frame",
-                                       "camera_depth_frame>camera_depth_optical_frame"}));
-      EXPECT_EQ(m.getConnectionHeader()->at("latching"), "1");
-    }
-    if (topic == "/tf")
-    {
-      const auto tf = m.instantiate<tf2_msgs::TFMessage>();
-      ASSERT_TRUE(tf);
-      ASSERT_EQ(tf->transforms.size(), 2u);
-      EXPECT_EQ(tf->transforms[0].header.frame_id, "map");
-      EXPECT_EQ(tf->transforms[0].child_frame_id, "odom");
-      EXPECT_EQ(tf->transforms[1].header.frame_id, "odom");
-      EXPECT_EQ(tf->transforms[1].child_frame_id, "base_link");
-    }
+    if (topic == "/tf_static" || topic == "/tf")
+      expectTransformsLike(m);
   }
   // 3 s: RGB-D at 5 Hz, tf at 20 Hz (0 .. 3 s inclusive), fixed cameras at 1 Hz.
   EXPECT_EQ(count["/camera/rgb/image_raw"], 15u);

@@ -281,6 +281,102 @@ TEST(Renderer, AntiAliasingGivesCoverage)
   }
 }
 
+namespace
+{
+// Central-difference gradient magnitude of an RGB image's grey values.
+cv::Mat gradientMagnitude(const cv::Mat& rgb)
+{
+  cv::Mat grey, g;
+  cv::cvtColor(rgb, grey, cv::COLOR_RGB2GRAY);
+  grey.convertTo(g, CV_32F);
+  cv::Mat mag(g.size(), CV_32F, cv::Scalar(0));
+  for (int y = 1; y + 1 < g.rows; ++y)
+    for (int x = 1; x + 1 < g.cols; ++x)
+    {
+      const float gx = 0.5f * (g.at<float>(y, x + 1) - g.at<float>(y, x - 1));
+      const float gy = 0.5f * (g.at<float>(y + 1, x) - g.at<float>(y - 1, x));
+      mag.at<float>(y, x) = std::sqrt(gx * gx + gy * gy);
+    }
+  return mag;
+}
+
+// Whether the projected edge point p (tangent t, normal n) is a clean edge of the view (one region on each side
+// along 3 px, away from junctions) where the camera sees the 3D point at depth z (not hidden behind something).
+bool cleanVisibleEdge(const sim::RenderedView& view, const Eigen::Vector2d& p, const Eigen::Vector2d& t,
+                      const Eigen::Vector2d& n, double z)
+{
+  auto key = [&](const Eigen::Vector2d& q) {
+    return view.region.at<int>(static_cast<int>(std::lround(q.y())), static_cast<int>(std::lround(q.x())));
+  };
+  bool clean = true;
+  const int a = key(p - 2.5 * n), b = key(p + 2.5 * n);
+  clean &= a != b;
+  for (const double s : {-2.5, 0.0, 2.5})
+    for (const double d : {1.5, 2.5, 3.5})
+      clean &= key(p + s * t - d * n) == a && key(p + s * t + d * n) == b;
+  if (!clean)
+    return false;
+  bool visible = false;
+  for (const double d : {-1.5, 0.0, 1.5})
+  {
+    const Eigen::Vector2d q = p + d * n;
+    const float zr = view.depth.at<float>(static_cast<int>(std::lround(q.y())), static_cast<int>(std::lround(q.x())));
+    visible |= std::abs(zr - z) < 0.01 * z;
+  }
+  return visible;
+}
+
+// The gradient maximum along the normal n through p, refined by a parabola: its offset from p (px).
+double gradientMaximumOffset(const cv::Mat& mag, const Eigen::Vector2d& p, const Eigen::Vector2d& n)
+{
+  double best = -1.0;
+  double best_s = 0.0;
+  for (double s = -2.0; s <= 2.0; s += 0.25)
+  {
+    const float v = bilinear(mag, p.x() + s * n.x(), p.y() + s * n.y());
+    if (v > best)
+    {
+      best = v;
+      best_s = s;
+    }
+  }
+  const double gm = bilinear(mag, p.x() + (best_s - 1) * n.x(), p.y() + (best_s - 1) * n.y());
+  const double gp = bilinear(mag, p.x() + (best_s + 1) * n.x(), p.y() + (best_s + 1) * n.y());
+  const double den = gm - 2 * best + gp;
+  return den < 0 ? best_s + 0.5 * (gm - gp) / den : best_s;
+}
+
+// |gradient maximum - projected true edge| at points along every true edge that the camera sees cleanly.
+std::vector<double> edgeOffsets(const sim::SimulatedFixedCamera& fc, const std::vector<sim::TrueEdge>& edges,
+                                const sim::RenderedView& view, const cv::Mat& mag)
+{
+  const ic::CameraModel& model = fc.camera;
+  std::vector<double> offsets;
+  for (const sim::TrueEdge& e : edges)
+  {
+    const auto pa = model.project(e.start), pb = model.project(e.end);
+    const double length = pa && pb ? (*pa - *pb).norm() : 200.0;
+    const int samples = static_cast<int>(std::clamp(length / 4.0, 2.0, 400.0));
+    const Eigen::Vector3d dir = (e.end - e.start).normalized();
+    for (int i = 1; i < samples; ++i)
+    {
+      const Eigen::Vector3d X = e.start + (e.end - e.start) * (static_cast<double>(i) / samples);
+      const auto p = model.project(X);
+      const auto p1 = model.project(X + 0.005 * dir), p0 = model.project(X - 0.005 * dir);
+      if (!p || !p1 || !p0)
+        continue;
+      if (p->x() < 8 || p->y() < 8 || p->x() > fc.width - 9 || p->y() > fc.height - 9)
+        continue;
+      const Eigen::Vector2d t = (*p1 - *p0).normalized();
+      const Eigen::Vector2d n(-t.y(), t.x());
+      if (cleanVisibleEdge(view, *p, t, n, model.toCamera(X).z()))
+        offsets.push_back(std::abs(gradientMaximumOffset(mag, *p, n)));
+    }
+  }
+  return offsets;
+}
+}  // namespace
+
 // The world's true 3D edges projected into each fixed camera with the true K, lambda and pose fall on the image's
 // gradient maxima (median under 0.5 px), in the clean image and in a noisy frame.
 TEST(FixedCameras, TrueEdgesFallOnGradientMaxima)
@@ -292,7 +388,6 @@ TEST(FixedCameras, TrueEdgesFallOnGradientMaxima)
   for (size_t c = 0; c < world.fixed_cameras.size(); ++c)
   {
     const sim::SimulatedFixedCamera& fc = world.fixed_cameras[c];
-    const ic::CameraModel& model = fc.camera;
     sim::RenderOptions ro;
     ro.supersampling = fc.supersampling;
     const sim::ViewCamera cam = survey->fixedCamera(static_cast<int>(c));
@@ -300,78 +395,8 @@ TEST(FixedCameras, TrueEdgesFallOnGradientMaxima)
     const cv::Mat noisy = survey->fixedFrame(static_cast<int>(c), 0).image;
     for (const bool with_noise : {false, true})
     {
-      cv::Mat grey, g;
-      cv::cvtColor(with_noise ? noisy : view.rgb, grey, cv::COLOR_RGB2GRAY);
-      grey.convertTo(g, CV_32F);
-      cv::Mat mag(g.size(), CV_32F, cv::Scalar(0));
-      for (int y = 1; y + 1 < g.rows; ++y)
-        for (int x = 1; x + 1 < g.cols; ++x)
-        {
-          const float gx = 0.5f * (g.at<float>(y, x + 1) - g.at<float>(y, x - 1));
-          const float gy = 0.5f * (g.at<float>(y + 1, x) - g.at<float>(y - 1, x));
-          mag.at<float>(y, x) = std::sqrt(gx * gx + gy * gy);
-        }
-      std::vector<double> offsets;
-      for (const sim::TrueEdge& e : edges)
-      {
-        const auto pa = model.project(e.start), pb = model.project(e.end);
-        const double length = pa && pb ? (*pa - *pb).norm() : 200.0;
-        const int samples = static_cast<int>(std::clamp(length / 4.0, 2.0, 400.0));
-        const Eigen::Vector3d dir = (e.end - e.start).normalized();
-        for (int i = 1; i < samples; ++i)
-        {
-          const Eigen::Vector3d X = e.start + (e.end - e.start) * (static_cast<double>(i) / samples);
-          const auto p = model.project(X);
-          const auto p1 = model.project(X + 0.005 * dir), p0 = model.project(X - 0.005 * dir);
-          if (!p || !p1 || !p0)
-            continue;
-          if (p->x() < 8 || p->y() < 8 || p->x() > fc.width - 9 || p->y() > fc.height - 9)
-            continue;
-          const Eigen::Vector2d t = (*p1 - *p0).normalized();
-          const Eigen::Vector2d n(-t.y(), t.x());
-          auto key = [&](const Eigen::Vector2d& q) {
-            return view.region.at<int>(static_cast<int>(std::lround(q.y())), static_cast<int>(std::lround(q.x())));
-          };
-          // A clean edge: one region on each side along 3 px, away from junctions.
-          bool clean = true;
-          const int a = key(*p - 2.5 * n), b = key(*p + 2.5 * n);
-          clean &= a != b;
-          for (const double s : {-2.5, 0.0, 2.5})
-            for (const double d : {1.5, 2.5, 3.5})
-              clean &= key(*p + s * t - d * n) == a && key(*p + s * t + d * n) == b;
-          if (!clean)
-            continue;
-          // The 3D point is what the camera sees there (not hidden behind something).
-          const double z = model.toCamera(X).z();
-          bool visible = false;
-          for (const double d : {-1.5, 0.0, 1.5})
-          {
-            const Eigen::Vector2d q = *p + d * n;
-            const float zr =
-                view.depth.at<float>(static_cast<int>(std::lround(q.y())), static_cast<int>(std::lround(q.x())));
-            visible |= std::abs(zr - z) < 0.01 * z;
-          }
-          if (!visible)
-            continue;
-          // Gradient maximum along the normal, refined by a parabola.
-          double best = -1.0;
-          double best_s = 0.0;
-          for (double s = -2.0; s <= 2.0; s += 0.25)
-          {
-            const float v = bilinear(mag, p->x() + s * n.x(), p->y() + s * n.y());
-            if (v > best)
-            {
-              best = v;
-              best_s = s;
-            }
-          }
-          const double gm = bilinear(mag, p->x() + (best_s - 1) * n.x(), p->y() + (best_s - 1) * n.y());
-          const double gp = bilinear(mag, p->x() + (best_s + 1) * n.x(), p->y() + (best_s + 1) * n.y());
-          const double den = gm - 2 * best + gp;
-          const double refined = den < 0 ? best_s + 0.5 * (gm - gp) / den : best_s;
-          offsets.push_back(std::abs(refined));
-        }
-      }
+      const std::vector<double> offsets =
+          edgeOffsets(fc, edges, view, gradientMagnitude(with_noise ? noisy : view.rgb));
       const double med = median(offsets);
       std::printf(
           "%s %s: %zu edge points, |gradient maximum - projected true edge| median %.3f px, 90th percentile "

@@ -84,17 +84,21 @@ TEST(WorldFile, MinimalWorldParses)
   EXPECT_LT((*target - Eigen::Vector2d(319.5, 239.5)).norm(), 1e-9);
 }
 
-TEST(WorldFile, BadFilesAreRefusedWithTheProblemNamed)
+namespace
 {
-  struct Case
-  {
-    std::string name;
-    std::string text;
-    ic::ErrorCode code;
-    std::vector<std::string> words;  // all must appear in the message
-  };
+struct BadWorldCase
+{
+  std::string name;
+  std::string text;
+  ic::ErrorCode code;
+  std::vector<std::string> words;  // all must appear in the message
+};
+
+// The minimal world with one mistake each, the error code due and words its message must hold.
+std::vector<BadWorldCase> badWorldCases()
+{
   const std::string w = kMinimalWorld;
-  const std::vector<Case> cases = {
+  return {
       {"missing focal length",
        replaced(w, "    fx: 500\n", ""),
        ic::ErrorCode::kParseError,
@@ -154,7 +158,12 @@ TEST(WorldFile, BadFilesAreRefusedWithTheProblemNamed)
        {"texture.color", "0..255"}},
       {"not YAML", "surfaces: [", ic::ErrorCode::kParseError, {"not valid YAML"}},
   };
-  for (const Case& c : cases)
+}
+}  // namespace
+
+TEST(WorldFile, BadFilesAreRefusedWithTheProblemNamed)
+{
+  for (const BadWorldCase& c : badWorldCases())
   {
     const auto world = sim::parseWorld(c.text, "bad.yaml");
     ASSERT_FALSE(world) << c.name;
