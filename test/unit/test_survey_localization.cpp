@@ -33,6 +33,31 @@ std::pair<Eigen::Vector3d, Eigen::Matrix3d> relativePose(const ic::CameraPose& a
   return {a.rotation * (b.center() - a.center()), a.rotation * b.rotation.transpose()};
 }
 
+// The waiting room surveyed for duration_s by a robot whose localiser errs by 2 cm / 0.5 deg (seed kSeed).
+ic::Expected<sim::SurveySimulator> localizedSimulator(double duration_s)
+{
+  auto world = sim::loadWorldFile(kSource + "/config/worlds/waiting_room.yaml");
+  if (!world)
+    return world.error();
+  sim::SimulationOptions options;
+  options.seed = kSeed;
+  options.duration_s = duration_s;
+  options.localization_sigma_m = 0.02;
+  options.localization_sigma_deg = 0.5;
+  return sim::SurveySimulator::create(*world, options);
+}
+
+// config/cameras.yaml's cameras (none, with a test failure, when it cannot be read).
+std::vector<ic::FixedCameraConfig> defaultCameras()
+{
+  const auto configs = ic::loadCameraConfig(kSource + "/config/cameras.yaml");
+  EXPECT_TRUE(configs) << configs.error().describe();
+  std::vector<ic::FixedCameraConfig> cameras;
+  for (const auto& entry : configs ? *configs : std::vector<ic::CameraConfigEntry>{})
+    cameras.push_back(entry.camera);
+  return cameras;
+}
+
 // Feeds the whole survey: RGB-D frames posed as the erring localiser says, with odometry (exact: odom = map
 // without drift), and the fixed cameras' images.
 void feedSurvey(const sim::SurveySimulator& simulator, ic::Survey* survey, std::vector<double>* stamps,
@@ -132,20 +157,10 @@ void expectRelativePosesNearTruth(const std::vector<ic::CameraPose>& found, cons
 
 TEST(SurveyLocalization, AdjustedMapKeepsTheCamerasConsistent)
 {
-  auto world = sim::loadWorldFile(kSource + "/config/worlds/waiting_room.yaml");
-  ASSERT_TRUE(world) << world.error().describe();
-  const auto configs = ic::loadCameraConfig(kSource + "/config/cameras.yaml");
-  ASSERT_TRUE(configs) << configs.error().describe();
-  sim::SimulationOptions sim_options;
-  sim_options.seed = kSeed;
-  sim_options.localization_sigma_m = 0.02;
-  sim_options.localization_sigma_deg = 0.5;
-  auto simulator = sim::SurveySimulator::create(*world, sim_options);
+  auto simulator = localizedSimulator(40.0);
   ASSERT_TRUE(simulator) << simulator.error().describe();
-
-  std::vector<ic::FixedCameraConfig> cameras;
-  for (const auto& entry : *configs)
-    cameras.push_back(entry.camera);
+  const std::vector<ic::FixedCameraConfig> cameras = defaultCameras();
+  ASSERT_FALSE(cameras.empty());
   ic::Survey survey(cameras);
   std::vector<double> stamps;
   std::vector<Eigen::Vector3d> pivots;
@@ -191,20 +206,10 @@ TEST(SurveyLocalization, AdjustedMapKeepsTheCamerasConsistent)
 // accessors never adjust; an adjustment from before a reset is not installed.
 TEST(SurveyLocalization, AdjustmentComputedApartIsInstalledUnlessReset)
 {
-  auto world = sim::loadWorldFile(kSource + "/config/worlds/waiting_room.yaml");
-  ASSERT_TRUE(world) << world.error().describe();
-  const auto configs = ic::loadCameraConfig(kSource + "/config/cameras.yaml");
-  ASSERT_TRUE(configs) << configs.error().describe();
-  sim::SimulationOptions sim_options;
-  sim_options.seed = kSeed;
-  sim_options.duration_s = 10.0;
-  sim_options.localization_sigma_m = 0.02;
-  sim_options.localization_sigma_deg = 0.5;
-  auto simulator = sim::SurveySimulator::create(*world, sim_options);
+  auto simulator = localizedSimulator(10.0);
   ASSERT_TRUE(simulator) << simulator.error().describe();
-  std::vector<ic::FixedCameraConfig> cameras;
-  for (const auto& entry : *configs)
-    cameras.push_back(entry.camera);
+  const std::vector<ic::FixedCameraConfig> cameras = defaultCameras();
+  ASSERT_FALSE(cameras.empty());
   ic::Survey survey(cameras);
   std::vector<double> stamps;
   std::vector<Eigen::Vector3d> pivots;
