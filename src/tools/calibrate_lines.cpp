@@ -1,4 +1,5 @@
 // calibrate_lines: offline calibration of one camera from a correspondence file (3D lines and their images).
+#include <optional>
 #include <filesystem>
 #include <iostream>
 
@@ -110,6 +111,45 @@ std::string parseOptions(ic::CommandLine& cli, ic::CalibrationOptions* options)
     return "--image-sigma and --world-sigma must not be negative";
   return "";
 }
+
+// The correspondences (mirrored when asked) and the --truth calibration; false (after saying why) when unreadable.
+bool loadInputs(const ic::CommandLine& cli, std::optional<ic::CorrespondenceSet>* data,
+                std::optional<ic::CalibrationFile>* truth)
+{
+  auto loaded = ic::loadCorrespondenceFile(cli.positional()[0]);
+  if (!loaded)
+  {
+    std::cerr << "calibrate_lines: " << loaded.error().describe() << "\n";
+    return false;
+  }
+  if (cli.has("mirror-world"))
+    ic::mirrorWorld(&*loaded, *ic::parseMirrorAxis(cli.value("mirror-world")));
+  *data = std::move(*loaded);
+  if (!cli.has("truth"))
+    return true;
+  auto t = ic::loadCalibrationFile(cli.value("truth"));
+  if (!t)
+  {
+    std::cerr << "calibrate_lines: --truth: " << t.error().describe() << "\n";
+    return false;
+  }
+  *truth = std::move(*t);
+  return true;
+}
+
+void printResult(const ic::CommandLine& cli, const ic::CorrespondenceSet& data, const ic::CameraCalibration& result,
+                 const std::optional<ic::CalibrationFile>& truth, const std::string& output)
+{
+  std::cout << "camera " << (data.camera_name.empty() ? "(unnamed)" : data.camera_name) << ", " << data.image_width
+            << "x" << data.image_height << "\n"
+            << ic::describeCalibration(result);
+  if (cli.has("mirror-world"))
+    std::cout << "world frame    mirrored (" << cli.value("mirror-world") << " -> -" << cli.value("mirror-world")
+              << "): the pose is in that right-handed frame\n";
+  if (truth)
+    printComparison(truth->camera, result.camera);
+  std::cout << "written to " << output << "\n";
+}
 }  // namespace
 
 int main(int argc, char** argv)
@@ -146,26 +186,10 @@ int main(int argc, char** argv)
     std::cerr << "calibrate_lines: --output must name a file (got '" << output << "')\n";
     return 2;
   }
-  auto data = ic::loadCorrespondenceFile(cli.positional()[0]);
-  if (!data)
-  {
-    std::cerr << "calibrate_lines: " << data.error().describe() << "\n";
-    return 2;
-  }
-  if (cli.has("mirror-world"))
-    ic::mirrorWorld(&*data, *ic::parseMirrorAxis(cli.value("mirror-world")));
+  std::optional<ic::CorrespondenceSet> data;
   std::optional<ic::CalibrationFile> truth;
-  if (cli.has("truth"))
-  {
-    auto t = ic::loadCalibrationFile(cli.value("truth"));
-    if (!t)
-    {
-      std::cerr << "calibrate_lines: --truth: " << t.error().describe() << "\n";
-      return 2;
-    }
-    truth = *t;
-  }
-
+  if (!loadInputs(cli, &data, &truth))
+    return 2;
   const auto result = ic::calibrateCamera(*data, options);
   if (!result)
   {
@@ -180,16 +204,6 @@ int main(int argc, char** argv)
     return 1;
   }
   if (!cli.flag("quiet"))
-  {
-    std::cout << "camera " << (data->camera_name.empty() ? "(unnamed)" : data->camera_name) << ", " << data->image_width
-              << "x" << data->image_height << "\n"
-              << ic::describeCalibration(*result);
-    if (cli.has("mirror-world"))
-      std::cout << "world frame    mirrored (" << cli.value("mirror-world") << " -> -" << cli.value("mirror-world")
-                << "): the pose is in that right-handed frame\n";
-    if (truth)
-      printComparison(truth->camera, result->camera);
-    std::cout << "written to " << output << "\n";
-  }
+    printResult(cli, *data, *result, truth, output);
   return 0;
 }
