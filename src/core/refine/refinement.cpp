@@ -14,6 +14,7 @@
 #include <Eigen/Geometry>
 
 #include "insitu_calibration/metrics.h"
+#include "insitu_calibration/robust_statistics.h"
 #include "insitu_calibration/refine/noise_model.h"
 #include "refine/cost_functions.h"
 #include "refine/refinement_uncertainty.h"
@@ -120,14 +121,6 @@ std::unique_ptr<ceres::LossFunction> makeLoss(RobustLoss loss, double scale)
       break;
   }
   return nullptr;
-}
-
-double rmsOf(const std::vector<double>& residuals)
-{
-  double sum = 0.0;
-  for (double r : residuals)
-    sum += r * r;
-  return residuals.empty() ? 0.0 : std::sqrt(sum / residuals.size());
 }
 
 Projector makeProjector(const CorrespondenceSet& data, const CameraModel& initial, const RefinementOptions& options)
@@ -508,9 +501,8 @@ bool leaveOutImagePointOutliers(RefinementState& s)
         all.push_back(distance[i][v]);
   if (all.empty())
     return false;
-  std::nth_element(all.begin(), all.begin() + all.size() / 2, all.end());
   const double threshold =
-      std::max(s.options.min_vertex_outlier_px, s.options.vertex_outlier_sigmas * 1.4826 * all[all.size() / 2]);
+      std::max(s.options.min_vertex_outlier_px, s.options.vertex_outlier_sigmas * robustSigma(std::move(all)));
   bool changed = false;
   for (size_t i = 0; i < distance.size(); ++i)
   {
@@ -667,7 +659,7 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
   {
     // The starting error, with the pairing of points and parts the initial camera gives.
     const std::vector<double> r = selectedLineResiduals(s, s.camera());
-    result.initial_rms_px = rmsOf(r);
+    result.initial_rms_px = rootMeanSquare(r);
     result.loss_scale_px = options.loss_scale_px;
     if (!(result.loss_scale_px > 0.0))
       result.loss_scale_px = std::max(0.5, 2.5 * summarize(r).median_px / 0.6745);
@@ -696,7 +688,7 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
   result.converged = summary.termination_type == ceres::CONVERGENCE;
   result.termination = summary.message;
   result.residuals = built->residual_count;
-  result.final_rms_px = rmsOf(selectedLineResiduals(s, result.camera));
+  result.final_rms_px = rootMeanSquare(selectedLineResiduals(s, result.camera));
   analyseSolution(s, *built, &result);
   return result;
 }
