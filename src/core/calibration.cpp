@@ -120,6 +120,42 @@ double noiseThreshold(const CameraModel& camera, const CorrespondenceSet& data, 
   return std::isfinite(median) ? options.noise_threshold_factor * median : 0.0;
 }
 
+// Per line, how much wider than the inlier threshold its own test is (at least 1). Under the joint error model the
+// world points are noisy by sigma_w (the line's own or the estimated one), which the camera sees as f sigma_w / depth
+// pixels on top of the image noise: the error a true line shows grows near the camera, where a threshold set by the
+// typical line drops true lines (issue 13). The factor is the line's expected error over the median line's.
+std::vector<double> lineThresholdFactors(const CameraModel& camera, const CorrespondenceSet& data,
+                                         const CalibrationOptions& options,
+                                         const std::optional<RefinementResult>& refinement)
+{
+  std::vector<double> factors(data.lines.size(), 1.0);
+  if (!refinement || options.refinement.line_residual != LineResidual::kJoint)
+    return factors;
+  const double f = 0.5 * (camera.intrinsics().fx + camera.intrinsics().fy);
+  const double image2 = refinement->image_sigma_px * refinement->image_sigma_px;
+  std::vector<double> expected(data.lines.size(), 0.0);
+  for (size_t i = 0; i < data.lines.size(); ++i)
+  {
+    const auto& line = data.lines[i];
+    const double sigma = line.world_point_sigma_m >= 0.0 ? line.world_point_sigma_m : refinement->world_sigma_m;
+    double world2 = 0.0;
+    for (const auto& x : line.world)
+    {
+      const double depth = (camera.pose().rotation * x + camera.pose().translation).z();
+      if (depth > 0.0)
+        world2 += std::pow(f * sigma / depth, 2) / static_cast<double>(line.world.size());
+    }
+    expected[i] = std::sqrt(image2 + world2);
+  }
+  std::vector<double> sorted = expected;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  const double typical = sorted.empty() ? 0.0 : sorted[sorted.size() / 2];
+  if (typical > 0.0)
+    for (size_t i = 0; i < data.lines.size(); ++i)
+      factors[i] = std::max(1.0, expected[i] / typical);
+  return factors;
+}
+
 // The DLT with the principal-point iteration, then the refinement, on lines already selected. With an anchor (a
 // camera known to be close, refined before), the refinement also starts from it and the better of the two optima
 // (lower RMS) is kept; the anchor alone is used when the linear solve fails.
@@ -425,8 +461,10 @@ Expected<CameraCalibration> calibrateInFrame(const CorrespondenceSet& data, cons
           loo[i] = std::isnan(e) ? 0.0 : e;
         }
     }
+    const std::vector<double> factors = lineThresholdFactors(result.camera, selected, options, result.refinement);
     for (size_t i = 0; i < selected.lines.size(); ++i)
-      judged[i] = lineError(result.camera, selected.lines[i]) < threshold && loo[i] < threshold;
+      judged[i] =
+          lineError(result.camera, selected.lines[i]) < threshold * factors[i] && loo[i] < threshold * factors[i];
     if (judged == result.inlier_lines || std::count(judged.begin(), judged.end(), true) < static_cast<long>(minimal))
       break;
     result.inlier_lines = judged;

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <limits>
+#include <cmath>
 #include <cstdlib>
 #include <functional>
 #include <numeric>
@@ -32,7 +33,7 @@ namespace ic = insitu_calibration;
 namespace
 {
 const char* kUsage = R"(Usage: bench_accuracy [--trials N] [--out-dir DIR] [--seed S] [--experiments LIST] [--no-plot]
-                      [--previous-defaults] [--linear-stage auto|plumb-line|parts]
+                      [--previous-defaults] [--linear-stage auto|plumb-line|parts] [--true-noise]
 
 Runs, with N trials per setting (default 100), on synthetic surveillance-like cameras (1280x960, barrel distortion
 displacing the corner by 15 px) looking at 30 random 3D segments in a room (5 image points per line, 2 world points):
@@ -50,7 +51,9 @@ displacing the corner by 15 px) looking at 30 random 3D segments in a room (5 im
             world points
 --previous-defaults runs every experiment with the pipeline as it was before issue 13 (DLT over parts, fixed RANSAC
 threshold, image-point line residuals), for before/after comparisons in one binary; --linear-stage forces one linear
-stage (calibrate_lines --linear-stage) everywhere.
+stage (calibrate_lines --linear-stage) everywhere. --true-noise gives the dense experiments' refinement the true noise
+levels (--image-sigma, --world-sigma) instead of its estimates, to measure what estimating them costs; the medians
+printed include the noise levels the refinement used.
 (--experiments picks some of fig2,fig2_rendered,outliers,outliers_added,lines,dense,dense_fixed; all by default) and reports the coverage of the
 refined result's standard deviations (how often the true error is within 2 sigma).
 Writes DIR/accuracy.csv, DIR/accuracy.md and PNG plots (DIR defaults to ./accuracy). Errors are against the truth:
@@ -90,6 +93,9 @@ struct Errors
   double center_m = 0.0;
   double lambda = 0.0;
   double inlier_fraction = 1.0;  // lines kept by the robust path
+  // The joint error model's noise levels (given or estimated); NaN without it.
+  double image_sigma_px = std::numeric_limits<double>::quiet_NaN();
+  double world_sigma_mm = std::numeric_limits<double>::quiet_NaN();
   // Refined results only: whether the truth is within 2 sigma, per parameter (-1: no sigma).
   int fx_covered = -1;
   int cx_covered = -1;
@@ -168,6 +174,11 @@ Errors runCalibration(const Trial& t, const ic::CorrespondenceSet& data, ic::Dlt
     return {};
   Errors e = errorsOf(t, result->camera);
   e.inlier_fraction = static_cast<double>(result->inlier_count) / std::max<size_t>(1, data.lines.size());
+  if (result->refinement && result->refinement->image_sigma_px > 0.0)
+  {
+    e.image_sigma_px = result->refinement->image_sigma_px;
+    e.world_sigma_mm = 1000.0 * result->refinement->world_sigma_m;
+  }
   const ic::CameraUncertainty& u = result->uncertainty;
   if (robust && u.available)
   {
@@ -317,14 +328,21 @@ RenderedTrial makeRenderedTrial(unsigned seed, int width, int height)
   return t;
 }
 
-// calibrate_lines' defaults where they differ from CalibrationOptions' (the refinement's joint error model).
-ic::CalibrationOptions calibrateLinesDefaults()
+// calibrate_lines' defaults where they differ from CalibrationOptions' (the refinement's joint error model); with
+// --true-noise the data's true noise levels are given (as --image-sigma and --world-sigma would).
+bool g_true_noise = false;
+ic::CalibrationOptions calibrateLinesDefaults(double image_sigma_px, double world_sigma_m)
 {
   ic::CalibrationOptions options = baseOptions();
   if (!g_previous_defaults)
   {
     options.refinement.line_residual = ic::LineResidual::kJoint;
     options.detect_left_handed = true;
+    if (g_true_noise)
+    {
+      options.refinement.image_sigma_px = image_sigma_px;
+      options.refinement.world_sigma_m = world_sigma_m;
+    }
   }
   return options;
 }
@@ -367,13 +385,13 @@ double median(std::vector<double> v)
 void printMedians(const std::string& experiment,
                   const std::map<std::tuple<std::string, double, std::string>, std::vector<Errors>>& groups)
 {
-  std::printf("%-14s %6s %-28s %8s %10s %10s %9s %9s %9s %9s\n", "experiment", "x", "method", "failures", "focal %",
-              "rot deg", "pos mm", "lambda %", "reproj px", "inliers %");
+  std::printf("%-14s %6s %-28s %8s %10s %10s %9s %9s %9s %9s %10s %10s\n", "experiment", "x", "method", "failures",
+              "focal %", "rot deg", "pos mm", "lambda %", "reproj px", "inliers %", "sigma px", "sigma mm");
   for (const auto& [key, errors] : groups)
   {
     if (std::get<0>(key) != experiment)
       continue;
-    std::vector<double> focal, rotation, center, lambda, reprojection, kept;
+    std::vector<double> focal, rotation, center, lambda, reprojection, kept, image_sigma, world_sigma;
     int failures = 0;
     for (const Errors& e : errors)
     {
@@ -388,10 +406,16 @@ void printMedians(const std::string& experiment,
       lambda.push_back(100.0 * std::abs(e.lambda));
       reprojection.push_back(e.reprojection_px);
       kept.push_back(100.0 * e.inlier_fraction);
+      if (std::isfinite(e.image_sigma_px))
+      {
+        image_sigma.push_back(e.image_sigma_px);
+        world_sigma.push_back(e.world_sigma_mm);
+      }
     }
-    std::printf("%-14s %6g %-28s %4d/%-3zu %10.4f %10.4f %9.2f %9.2f %9.3f %9.1f\n", experiment.c_str(),
+    std::printf("%-14s %6g %-28s %4d/%-3zu %10.4f %10.4f %9.2f %9.2f %9.3f %9.1f %10.3f %10.2f\n", experiment.c_str(),
                 std::get<1>(key), std::get<2>(key).c_str(), failures, errors.size(), median(focal), median(rotation),
-                median(center), median(lambda), median(reprojection), median(kept));
+                median(center), median(lambda), median(reprojection), median(kept), median(image_sigma),
+                median(world_sigma));
   }
 }
 
@@ -414,13 +438,15 @@ struct Writer
 int main(int argc, char** argv)
 {
   ic::quietSolverLogging();
-  ic::CommandLine cli(argc, argv, {"trials", "out-dir", "seed", "experiments", "linear-stage"}, {"no-plot", "previous-defaults"});
+  ic::CommandLine cli(argc, argv, {"trials", "out-dir", "seed", "experiments", "linear-stage"},
+                      {"no-plot", "previous-defaults", "true-noise"});
   if (cli.help())
   {
     std::cout << kUsage;
     return 0;
   }
   g_previous_defaults = cli.flag("previous-defaults");
+  g_true_noise = cli.flag("true-noise");
   if (cli.has("linear-stage"))
   {
     g_linear_stage = ic::parseLinearStage(cli.value("linear-stage"));
@@ -598,7 +624,8 @@ int main(int argc, char** argv)
     {
       const Trial t = makeDenseTrial(seed + 110000 + static_cast<unsigned>(1000 * noise) + k, noise);
       w.add("dense", noise, "calibrate_lines_default", k,
-            runCalibration(t, linesOf(t), ic::DltMethod::kLines, true, true, 3.0, calibrateLinesDefaults()));
+            runCalibration(t, linesOf(t), ic::DltMethod::kLines, true, true, 3.0,
+                           calibrateLinesDefaults(noise, 0.003 * noise)));
       w.add("dense", noise, "previous_defaults", k,
             runCalibration(t, linesOf(t), ic::DltMethod::kLines, true, true, 3.0, previousDefaults()));
       w.add("dense", noise, "opencv_calibrate_camera", k, runOpenCv(t, width, height));
@@ -616,7 +643,8 @@ int main(int argc, char** argv)
       const Trial t = case_points == 6 ? makeDenseTrial(seed + 130000 + k, 1.0, 6, 6)
                                        : makeDenseTrial(seed + 140000 + k, 1.0, 10, 2, 0.0);
       w.add("dense_fixed", case_points, "calibrate_lines_default", k,
-            runCalibration(t, linesOf(t), ic::DltMethod::kLines, true, true, 3.0, calibrateLinesDefaults()));
+            runCalibration(t, linesOf(t), ic::DltMethod::kLines, true, true, 3.0,
+                           calibrateLinesDefaults(1.0, case_points == 6 ? 0.003 : 0.0)));
       w.add("dense_fixed", case_points, "previous_defaults", k,
             runCalibration(t, linesOf(t), ic::DltMethod::kLines, true, true, 3.0, previousDefaults()));
       w.add("dense_fixed", case_points, "opencv_calibrate_camera", k, runOpenCv(t, width, height));

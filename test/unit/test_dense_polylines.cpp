@@ -121,6 +121,19 @@ TEST(DensePolylines, ThreePixels)
   EXPECT_LT(m.position_mm, 25.0);
 }
 
+// A noisier survey (6 mm) at 1 px: lines near the camera show their world points' noise as several pixels, which a
+// threshold set by the typical line would take for wrong correspondences; each line's test widens with the error
+// its depth lets it have, so every true line is kept.
+TEST(DensePolylines, NearLinesWithNoisyWorldPointsKept)
+{
+  ic::DensePolylineOptions data;
+  data.world_noise_m = 0.006;
+  const Medians m = calibrateTrials(7700, 15, data, calibrateLinesOptions());
+  EXPECT_EQ(m.failures, 0);
+  EXPECT_EQ(m.lines_dropped, 0u) << "true lines near the camera must be kept";
+  EXPECT_LT(m.rotation_deg, 0.3);
+}
+
 // lambda from the straightness of noise-free dense polylines about the true principal point.
 TEST(DensePolylines, PlumbLineLambda)
 {
