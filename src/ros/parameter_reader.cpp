@@ -20,7 +20,7 @@ std::string describeValue(XmlRpc::XmlRpcValue& value)
     case XmlRpc::XmlRpcValue::TypeDouble:
       return "the number " + formatParameterValue(static_cast<double>(value));
     case XmlRpc::XmlRpcValue::TypeArray:
-      return "a list";
+      return "a list of " + std::to_string(value.size());
     case XmlRpc::XmlRpcValue::TypeStruct:
       return "a map";
     default:
@@ -58,6 +58,48 @@ int ParameterReader::integer(const std::string& name, int fallback, ParameterRan
   range.integer = true;
   // A number with an integral value (2.0) is accepted; 2.5 is refused by the range's integer check.
   return static_cast<int>(number(name, fallback, range));
+}
+
+std::vector<double> ParameterReader::numbers(const std::string& name, const std::vector<double>& fallback, size_t size,
+                                             const ParameterRange& range)
+{
+  XmlRpc::XmlRpcValue value;
+  if (!nh_.getParam(name, value))
+    return fallback;
+  const std::string allowed = "a list of " + std::to_string(size) + " numbers, each " + range.describe();
+  if (value.getType() != XmlRpc::XmlRpcValue::TypeArray || static_cast<size_t>(value.size()) != size)
+  {
+    errors_.push_back("parameter ~" + name + " is " + describeValue(value) + ", allowed: " + allowed);
+    return fallback;
+  }
+  std::vector<double> numbers;
+  for (int i = 0; i < value.size(); ++i)
+  {
+    const XmlRpc::XmlRpcValue::Type type = value[i].getType();
+    if (type != XmlRpc::XmlRpcValue::TypeDouble && type != XmlRpc::XmlRpcValue::TypeInt)
+    {
+      errors_.push_back("parameter ~" + name + "[" + std::to_string(i) + "] is " + describeValue(value[i]) +
+                        ", allowed: " + allowed);
+      return fallback;
+    }
+    numbers.push_back(type == XmlRpc::XmlRpcValue::TypeDouble ? static_cast<double>(value[i])
+                                                              : static_cast<int>(value[i]));
+    const Status checked = checkParameter(name + "[" + std::to_string(i) + "]", numbers.back(), range);
+    if (!checked)
+    {
+      errors_.push_back(checked.error().message());
+      return fallback;
+    }
+  }
+  return numbers;
+}
+
+std::string ParameterReader::summary() const
+{
+  std::string text;
+  for (const std::string& error : errors_)
+    text += (text.empty() ? "" : "; ") + error;
+  return text;
 }
 
 bool ParameterReader::flag(const std::string& name, bool fallback)

@@ -22,6 +22,9 @@ public:
   double number(const std::string& name, double fallback, const ParameterRange& range);
   // An integer (range.integer is implied).
   int integer(const std::string& name, int fallback, ParameterRange range);
+  // A list of exactly size numbers, each in range ([x, y, z], say).
+  std::vector<double> numbers(const std::string& name, const std::vector<double>& fallback, size_t size,
+                              const ParameterRange& range);
   bool flag(const std::string& name, bool fallback);
   // A string; an empty one is an error unless allow_empty.
   std::string text(const std::string& name, const std::string& fallback, bool allow_empty);
@@ -29,6 +32,8 @@ public:
   void fail(const std::string& message) { errors_.push_back(message); }
 
   bool ok() const { return errors_.empty(); }
+  // Every error, "; "-separated (empty when ok).
+  std::string summary() const;
   // "parameter ~tf_timeout is -1, allowed: a number in [0, 60] s", one per bad parameter.
   const std::vector<std::string>& errors() const { return errors_; }
 
