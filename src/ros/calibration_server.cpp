@@ -13,6 +13,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "insitu_calibration/ros/conversions.h"
+#include "insitu_calibration/ros/parameter_reader.h"
 #include "insitu_calibration/survey/camera_config.h"
 #include "insitu_calibration/survey/overlay.h"
 #include "insitu_calibration/io/calibration_store.h"
@@ -218,38 +219,69 @@ CalibrationServer::~CalibrationServer()
   calibrate_action_.reset();
 }
 
+// Every numeric parameter is checked (type, finiteness, range) before use: a bad one is FATAL (README's
+// parameter list gives the ranges).
+SurveyOptions CalibrationServer::readParameters(ParameterReader& read)
+{
+  using Range = ParameterRange;
+  world_frame_ = read.text("world_frame", "map", false);
+  output_directory_ = expandHome(read.text("output_directory", defaultOutputDirectory(), false));
+  odom_frame_ = read.text("odom_frame", "odom", true);  // empty: no odometry between keyframes
+  tf_timeout_s_ = read.number("tf_timeout", 0.2, Range::closed(0.0, 60.0, "s"));
+  status_period_s_ = read.number("status_period", 5.0, Range::closed(0.0, 86400.0, "s"));  // 0: off
+  // 0: the map is adjusted only before a calibration.
+  map_adjustment_period_s_ =
+      read.number("map_adjustment_period", map_adjustment_period_s_, Range::closed(0.0, 86400.0, "s"));
+  stale_image_s_ = read.number("diagnostics/stale_image_s", 10.0, Range::positive(86400.0, "s"));
+  max_sigma_position_m_ = read.number("diagnostics/max_sigma_position_m", 0.05, Range::positive(1000.0, "m"));
+  max_sigma_rotation_deg_ = read.number("diagnostics/max_sigma_rotation_deg", 0.5, Range::positive(180.0, "deg"));
+  // The defaults are the option structs' own (one home for each default).
+  SurveyOptions options;
+  options.fixed_image_period_s =
+      read.number("fixed_image_period", options.fixed_image_period_s, Range::closed(0.0, 3600.0, "s"));
+  options.min_map_support = read.integer("min_map_support", options.min_map_support, Range::integers(1, 1000));
+  options.keyframes.min_translation_m =
+      read.number("keyframe/min_translation", options.keyframes.min_translation_m, Range::closed(0.0, 100.0, "m"));
+  options.keyframes.min_rotation_deg =
+      read.number("keyframe/min_rotation_deg", options.keyframes.min_rotation_deg, Range::closed(0.0, 180.0, "deg"));
+  // The localiser's error behind tf (0: exact) for the map adjustment (survey.h).
+  options.localization_sigma_m =
+      read.number("localization_sigma_m", options.localization_sigma_m, Range::closed(0.0, 10.0, "m"));
+  options.localization_sigma_deg =
+      read.number("localization_sigma_deg", options.localization_sigma_deg, Range::closed(0.0, 90.0, "deg"));
+  options.localization_correlation_s =
+      read.number("localization_correlation_s", options.localization_correlation_s, Range::positive(86400.0, "s"));
+  FixedCameraOptions& camera_options = options.cameras;
+  camera_options.median_images = static_cast<size_t>(
+      read.integer("median_images", static_cast<int>(camera_options.median_images), Range::integers(1, 255)));
+  camera_options.max_rms_px = read.number("max_rms_px", camera_options.max_rms_px, Range::positive(100.0, "px"));
+  camera_options.min_focal_ratio =
+      read.number("min_focal_ratio", camera_options.min_focal_ratio, Range::positive(100.0));
+  camera_options.max_focal_ratio =
+      read.number("max_focal_ratio", camera_options.max_focal_ratio, Range::positive(100.0));
+  if (camera_options.min_focal_ratio >= camera_options.max_focal_ratio)
+    read.fail("parameters ~min_focal_ratio (" + formatParameterValue(camera_options.min_focal_ratio) +
+              ") and ~max_focal_ratio (" + formatParameterValue(camera_options.max_focal_ratio) +
+              "): the minimum must be below the maximum");
+  // Six lines at least: DLT-Lines' minimum.
+  camera_options.min_matched_lines = static_cast<size_t>(read.integer(
+      "min_matched_lines", static_cast<int>(camera_options.min_matched_lines), Range::integers(6, 100000)));
+  CalibrationOptions& calibration = camera_options.matcher.calibration;
+  calibration.ransac_options.inlier_threshold_px =
+      read.number("ransac_threshold_px", calibration.ransac_options.inlier_threshold_px, Range::positive(100.0, "px"));
+  calibration.refine = read.flag("refine", calibration.refine);
+  calibration.ransac = read.flag("ransac", calibration.ransac);
+  return options;
+}
+
 bool CalibrationServer::loadParameters()
 {
-  private_nh_.param<std::string>("world_frame", world_frame_, "map");
-  private_nh_.param<std::string>("output_directory", output_directory_, defaultOutputDirectory());
-  output_directory_ = expandHome(output_directory_);
-  private_nh_.param("tf_timeout", tf_timeout_s_, 0.2);
-  SurveyOptions options;
-  private_nh_.param("fixed_image_period", options.fixed_image_period_s, 0.5);
-  private_nh_.param("min_map_support", options.min_map_support, 2);
-  private_nh_.param("keyframe/min_translation", options.keyframes.min_translation_m, 0.10);
-  private_nh_.param("keyframe/min_rotation_deg", options.keyframes.min_rotation_deg, 5.0);
-  // The localiser's error behind tf (0: exact) and the odometry frame for the map adjustment (survey.h).
-  private_nh_.param("localization_sigma_m", options.localization_sigma_m, options.localization_sigma_m);
-  private_nh_.param("localization_sigma_deg", options.localization_sigma_deg, options.localization_sigma_deg);
-  private_nh_.param("localization_correlation_s", options.localization_correlation_s,
-                    options.localization_correlation_s);
-  private_nh_.param<std::string>("odom_frame", odom_frame_, "odom");
-  private_nh_.param("map_adjustment_period", map_adjustment_period_s_, map_adjustment_period_s_);
-  FixedCameraOptions& camera_options = options.cameras;
-  int median_images = 15;
-  private_nh_.param("median_images", median_images, 15);
-  camera_options.median_images = static_cast<size_t>(std::max(1, median_images));
-  private_nh_.param("max_rms_px", camera_options.max_rms_px, 1.5);
-  private_nh_.param("min_focal_ratio", camera_options.min_focal_ratio, 0.2);
-  private_nh_.param("max_focal_ratio", camera_options.max_focal_ratio, 10.0);
-  int min_matched = 8;
-  private_nh_.param("min_matched_lines", min_matched, 8);
-  camera_options.min_matched_lines = static_cast<size_t>(std::max(6, min_matched));
-  CalibrationOptions& calibration = camera_options.matcher.calibration;
-  private_nh_.param("ransac_threshold_px", calibration.ransac_options.inlier_threshold_px, 3.0);
-  private_nh_.param("refine", calibration.refine, true);
-  private_nh_.param("ransac", calibration.ransac, true);
+  ParameterReader read(private_nh_);
+  const SurveyOptions options = readParameters(read);
+  for (const std::string& error : read.errors())
+    ROS_FATAL_STREAM("calibration_node: " << error);
+  if (!read.ok())
+    return false;
 
   XmlRpc::XmlRpcValue cameras;
   if (!private_nh_.getParam("cameras", cameras))

@@ -11,12 +11,7 @@ namespace insitu_calibration
 {
 void CalibrationServer::setupStatusReporting()
 {
-  private_nh_.param("diagnostics/stale_image_s", stale_image_s_, 10.0);
-  private_nh_.param("diagnostics/max_sigma_position_m", max_sigma_position_m_, 0.05);
-  private_nh_.param("diagnostics/max_sigma_rotation_deg", max_sigma_rotation_deg_, 0.5);
-  double status_period_s = 5.0;
-  private_nh_.param("status_period", status_period_s, 5.0);
-
+  // Its parameters were read (and checked) by loadParameters.
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, private_nh_);
   diagnostics_->setHardwareID("insitu_calibration");
   diagnostics_->add("survey", [this](diagnostic_updater::DiagnosticStatusWrapper& stat) { surveyDiagnostics(stat); });
@@ -32,8 +27,8 @@ void CalibrationServer::setupStatusReporting()
   diagnostics_timer_ = service_nh_.createWallTimer(
       ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
   survey_status_publisher_ = private_nh_.advertise<SurveyStatus>("survey_status", 1, true);
-  if (status_period_s > 0.0)
-    survey_status_timer_ = service_nh_.createWallTimer(ros::WallDuration(status_period_s),
+  if (status_period_s_ > 0.0)
+    survey_status_timer_ = service_nh_.createWallTimer(ros::WallDuration(status_period_s_),
                                                        [this](const ros::WallTimerEvent&) { publishSurveyStatus(); });
 }
 

@@ -15,6 +15,7 @@
 #include <tf2/LinearMath/Quaternion.h>
 
 #include "insitu_calibration/drivers/depth_cloud.h"
+#include "insitu_calibration/ros/parameter_reader.h"
 
 namespace insitu_calibration
 {
@@ -80,57 +81,45 @@ XtionDriver::~XtionDriver()
   stop();
 }
 
+// Every parameter is checked (type, finiteness, range: README's xtion_node parameters) before the device opens.
 Status XtionDriver::readParameters()
 {
+  using Range = ParameterRange;
   Parameters& p = params_;
-  pnh_.param<std::string>("device_uri", p.device.uri, "");
-  std::string color_mode;
-  std::string depth_mode;
-  pnh_.param<std::string>("color_mode", color_mode, "640x480@30");
-  pnh_.param<std::string>("depth_mode", depth_mode, "640x480@30");
-  for (const auto& [name, text, target] : {std::make_tuple("color_mode", color_mode, &p.device.color_mode),
-                                           std::make_tuple("depth_mode", depth_mode, &p.device.depth_mode)})
+  ParameterReader read(pnh_);
+  p.device.uri = read.text("device_uri", "", true);
+  for (const auto& [name, target] :
+       {std::make_pair("color_mode", &p.device.color_mode), std::make_pair("depth_mode", &p.device.depth_mode)})
   {
-    const Expected<drivers::VideoModeSpec> mode = drivers::parseVideoMode(text);
+    const Expected<drivers::VideoModeSpec> mode = drivers::parseVideoMode(read.text(name, "640x480@30", false));
     if (!mode)
-      return Error(ErrorCode::kInvalidInput, std::string("parameter ~") + name + ": " + mode.error().message());
-    *target = *mode;
+      read.fail(std::string("parameter ~") + name + ": " + mode.error().message());
+    else
+      *target = *mode;
   }
-  pnh_.param("registration", p.device.registration, true);
-  pnh_.param("sync", p.device.sync, true);
-  pnh_.param("oni_loop", p.device.oni_loop, true);
-  pnh_.param("oni_speed", p.device.oni_speed, 1.0);
-  pnh_.param("retry_period", p.retry_period_s, 2.0);
-  pnh_.param("frame_timeout", p.frame_timeout_s, 3.0);
-  pnh_.param("fault_report_period", p.fault_report_period_s, 30.0);
-  pnh_.param("publish_points", p.publish_points, false);
-  pnh_.param("publish_tf", p.publish_tf, true);
-  pnh_.param<std::string>("camera_link_frame_id", p.camera_link_frame_id, "camera_link");
-  pnh_.param<std::string>("rgb_frame_id", p.rgb_frame_id, "camera_rgb_optical_frame");
-  pnh_.param<std::string>("depth_frame_id", p.depth_frame_id, "camera_depth_optical_frame");
-  pnh_.param("rgb_xyz", p.rgb_xyz, p.rgb_xyz);
-  pnh_.param("depth_xyz", p.depth_xyz, p.depth_xyz);
-  pnh_.param<std::string>("rgb_camera_info_url", p.rgb_camera_info_url, "");
-  pnh_.param<std::string>("depth_camera_info_url", p.depth_camera_info_url, "");
-
-  if (!(p.device.oni_speed > 0.0))
-    return Error(ErrorCode::kInvalidInput, "parameter ~oni_speed must be > 0 (1 = as recorded)");
-  if (!(p.retry_period_s >= 0.1))
-    return Error(ErrorCode::kInvalidInput, "parameter ~retry_period must be at least 0.1 s");
+  p.device.registration = read.flag("registration", true);
+  p.device.sync = read.flag("sync", true);
+  p.device.oni_loop = read.flag("oni_loop", true);
+  p.device.oni_speed = read.number("oni_speed", 1.0, Range::positive(100.0));  // 1 = as recorded
+  p.retry_period_s = read.number("retry_period", 2.0, Range::closed(0.1, 3600.0, "s"));
+  p.frame_timeout_s = read.number("frame_timeout", 3.0, Range::positive(3600.0, "s"));
+  p.fault_report_period_s = read.number("fault_report_period", 30.0, Range::closed(0.0, 86400.0, "s"));
+  p.publish_points = read.flag("publish_points", false);
+  p.publish_tf = read.flag("publish_tf", true);
+  p.camera_link_frame_id = read.text("camera_link_frame_id", "camera_link", false);
+  p.rgb_frame_id = read.text("rgb_frame_id", "camera_rgb_optical_frame", false);
+  p.depth_frame_id = read.text("depth_frame_id", "camera_depth_optical_frame", false);
+  // [x, y, z] in metres in camera_link.
+  p.rgb_xyz = read.numbers("rgb_xyz", p.rgb_xyz, 3, Range::closed(-1.0, 1.0, "m"));
+  p.depth_xyz = read.numbers("depth_xyz", p.depth_xyz, 3, Range::closed(-1.0, 1.0, "m"));
+  p.rgb_camera_info_url = read.text("rgb_camera_info_url", "", true);
+  p.depth_camera_info_url = read.text("depth_camera_info_url", "", true);
   const double min_timeout = 2.0 / std::min(p.device.color_mode.fps, p.device.depth_mode.fps);
-  if (!(p.frame_timeout_s >= min_timeout))
-    return Error(ErrorCode::kInvalidInput,
-                 "parameter ~frame_timeout must be at least two frame periods (" + formatSeconds(min_timeout) + ")");
-  if (!(p.fault_report_period_s >= 0.0))
-    return Error(ErrorCode::kInvalidInput, "parameter ~fault_report_period must be >= 0 s");
-  if (p.camera_link_frame_id.empty() || p.rgb_frame_id.empty() || p.depth_frame_id.empty())
-    return Error(ErrorCode::kInvalidInput,
-                 "parameters ~camera_link_frame_id, ~rgb_frame_id, ~depth_frame_id must "
-                 "not be empty");
-  if (p.rgb_xyz.size() != 3 || p.depth_xyz.size() != 3)
-    return Error(ErrorCode::kInvalidInput,
-                 "parameters ~rgb_xyz and ~depth_xyz are [x, y, z] in metres in "
-                 "camera_link");
+  if (read.ok() && p.frame_timeout_s < min_timeout)
+    read.fail("parameter ~frame_timeout is " + formatParameterValue(p.frame_timeout_s) +
+              ", allowed: at least two frame periods (" + formatSeconds(min_timeout) + ")");
+  if (!read.ok())
+    return Error(ErrorCode::kInvalidInput, read.summary());
   return Success{};
 }
 

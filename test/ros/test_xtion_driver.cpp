@@ -494,6 +494,24 @@ TEST(XtionNode, MalformedParameterStopsWithTheReason)
       << node.log();
 }
 
+// Every bad parameter is named with its value and the allowed range (issue 16). roscpp types a _x:=value argument as
+// an integer, a number (inf included) or else a string; the list comes through the parameter server.
+TEST(XtionNode, BadParametersAreEachReported)
+{
+  ros::param::set("/bad_numbers/xtion_bad_numbers/rgb_xyz", std::vector<double>{0.0, 2.0, 0.0});
+  NodeProcess node("xtion_bad_numbers", {"__ns:=/bad_numbers", "_device_uri:=Dummy", "_oni_speed:=-1",
+                                         "_retry_period:=fast", "_fault_report_period:=inf", "_depth_xyz:=0.1"});
+  ASSERT_TRUE(waitUntil([&] { return !node.running(); }, 10.0));
+  const int status = node.interrupt();
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 1) << status;
+  for (const char* message : {"parameter ~oni_speed is -1, allowed: a number in (0, 100]",
+                              "parameter ~retry_period is the string 'fast', allowed: a number in [0.1, 3600] s",
+                              "parameter ~fault_report_period is inf, allowed: a number in [0, 86400] s",
+                              "parameter ~rgb_xyz[1] is 2, allowed: a number in [-1, 1] m",
+                              "parameter ~depth_xyz is the number 0.1, allowed: a list of 3 numbers"})
+    EXPECT_NE(node.log().find(message), std::string::npos) << message << "\n" << node.log();
+}
+
 TEST(XtionNode, CpuUse)
 {
   // Both streams subscribed, DummyDevice's 320x240 at 30 Hz. (docs/xtion.md has the 640x480 measurement.)

@@ -34,6 +34,7 @@
 #include "insitu_calibration/Reset.h"
 #include "insitu_calibration/CalibrationStatus.h"
 #include "insitu_calibration/SurveyStatus.h"
+#include "insitu_calibration/ros/parameter_reader.h"
 #include "insitu_calibration/survey/survey.h"
 
 namespace insitu_calibration
@@ -65,7 +66,9 @@ private:
     std::string set_camera_info_service;
   };
 
+  // False after a configuration error, each reported as ROS_FATAL.
   bool loadParameters();
+  SurveyOptions readParameters(ParameterReader& read);
   void rgbdCallback(const sensor_msgs::ImageConstPtr& rgb, const sensor_msgs::ImageConstPtr& depth,
                     const sensor_msgs::CameraInfoConstPtr& info);
   void fixedImageCallback(const std::string& name, const sensor_msgs::ImageConstPtr& image);
@@ -153,6 +156,7 @@ private:
   double stale_image_s_ = 10.0;         // a camera whose last image is older is stale
   double max_sigma_position_m_ = 0.05;  // a calibration more uncertain than this is reported (WARN)
   double max_sigma_rotation_deg_ = 0.5;
+  double status_period_s_ = 5.0;   // ~survey_status's period (0: only after calibrations)
   uint64_t reset_generation_ = 0;  // guarded by mutex_; a calibration started before a reset is discarded
 
   ros::ServiceServer calibrate_server_;
