@@ -15,6 +15,7 @@
 #include "insitu_calibration/io/calibration_file.h"
 #include "insitu_calibration/lines/image_lines.h"
 #include "insitu_calibration/matching/line_matcher.h"
+#include "insitu_calibration/survey/camera_verification.h"
 #include "insitu_calibration/survey/image_explanation.h"
 #include "insitu_calibration/survey/temporal_median.h"
 
@@ -100,6 +101,11 @@ public:
   Expected<FixedCameraResult> calibrate(const std::vector<Segment3d>& map_lines, const std::string& world_frame,
                                         const std::vector<double>& map_line_sigmas_m = {});
   FixedCameraStatus status(const std::vector<Segment3d>& map_lines) const;
+  // The moved-camera check (camera_verification.h): the lines of the median of the recent images, extracted with the
+  // calibration's distortion, against the map lines projected through the calibration. Errors: not calibrated, no
+  // image, the extraction failed, an empty map.
+  Expected<CameraMotion> verify(const std::vector<Segment3d>& map_lines,
+                                const CameraVerificationOptions& options = {}) const;
 
   const std::optional<CalibrationFile>& calibration() const { return calibration_; }
   const std::optional<FixedCameraResult>& lastResult() const { return last_result_; }

@@ -271,6 +271,23 @@ Expected<FixedCameraResult> FixedCamera::calibrate(const std::vector<Segment3d>&
   return result;
 }
 
+Expected<CameraMotion> FixedCamera::verify(const std::vector<Segment3d>& map_lines,
+                                           const CameraVerificationOptions& options) const
+{
+  if (!calibration_)
+    return Error(ErrorCode::kNotEnoughData, "camera " + config_.name + " is not calibrated: nothing to verify");
+  if (median_.empty())
+    return Error(ErrorCode::kNotEnoughData, "no image has arrived from " + config_.image_topic + " yet");
+  const auto lines = extractImageLines(median_.median(), calibration_->camera.distortion(), options_.image_lines);
+  if (!lines)
+    return lines.error();
+  std::vector<std::vector<Eigen::Vector2d>> polylines;
+  for (const auto& l : *lines)
+    polylines.push_back(l.points);
+  return verifyCameraPose(calibration_->camera, config_.image_width, config_.image_height, map_lines, polylines,
+                          options);
+}
+
 FixedCameraStatus FixedCamera::status(const std::vector<Segment3d>& map_lines) const
 {
   FixedCameraStatus s;
