@@ -1,7 +1,11 @@
 #include "insitu_calibration/io/calibration_store.h"
 
 #include <cctype>
+#include <chrono>
+#include <ctime>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -22,6 +26,30 @@ bool isTemporaryOf(const std::string& file_name, const std::string& prefix)
     if (!std::isalnum(static_cast<unsigned char>(file_name[i])))
       return false;
   return true;
+}
+
+std::string readWhole(const std::string& path)
+{
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// When a file was last written, as UTC "20261130T071100Z".
+std::string utcWriteTime(const std::string& path)
+{
+  std::error_code ec;
+  const auto written = fs::last_write_time(path, ec);
+  const auto system = ec ? std::chrono::system_clock::now()
+                         : std::chrono::time_point_cast<std::chrono::system_clock::duration>(
+                               written - fs::file_time_type::clock::now() + std::chrono::system_clock::now());
+  const std::time_t t = std::chrono::system_clock::to_time_t(system);
+  std::tm utc{};
+  gmtime_r(&t, &utc);
+  char text[32];
+  std::strftime(text, sizeof(text), "%Y%m%dT%H%M%SZ", &utc);
+  return text;
 }
 }  // namespace
 
@@ -95,11 +123,56 @@ CalibrationStore::Loaded CalibrationStore::load(const std::string& camera, int i
   return loaded;
 }
 
-Status CalibrationStore::save(const std::string& camera, const CalibrationFile& calibration,
-                              const cv::Mat& overlay) const
+std::string CalibrationStore::archivedPath(const std::string& camera, const std::string& utc) const
+{
+  return directory_ + "/" + camera + "." + utc + ".yaml";
+}
+
+std::optional<CalibrationFile> CalibrationStore::saved(const std::string& camera) const
+{
+  std::error_code ec;
+  if (!fs::exists(calibrationPath(camera), ec))
+    return std::nullopt;
+  auto file = loadCalibrationFile(calibrationPath(camera));
+  return file ? std::optional<CalibrationFile>(*file) : std::nullopt;
+}
+
+Expected<std::string> CalibrationStore::keepPrevious(const std::string& camera,
+                                                     const CalibrationFile& replacement) const
+{
+  const std::string path = calibrationPath(camera);
+  std::error_code ec;
+  if (!fs::exists(path, ec))
+    return std::string();
+  const std::string previous = readWhole(path);
+  if (previous == formatCalibration(replacement))
+    return std::string();  // the same calibration saved again: nothing to keep
+  const std::string utc = utcWriteTime(path);
+  std::string target = archivedPath(camera, utc);
+  std::string overlay_target = directory_ + "/" + camera + "_overlay." + utc + ".png";
+  for (int n = 1; fs::exists(target, ec) && n < 1000; ++n)
+  {
+    target = archivedPath(camera, utc + "." + std::to_string(n));
+    overlay_target = directory_ + "/" + camera + "_overlay." + utc + "." + std::to_string(n) + ".png";
+  }
+  if (const Status written = writeFileAtomically(target, previous); !written)
+    return Error(ErrorCode::kIoError, "not replacing the calibration of '" + camera +
+                                          "': cannot keep the previous one: " + written.error().message());
+  if (fs::exists(overlayPath(camera), ec))
+    fs::copy_file(overlayPath(camera), overlay_target, ec);  // for people only: a failure loses no calibration
+  return target;
+}
+
+Status CalibrationStore::save(const std::string& camera, const CalibrationFile& calibration, const cv::Mat& overlay,
+                              std::string* kept_as) const
 {
   if (const Status valid = validateCalibration(calibration); !valid)
     return Error(valid.error().code(), "not saving the calibration of '" + camera + "': " + valid.error().message());
+  const auto kept = keepPrevious(camera, calibration);
+  if (!kept)
+    return kept.error();
+  if (kept_as)
+    *kept_as = *kept;
   if (const Status saved = saveCalibrationFile(calibrationPath(camera), calibration); !saved)
     return saved;
   if (overlay.empty())
