@@ -139,6 +139,23 @@ visualization_msgs::Marker lineList(const std::string& frame, const std::string&
   }
   return m;
 }
+
+// How far the camera moved from the calibration a new one replaces (the operator asked for a new one: why?), into
+// the result; returns it in words ("; moved by ..."), empty without a previous calibration.
+std::string notePreviousCalibration(const std::optional<CalibrationFile>& previous, const CalibrationFile& now,
+                                    const std::vector<Segment3d>& map, insitu_calibration::CalibrationResult* msg)
+{
+  if (!previous)
+    return "";
+  const PoseDifference change = calibrationChange(*previous, now, map);
+  msg->had_previous = true;
+  msg->moved_displacement_px = change.displacement_px;
+  msg->moved_rotation_deg = change.rotation_deg;
+  msg->moved_translation_m = change.translation_m;
+  const std::string note = "; " + describeChange(change);
+  msg->message += note;
+  return note;
+}
 }  // namespace
 
 CalibrationServer::CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private_nh)
@@ -188,6 +205,7 @@ CalibrationServer::CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private
   service_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &service_queue_);
   work_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &work_queue_);
   setupStatusReporting();
+  setupWatchdog();
   marker_timer_ = nh_.createWallTimer(ros::WallDuration(2.0), [this](const ros::WallTimerEvent&) {
     std::lock_guard<std::mutex> lock(mutex_);
     publishMarkers();
@@ -431,7 +449,7 @@ std::string CalibrationServer::calibrationPath(const std::string& name) const
   return output_directory_ + "/" + name + ".yaml";
 }
 
-Status CalibrationServer::saveCalibration(const std::string& name)
+Status CalibrationServer::saveCalibration(const std::string& name, std::string* kept_as)
 {
   if (!survey_->camera(name).calibration())
     return Error(ErrorCode::kNotEnoughData, "camera '" + name + "' is not calibrated");
@@ -444,7 +462,7 @@ Status CalibrationServer::saveCalibration(const std::string& name)
       image.empty() ? cv::Mat()
                     : drawOverlay(image, file.image_width, file.image_height, file.camera, survey_->mapSegments(),
                                   last ? last->matched_image_lines : std::vector<std::vector<Eigen::Vector2d>>{});
-  return CalibrationStore(output_directory_).save(name, file, overlay);
+  return CalibrationStore(output_directory_).save(name, file, overlay, kept_as);
 }
 
 void CalibrationServer::calibrateOne(const std::string& name, const std::function<void(const std::string&)>& stage,
@@ -461,6 +479,7 @@ void CalibrationServer::calibrateOne(const std::string& name, const std::functio
     sigmas = survey_->mapLineSigmas();
     generation = reset_generation_;
   }
+  const std::optional<CalibrationFile> previous = camera->calibration();
   stage("calibrating");
   auto result = camera->calibrate(map, world_frame_, sigmas);  // the long part, without mutex_
   if (!result)
@@ -483,8 +502,10 @@ void CalibrationServer::calibrateOne(const std::string& name, const std::functio
   }
   auto msg = toResultMsg(result->file, &result->calibration, world_frame_);
   msg.message = result->summary;
+  const std::string change_note = notePreviousCalibration(previous, result->file, map, &msg);
   stage("saving");
   std::string saved_note = "saved to " + calibrationPath(name);
+  std::string kept_as;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (generation != reset_generation_)
@@ -497,15 +518,19 @@ void CalibrationServer::calibrateOne(const std::string& name, const std::functio
       return;
     }
     survey_->camera(name) = std::move(*camera);
-    if (const Status saved = saveCalibration(name); !saved)
+    if (const Status saved = saveCalibration(name, &kept_as); !saved)
     {
       saved_note = "NOT saved: " + saved.error().message();
       ROS_ERROR_STREAM("calibration_node: " << name << ": " << saved.error().message());
     }
   }
+  forgetMotion(name);  // the watchdog's last check was of the calibration replaced
+  msg.previous_kept_as = kept_as;
+  if (!kept_as.empty())
+    saved_note += " (the previous calibration kept as " + kept_as + ")";
   saved_note += commitToDriver(name, toCameraInfo(result->file, cameras_.at(name).optical_frame));
   outcome->results.push_back(msg);
-  outcome->message += name + ": " + result->summary + "; " + saved_note + "\n";
+  outcome->message += name + ": " + result->summary + change_note + "; " + saved_note + "\n";
   ROS_INFO_STREAM("calibration_node: " << name << ": " << result->summary);
 }
 
@@ -606,6 +631,7 @@ bool CalibrationServer::resetService(Reset::Request& request, Reset::Response& r
   {
     survey_->reset();
     ++reset_generation_;
+    forgetMotion("");
     {
       std::lock_guard<std::mutex> info_lock(info_mutex_);
       calibrated_info_.clear();
@@ -619,6 +645,7 @@ bool CalibrationServer::resetService(Reset::Request& request, Reset::Response& r
     return refuseRequest(response, error);
   survey_->resetCamera(request.camera);
   ++reset_generation_;
+  forgetMotion(request.camera);
   {
     std::lock_guard<std::mutex> info_lock(info_mutex_);
     calibrated_info_.erase(request.camera);

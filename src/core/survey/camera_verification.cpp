@@ -8,6 +8,7 @@
 #include <ceres/rotation.h>
 #include <Eigen/Dense>
 
+#include "insitu_calibration/io/calibration_file.h"
 #include "insitu_calibration/robust_statistics.h"
 
 namespace insitu_calibration
@@ -421,4 +422,26 @@ Expected<CameraMotion> verifyCameraPose(const CameraModel& calibrated, int image
   judge(options, &motion);
   return motion;
 }
+PoseDifference calibrationChange(const CalibrationFile& before, const CalibrationFile& after,
+                                 const std::vector<Segment3d>& map_lines)
+{
+  std::vector<Eigen::Vector3d> points =
+      visibleMapPoints(before.camera, before.image_width, before.image_height, map_lines);
+  if (points.empty())
+    for (const auto& corner : {Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(before.image_width - 1.0, 0.0),
+                               Eigen::Vector2d(0.0, before.image_height - 1.0),
+                               Eigen::Vector2d(before.image_width - 1.0, before.image_height - 1.0)})
+      if (const auto ray = before.camera.backProject(corner))
+        points.push_back(before.camera.pose().worldFromCamera() * (5.0 / ray->z() * *ray));
+  return poseDifference(before.camera, after.camera.pose(), points);
+}
+
+std::string describeChange(const PoseDifference& change)
+{
+  char text[160];
+  std::snprintf(text, sizeof(text), "moved by %.2f px / %.3f deg / %.1f mm since the previous calibration",
+                change.displacement_px, change.rotation_deg, 1000.0 * change.translation_m);
+  return text;
+}
+
 }  // namespace insitu_calibration

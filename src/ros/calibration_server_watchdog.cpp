@@ -1,0 +1,122 @@
+// The calibration node's moved-camera watchdog: ~verify on demand and a check of every calibrated camera every
+// verify_period_s. The measurement is the core's (FixedCamera::verify, survey/camera_verification.h); this file
+// reads parameters, takes snapshots and reports (log, ~status, /diagnostics).
+#include <optional>
+
+#include "insitu_calibration/ros/calibration_server.h"
+
+namespace insitu_calibration
+{
+namespace
+{
+bool refuseVerify(Verify::Response& response, const std::string& reason)
+{
+  response.success = false;
+  response.moved = "unknown";
+  response.message = reason;
+  return true;
+}
+}  // namespace
+
+void CalibrationServer::setupWatchdog()
+{
+  CameraVerificationOptions& o = watchdog_options_;
+  private_nh_.param("watchdog/max_displacement_px", o.max_displacement_px, o.max_displacement_px);
+  private_nh_.param("watchdog/max_rotation_deg", o.max_rotation_deg, o.max_rotation_deg);
+  private_nh_.param("watchdog/sigma_factor", o.sigma_factor, o.sigma_factor);
+  private_nh_.param("watchdog/search_distance_px", o.search_distance_px, o.search_distance_px);
+  int min_matched = static_cast<int>(o.min_matched_lines);
+  private_nh_.param("watchdog/min_matched_lines", min_matched, min_matched);
+  o.min_matched_lines = static_cast<size_t>(std::max(4, min_matched));
+  double period_s = 60.0;
+  private_nh_.param("verify_period_s", period_s, 60.0);
+  // On the work queue: a check waits for a calibration in progress instead of judging the calibration it replaces.
+  verify_server_ = work_nh_.advertiseService("verify", &CalibrationServer::verifyService, this);
+  if (period_s > 0.0)
+    verify_timer_ = work_nh_.createWallTimer(ros::WallDuration(period_s),
+                                             [this](const ros::WallTimerEvent&) { verifyCalibratedCameras(); });
+}
+
+Expected<CameraMotion> CalibrationServer::verifyCamera(const std::string& name)
+{
+  std::optional<FixedCamera> camera;
+  std::vector<Segment3d> map;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);  // a snapshot (the copy shares its images); the work without the lock
+    camera.emplace(survey_->camera(name));
+    map = survey_->mapSegments();
+  }
+  if (camera->calibration() && map.empty())
+    return Error(ErrorCode::kNotEnoughData, "cannot verify '" + name +
+                                                "': the 3D line map is empty (it is not saved: survey the camera's "
+                                                "view again after a restart)");
+  auto motion = camera->verify(map, watchdog_options_);
+  if (!motion)
+    return motion;
+  {
+    std::lock_guard<std::mutex> lock(motion_mutex_);
+    last_motion_[name] = *motion;
+  }
+  if (motion->verdict == CameraMotionVerdict::kMoved)
+    ROS_WARN_STREAM("calibration_node: " << name << ": " << motion->message);
+  else
+    ROS_INFO_STREAM("calibration_node: " << name << ": " << motion->message);
+  return motion;
+}
+
+void CalibrationServer::verifyCalibratedCameras()
+{
+  for (const auto& [name, ros_camera] : cameras_)
+  {
+    bool checkable = false;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      checkable = survey_->camera(name).calibration() && !survey_->camera(name).medianImage().empty();
+    }
+    if (!checkable)
+      continue;
+    if (const auto motion = verifyCamera(name); !motion)
+      ROS_WARN_STREAM_THROTTLE(300.0, "calibration_node: " << name << ": " << motion.error().message());
+  }
+}
+
+bool CalibrationServer::verifyService(Verify::Request& request, Verify::Response& response)
+{
+  std::string error;
+  if (request.camera.empty() || selectCameras(request.camera, &error).empty())
+    return refuseVerify(response, request.camera.empty() ? "name the camera to verify" : error);
+  const auto motion = verifyCamera(request.camera);
+  if (!motion)
+    return refuseVerify(response, motion.error().message());
+  response.success = true;
+  response.moved = motion->verdict == CameraMotionVerdict::kMoved     ? "yes"
+                   : motion->verdict == CameraMotionVerdict::kUnmoved ? "no"
+                                                                      : "unknown";
+  response.displacement_px = motion->displacement_px;
+  response.displacement_sigma_px = motion->displacement_sigma_px;
+  response.rotation_deg = motion->rotation_deg;
+  response.rotation_sigma_deg = motion->rotation_sigma_deg;
+  response.translation_m = motion->translation_m;
+  response.translation_sigma_m = motion->translation_sigma_m;
+  response.matched_lines = static_cast<uint32_t>(motion->matched_lines);
+  response.message = motion->message;
+  return true;
+}
+
+std::optional<CameraMotion> CalibrationServer::lastMotion(const std::string& name)
+{
+  std::lock_guard<std::mutex> lock(motion_mutex_);
+  const auto it = last_motion_.find(name);
+  return it == last_motion_.end() ? std::nullopt : std::optional<CameraMotion>(it->second);
+}
+
+void CalibrationServer::forgetMotion(const std::string& name)
+{
+  std::lock_guard<std::mutex> lock(motion_mutex_);
+  if (name.empty())
+    last_motion_.clear();
+  else
+    last_motion_.erase(name);
+}
+
+}  // namespace insitu_calibration
