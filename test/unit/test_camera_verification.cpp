@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <algorithm>
 #include <random>
 
 #include <opencv2/imgproc.hpp>
@@ -42,8 +43,9 @@ protected:
 
   const sim::SimulatedFixedCamera& fixed() const { return world_.fixed_cameras[camera_]; }
 
-  // The true edges whose middle the calibrated camera sees, each end moved by ~3 mm (a survey's error).
-  std::vector<ic::Segment3d> surveyedMap(uint64_t seed) const
+  // The true edges whose middle the calibrated camera sees, each end moved by ~3 mm (a survey's error); with
+  // max_lines, that many of them drawn at random (a survey that saw fewer lines).
+  std::vector<ic::Segment3d> surveyedMap(uint64_t seed, size_t max_lines = 0) const
   {
     const sim::Renderer renderer(world_);
     const sim::ViewCamera view = sim::ViewCamera::fromModel(fixed().camera, fixed().width, fixed().height);
@@ -64,6 +66,11 @@ protected:
         continue;
       const Eigen::Vector3d da(error(rng), error(rng), error(rng)), db(error(rng), error(rng), error(rng));
       map.push_back({e.start + da, e.end + db});
+    }
+    if (max_lines > 0 && map.size() > max_lines)
+    {
+      std::shuffle(map.begin(), map.end(), rng);
+      map.resize(max_lines);
     }
     return map;
   }
@@ -95,9 +102,9 @@ protected:
     ic::PoseDifference truth;
   };
 
-  Outcome verify(const Eigen::Isometry3d& motion, uint64_t seed, const char* what) const
+  Outcome verify(const Eigen::Isometry3d& motion, uint64_t seed, const char* what, size_t max_lines = 0) const
   {
-    const auto map = surveyedMap(seed);
+    const auto map = surveyedMap(seed, max_lines);
     const auto lines = imageLinesAfter(motion, seed);
     const auto measured = ic::verifyCameraPose(fixed().camera, fixed().width, fixed().height, map, lines);
     EXPECT_TRUE(measured) << measured.error().describe();
@@ -165,6 +172,26 @@ TEST_F(CameraVerification, TranslatedByFiveCentimetresIsFlaggedWithItsMagnitude)
     const Outcome o = verify(translation(0.05 * direction.normalized()), seed++, "translated 5 cm");
     EXPECT_EQ(o.measured.verdict, ic::CameraMotionVerdict::kMoved) << o.measured.message;
     expectMagnitudes(o);
+  }
+}
+
+// A map of 40 lines, as a short survey gives (the node's test survey has about 30 in cam_east's view): rotation and
+// translation are less well told apart, the displacement is still measured.
+TEST_F(CameraVerification, SparseMap)
+{
+  uint64_t seed = 1;
+  for (const Eigen::Isometry3d& motion :
+       {rotation(1.0, Eigen::Vector3d(1.0, 0.5, 0.3)), translation(0.05 * Eigen::Vector3d(-0.3, 0.8, 0.5).normalized()),
+        rotation(1.0, Eigen::Vector3d::UnitY())})
+  {
+    const Outcome o = verify(motion, seed++, "sparse map", 40);
+    EXPECT_EQ(o.measured.verdict, ic::CameraMotionVerdict::kMoved) << o.measured.message;
+    expectMagnitudes(o);
+  }
+  for (uint64_t unmoved = 1; unmoved <= 3; ++unmoved)
+  {
+    const Outcome o = verify(Eigen::Isometry3d::Identity(), unmoved, "sparse map, unmoved", 40);
+    EXPECT_EQ(o.measured.verdict, ic::CameraMotionVerdict::kUnmoved) << o.measured.message;
   }
 }
 

@@ -29,14 +29,19 @@ struct CameraVerificationOptions
   double max_rotation_deg = 0.2;
   double sigma_factor = 2.0;
   size_t min_matched_lines = 8;  // fewer: "cannot verify"
-  // Matching: the first round accepts image lines this far from the calibrated projection (a moved camera's lines
-  // are off by its displacement: 1 deg is 17 px at a focal length of 1000 px); later rounds tighten to
-  // distance_factor times the fit's RMS, halving at most per round, never below min_distance_px.
-  double search_distance_px = 40.0;
+  // Matching: first a grid of rotations within search_range_deg (search_step_deg apart) is scored by how well the
+  // image lines match the map within search_distance_px (a grid step of 0.5 deg is at most about 6 px at a focal
+  // length of 1000 px from any rotation in the range); then rounds of matching and fitting from the best rotation,
+  // the threshold tightening to distance_factor times the fit's RMS, halving at most per round, never below
+  // min_distance_px. A camera moved beyond the range matches too few lines: "cannot verify".
+  double search_range_deg = 2.0;
+  double search_step_deg = 0.5;
+  double search_distance_px = 10.0;
   double min_distance_px = 3.0;
   double distance_factor = 4.0;
   double max_angle_deg = 5.0;
-  int max_rounds = 6;
+  int max_rounds = 6;  // of the full fit, after rotation_only_rounds rounds fitting a rotation only
+  int rotation_only_rounds = 2;
   double robust_scale_px = 1.0;  // Huber scale of the fit; residuals above 3 robust sigmas do not enter the result
   LineMatcherOptions matcher;    // the matcher's other options (overlap, length, ambiguity)
 };

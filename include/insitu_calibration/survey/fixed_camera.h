@@ -126,6 +126,9 @@ private:
   Status check(const CameraCalibration& calibration, size_t matched_lines) const;
   // The final check of a map-based result: measures how well it explains the median image, refuses it if badly.
   Status checkExplanation(FixedCameraResult& result, const std::vector<Segment3d>& map_lines) const;
+  // The image lines of the median image under a distortion (the polylines only).
+  Expected<std::vector<std::vector<Eigen::Vector2d>>> medianLines(const DivisionModel& distortion) const;
+  void measureVerificationReference(const std::vector<Segment3d>& map_lines);
 
   FixedCameraConfig config_;
   FixedCameraOptions options_;
@@ -134,6 +137,16 @@ private:
   std::optional<FixedCameraResult> last_result_;
   std::optional<FixedCameraResult> last_refused_;
   size_t last_matched_ = 0;
+  // The watchdog's zero (verify): the pose its own fit finds on the images of the calibration, kept with the
+  // calibrated pose it belongs to. Its line-end fit and the calibration's adjustment weigh the lines differently:
+  // their optima lie a few millimetres apart, which would otherwise read as a motion. None after a restart (the
+  // images are gone): the calibration itself is the zero then.
+  struct VerificationReference
+  {
+    CameraPose calibrated;
+    CameraPose reference;
+  };
+  std::optional<VerificationReference> verification_reference_;
 };
 
 // Share of the image (a 4 x 4 grid of cells) that the lines' points touch, in percent.

@@ -95,7 +95,7 @@ struct LineEndResidual
 // Fits the pose change to the measurements (Huber loss when robust_scale_px > 0); returns the residuals, two per
 // measurement.
 std::vector<double> fitPoseChange(const CameraModel& calibrated, const std::vector<LineMeasurement>& measurements,
-                                  double robust_scale_px, Vector6d* delta)
+                                  double robust_scale_px, bool rotation_only, Vector6d* delta)
 {
   ceres::Problem problem;
   for (const auto& m : measurements)
@@ -109,6 +109,8 @@ std::vector<double> fitPoseChange(const CameraModel& calibrated, const std::vect
                                delta->data());
     }
   }
+  if (rotation_only && problem.NumResidualBlocks() > 0)
+    problem.SetManifold(delta->data(), new ceres::SubsetManifold(6, {3, 4, 5}));
   ceres::Solver::Options options;
   options.max_num_iterations = 50;
   options.linear_solver_type = ceres::DENSE_QR;
@@ -197,6 +199,40 @@ MatchedLines matchUnder(const CameraModel& calibrated, const Vector6d& delta, in
   return matched;
 }
 
+// The rotation on a grid (tilt, pan and roll about the calibrated camera's x, y, z axes, within search_range_deg)
+// under which the image lines are best explained: per matched line 1 - distance / search_distance_px, summed. The
+// grid step keeps every motion within the range a fraction of the threshold from a grid point. Against a map that
+// holds few of the image's lines, the nearest line after a large shift is often another one: a fit started at zero
+// from such matches can settle on a wrong pose (tilt traded for a translation of decimetres).
+Vector6d coarseRotation(const CameraModel& calibrated, int width, int height, const std::vector<Segment3d>& map_lines,
+                        const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                        const CameraVerificationOptions& options)
+{
+  const double step = options.search_step_deg * M_PI / 180.0;
+  const int n = static_cast<int>(std::ceil(options.search_range_deg / options.search_step_deg));
+  Vector6d best = Vector6d::Zero();
+  double best_score = -1.0;
+  for (int roll = -n; roll <= n; roll += 2)  // a roll moves the image less than a pan: half the grid
+    for (int tilt = -n; tilt <= n; ++tilt)
+      for (int pan = -n; pan <= n; ++pan)
+      {
+        Vector6d delta = Vector6d::Zero();
+        delta.head<3>() = step * Eigen::Vector3d(tilt, pan, roll);
+        const CameraModel moved(calibrated.intrinsics(), calibrated.distortion(), movedPose(calibrated.pose(), delta));
+        double score = 0.0;
+        for (const LineMatch& m : matchLines(map_lines, image_lines, moved, width, height, options.max_angle_deg,
+                                             options.search_distance_px, options.matcher))
+          score += 1.0 - m.distance_px / options.search_distance_px;
+        // Ties (a featureless view) go to the smaller motion.
+        if (score > best_score + 1e-9 || (std::abs(score - best_score) <= 1e-9 && delta.norm() < best.norm()))
+        {
+          best_score = score;
+          best = delta;
+        }
+      }
+  return best;
+}
+
 // The fitted change and its covariance from the inliers of a robust fit (residuals within 3 robust sigmas, at
 // least robust_scale_px), refitted by plain least squares; the covariance is scaled by the inliers' variance.
 struct PoseFit
@@ -208,11 +244,12 @@ struct PoseFit
 };
 
 PoseFit fitWithCovariance(const CameraModel& calibrated, const std::vector<LineMeasurement>& measurements,
-                          const Vector6d& start, double robust_scale_px)
+                          const Vector6d& start, double robust_scale_px, bool rotation_only)
 {
   PoseFit fit;
   fit.delta = start;
-  const std::vector<double> robust = fitPoseChange(calibrated, measurements, robust_scale_px, &fit.delta);
+  const std::vector<double> robust =
+      fitPoseChange(calibrated, measurements, robust_scale_px, rotation_only, &fit.delta);
   std::vector<double> absolute;
   for (double r : robust)
     absolute.push_back(std::abs(r));
@@ -223,7 +260,7 @@ PoseFit fitWithCovariance(const CameraModel& calibrated, const std::vector<LineM
       inliers.push_back(measurements[i]);
   if (inliers.size() < 4)
     return fit;
-  const std::vector<double> residuals = fitPoseChange(calibrated, inliers, 0.0, &fit.delta);
+  const std::vector<double> residuals = fitPoseChange(calibrated, inliers, 0.0, rotation_only, &fit.delta);
   double sum2 = 0.0;
   for (double r : residuals)
     sum2 += r * r;
@@ -386,11 +423,12 @@ Expected<CameraMotion> verifyCameraPose(const CameraModel& calibrated, int image
     return Error(ErrorCode::kInvalidInput, "verifyCameraPose: the image size must be positive");
   if (map_lines.empty())
     return Error(ErrorCode::kNotEnoughData, "cannot verify the camera: the line map is empty");
-  PoseFit fit;        // the last successful fit
+  PoseFit fit;  // the last successful fit
+  fit.delta = coarseRotation(calibrated, image_width, image_height, map_lines, image_lines, options);
   MatchedLines used;  // its matches
   size_t last_matched = 0;
   double threshold_px = options.search_distance_px;
-  for (int round = 0; round < options.max_rounds; ++round)
+  for (int round = 0; round < options.max_rounds + options.rotation_only_rounds; ++round)
   {
     MatchedLines matched =
         matchUnder(calibrated, fit.delta, image_width, image_height, map_lines, image_lines, threshold_px, options);
@@ -399,15 +437,18 @@ Expected<CameraMotion> verifyCameraPose(const CameraModel& calibrated, int image
       break;
     // The first round's matches may be off by the whole motion: a wide robust scale lets them pull.
     const double scale = round == 0 ? std::max(options.robust_scale_px, 0.25 * threshold_px) : options.robust_scale_px;
-    const PoseFit next_fit = fitWithCovariance(calibrated, matched.measurements, fit.delta, scale);
+    // The first rounds fit a rotation only: it explains most of any small motion's shift with half the unknowns, so
+    // that a few wrong matches of the wide first threshold cannot trade rotation for translation.
+    const bool rotation_only = round < options.rotation_only_rounds;
+    const PoseFit next_fit = fitWithCovariance(calibrated, matched.measurements, fit.delta, scale, rotation_only);
     if (!next_fit.ok)
       break;
     fit = next_fit;
     used = std::move(matched);
     const double next = std::max(options.min_distance_px, options.distance_factor * fit.rms_px);
-    if (round > 0 && next >= threshold_px)
+    if (round > options.rotation_only_rounds && next >= threshold_px)
       break;  // the thresholds stopped tightening: the matches are final
-    threshold_px = std::max(next, 0.5 * threshold_px);
+    threshold_px = std::min(threshold_px, std::max(next, 0.5 * threshold_px));
   }
   if (!fit.ok)
     return tooFewLines(last_matched, options);
