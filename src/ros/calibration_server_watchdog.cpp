@@ -54,8 +54,13 @@ Expected<CameraMotion> CalibrationServer::verifyCamera(const std::string& name)
   if (!motion)
     return motion;
   {
-    std::lock_guard<std::mutex> lock(motion_mutex_);
-    last_motion_[name] = *motion;
+    // Kept only while it still describes the camera's calibration (an action may have replaced it meanwhile).
+    std::lock_guard<std::mutex> lock(mutex_);
+    const auto& now = survey_->camera(name).calibration();
+    std::lock_guard<std::mutex> motion_lock(motion_mutex_);
+    if (now && camera->calibration() && now->camera.pose().rotation == camera->calibration()->camera.pose().rotation &&
+        now->camera.pose().translation == camera->calibration()->camera.pose().translation)
+      last_motion_[name] = *motion;
   }
   if (motion->verdict == CameraMotionVerdict::kMoved)
     ROS_WARN_STREAM("calibration_node: " << name << ": " << motion->message);

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <memory>
 #include <mutex>
 
 #include <cv_bridge/cv_bridge.h>
@@ -69,32 +70,44 @@ int cameraIndex(const sim::World& world)
   return -1;
 }
 
-// Publishes `count` images of cam_east moved by `motion` (its optical frame), each with fresh sensor noise.
-void publishImages(image_transport::Publisher& publisher, const Eigen::Isometry3d& motion, uint64_t seed, int count)
+// A simulator of the world with cam_east moved by `motion` (its optical frame): its clean image is rendered once,
+// each frame gets fresh sensor noise.
+struct MovedCamera
 {
-  auto world = sim::loadWorldFile(std::string(INSITU_SOURCE_DIR) + "/config/worlds/waiting_room.yaml");
-  ASSERT_TRUE(world) << world.error().describe();
-  const int c = cameraIndex(*world);
-  ASSERT_GE(c, 0);
-  ic::CameraModel& camera = world->fixed_cameras[c].camera;
-  camera.pose() = ic::CameraPose::fromWorldFromCamera(camera.pose().worldFromCamera() * motion);
-  sim::SimulationOptions options;
-  options.seed = seed;
-  options.duration_s = 1.0;
-  options.fixed_rate_hz = count + 1.0;  // count frames of the camera in the simulated second
-  auto simulator = sim::SurveySimulator::create(*world, options);
-  ASSERT_TRUE(simulator) << simulator.error().describe();
-  for (int i = 0; i < count; ++i)
+  MovedCamera(const Eigen::Isometry3d& motion, uint64_t seed)
   {
-    std_msgs::Header header;
-    header.stamp = ros::Time(g_next_stamp);
-    header.frame_id = kCamera + "_optical_frame";
-    g_next_stamp += 0.6;
-    publisher.publish(cv_bridge::CvImage(header, "rgb8", simulator->fixedFrame(c, i).image).toImageMsg());
-    ros::WallDuration(0.3).sleep();  // the node's queue holds two images
+    auto world = sim::loadWorldFile(std::string(INSITU_SOURCE_DIR) + "/config/worlds/waiting_room.yaml");
+    EXPECT_TRUE(world) << world.error().describe();
+    camera = cameraIndex(*world);
+    ic::CameraModel& model = world->fixed_cameras[camera].camera;
+    model.pose() = ic::CameraPose::fromWorldFromCamera(model.pose().worldFromCamera() * motion);
+    sim::SimulationOptions options;
+    options.seed = seed;
+    options.duration_s = 1.0;
+    options.fixed_rate_hz = 20.0;  // 20 frames of the camera in the simulated second
+    auto created = sim::SurveySimulator::create(*world, options);
+    EXPECT_TRUE(created) << created.error().describe();
+    simulator = std::make_unique<sim::SurveySimulator>(std::move(*created));
   }
-  ros::WallDuration(1.0).sleep();
-}
+
+  // Publishes `count` frames from frame `first` on, 0.3 s apart (the node's queue holds two images).
+  void publish(image_transport::Publisher& publisher, int first, int count) const
+  {
+    for (int i = first; i < first + count; ++i)
+    {
+      std_msgs::Header header;
+      header.stamp = ros::Time(g_next_stamp);
+      header.frame_id = kCamera + "_optical_frame";
+      g_next_stamp += 0.6;
+      publisher.publish(cv_bridge::CvImage(header, "rgb8", simulator->fixedFrame(camera, i).image).toImageMsg());
+      ros::WallDuration(0.3).sleep();
+    }
+    ros::WallDuration(1.0).sleep();
+  }
+
+  int camera = -1;
+  std::unique_ptr<sim::SurveySimulator> simulator;
+};
 
 ic::Verify::Response verify()
 {
@@ -182,9 +195,10 @@ TEST(CameraWatchdog, MovedCamerasAreDetectedAndUnmovedOnesNot)
   ros::WallDuration(2.5).sleep();  // the markers (every 2 s) with the map
 
   // Unmoved: ~verify after each new batch of images, and the periodic checks in between: never flagged.
-  for (uint64_t seed = 11; seed <= 13; ++seed)
+  const MovedCamera unmoved(Eigen::Isometry3d::Identity(), 11);
+  for (int batch = 0; batch < 3; ++batch)
   {
-    publishImages(images, Eigen::Isometry3d::Identity(), seed, 3);
+    unmoved.publish(images, 3 * batch, 3);
     const auto r = verify();
     ASSERT_TRUE(r.success) << r.message;
     EXPECT_EQ(r.moved, "no") << r.message;
@@ -199,7 +213,7 @@ TEST(CameraWatchdog, MovedCamerasAreDetectedAndUnmovedOnesNot)
     EXPECT_TRUE(g_camera_warnings.empty()) << g_camera_warnings.front();
   }
 
-  publishImages(images, rotated(), 21, 8);
+  MovedCamera(rotated(), 21).publish(images, 0, 7);
   expectMovedAsTruth(verify(), rotated());
   ros::WallDuration(1.5).sleep();  // a /diagnostics update
   {
@@ -209,7 +223,7 @@ TEST(CameraWatchdog, MovedCamerasAreDetectedAndUnmovedOnesNot)
     EXPECT_NE(g_camera_warnings.back().find("recalibrate"), std::string::npos) << g_camera_warnings.back();
   }
 
-  publishImages(images, translated(), 31, 8);
+  MovedCamera(translated(), 31).publish(images, 0, 7);
   expectMovedAsTruth(verify(), translated());
 
   // A recalibration of the translated camera: kept, and how far it moved.

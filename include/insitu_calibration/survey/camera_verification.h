@@ -33,7 +33,7 @@ struct CameraVerificationOptions
   // image lines match the map within search_distance_px (a grid step of 0.5 deg is at most about 6 px at a focal
   // length of 1000 px from any rotation in the range); then rounds of matching and fitting from the best rotation,
   // the threshold tightening to distance_factor times the fit's RMS, halving at most per round, never below
-  // min_distance_px. A camera moved beyond the range matches too few lines: "cannot verify".
+  // min_distance_px. A camera moved beyond the range matches too few lines: "cannot verify". Range 0: no search.
   double search_range_deg = 2.0;
   double search_step_deg = 0.5;
   double search_distance_px = 10.0;

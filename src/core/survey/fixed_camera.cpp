@@ -292,7 +292,9 @@ void FixedCamera::measureVerificationReference(const std::vector<Segment3d>& map
   const auto lines = medianLines(camera.distortion());
   if (!lines)
     return;
-  const auto zero = verifyCameraPose(camera, config_.image_width, config_.image_height, map_lines, *lines);
+  CameraVerificationOptions options;
+  options.search_range_deg = 0.0;  // the camera is where it was calibrated: no search
+  const auto zero = verifyCameraPose(camera, config_.image_width, config_.image_height, map_lines, *lines, options);
   if (!zero || zero->verdict != CameraMotionVerdict::kUnmoved)
     return;  // no sane zero: the calibration itself serves
   VerificationReference r;
