@@ -76,7 +76,7 @@ void CalibrationServer::verifyCalibratedCameras()
     bool checkable = false;
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      checkable = survey_->camera(name).calibration() && !survey_->camera(name).medianImage().empty();
+      checkable = survey_->camera(name).calibration() && survey_->camera(name).imageCount() > 0;
     }
     if (!checkable)
       continue;

@@ -94,6 +94,7 @@ public:
   // Adds an image to the median buffer. Errors: empty, or a size other than the configured one.
   Status addImage(const cv::Mat& image);
   cv::Mat medianImage() const { return median_.median(); }
+  size_t imageCount() const { return median_.size(); }  // in the median buffer (cheap, unlike medianImage)
 
   // Calibrates from the line map (prior) or the correspondence file, and keeps the result when it passes the
   // sanity checks. Errors say what is missing or wrong.
