@@ -311,10 +311,14 @@ TEST(CalibrationStore, ARecalibrationKeepsThePreviousOneBesideIt)
   std::string kept = "unset";
   ASSERT_TRUE(store.save("cam", *first, cv::Mat(960, 1280, CV_8UC3, cv::Scalar(1, 2, 3)), &kept));
   EXPECT_TRUE(kept.empty()) << "nothing to keep before the first calibration";
-  const std::string first_text = readText(store.calibrationPath("cam"));
-  // The same calibration saved again (~save): nothing kept.
+  // The same calibration saved again (~save), also as read back after a restart: nothing kept.
   ASSERT_TRUE(store.save("cam", *first, cv::Mat(), &kept));
   EXPECT_TRUE(kept.empty());
+  const auto reloaded = store.saved("cam");
+  ASSERT_TRUE(reloaded);
+  ASSERT_TRUE(store.save("cam", *reloaded, cv::Mat(), &kept));
+  EXPECT_TRUE(kept.empty()) << kept;
+  const std::string first_text = readText(store.calibrationPath("cam"));
 
   ic::CalibrationFile second = *first;
   second.camera.pose().translation.x() += 0.05;

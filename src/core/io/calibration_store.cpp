@@ -1,6 +1,8 @@
 #include "insitu_calibration/io/calibration_store.h"
 
+#include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <chrono>
 #include <ctime>
 #include <filesystem>
@@ -34,6 +36,31 @@ std::string readWhole(const std::string& path)
   std::ostringstream text;
   text << in.rdbuf();
   return text.str();
+}
+
+// Whether a saved file holds this calibration's camera (to the digits a file keeps: a file read and written again
+// differs from the first write in the last ones). The quality block may differ (sigmas widened afterwards).
+bool sameCalibration(const std::string& saved_text, const CalibrationFile& calibration)
+{
+  const auto saved = parseCalibration(saved_text);
+  if (!saved || saved->camera_name != calibration.camera_name || saved->image_width != calibration.image_width ||
+      saved->image_height != calibration.image_height || saved->world_frame != calibration.world_frame)
+    return false;
+  const CameraModel& a = saved->camera;
+  const CameraModel& b = calibration.camera;
+  const auto close = [](double x, double y) { return std::abs(x - y) <= 1e-9 * std::max(1.0, std::abs(x)); };
+  const Intrinsics &ka = a.intrinsics(), &kb = b.intrinsics();
+  bool same = close(ka.fx, kb.fx) && close(ka.fy, kb.fy) && close(ka.skew, kb.skew) && close(ka.cx, kb.cx) &&
+              close(ka.cy, kb.cy) && std::abs(a.distortion().lambda - b.distortion().lambda) <= 1e-18 &&
+              close(a.distortion().center.x(), b.distortion().center.x()) &&
+              close(a.distortion().center.y(), b.distortion().center.y());
+  for (int i = 0; i < 3; ++i)
+  {
+    same = same && close(a.pose().translation(i), b.pose().translation(i));
+    for (int j = 0; j < 3; ++j)
+      same = same && close(a.pose().rotation(i, j), b.pose().rotation(i, j));
+  }
+  return same;
 }
 
 // When a file was last written, as UTC "20261130T071100Z".
@@ -145,7 +172,7 @@ Expected<std::string> CalibrationStore::keepPrevious(const std::string& camera,
   if (!fs::exists(path, ec))
     return std::string();
   const std::string previous = readWhole(path);
-  if (previous == formatCalibration(replacement))
+  if (sameCalibration(previous, replacement))
     return std::string();  // the same calibration saved again: nothing to keep
   const std::string utc = utcWriteTime(path);
   std::string target = archivedPath(camera, utc);
