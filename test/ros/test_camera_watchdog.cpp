@@ -102,7 +102,7 @@ struct MovedCamera
       publisher.publish(cv_bridge::CvImage(header, "rgb8", simulator->fixedFrame(camera, i).image).toImageMsg());
       ros::WallDuration(0.3).sleep();
     }
-    ros::WallDuration(1.0).sleep();
+    ros::WallDuration(0.5).sleep();
   }
 
   int camera = -1;
@@ -131,9 +131,14 @@ ic::PoseDifference truthOf(const Eigen::Isometry3d& motion)
 {
   const ic::CalibrationFile calibration = savedCalibration();
   std::vector<ic::Segment3d> map;
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(5.0);  // ~markers come every 2 s
+  while (map.empty() && ros::WallTime::now() < deadline)
   {
-    std::lock_guard<std::mutex> lock(g_mutex);
-    map = g_map;
+    {
+      std::lock_guard<std::mutex> lock(g_mutex);
+      map = g_map;
+    }
+    ros::WallDuration(0.1).sleep();
   }
   EXPECT_FALSE(map.empty()) << "no line map on ~markers";
   const ic::CameraPose after =
@@ -192,13 +197,12 @@ TEST(CameraWatchdog, MovedCamerasAreDetectedAndUnmovedOnesNot)
   ASSERT_TRUE(ros::service::call("/calibration_node/calibrate", calibrate));
   ASSERT_TRUE(calibrate.response.success) << calibrate.response.message;
   EXPECT_FALSE(calibrate.response.results.at(0).had_previous);
-  ros::WallDuration(2.5).sleep();  // the markers (every 2 s) with the map
 
   // Unmoved: ~verify after each new batch of images, and the periodic checks in between: never flagged.
   const MovedCamera unmoved(Eigen::Isometry3d::Identity(), 11);
   for (int batch = 0; batch < 3; ++batch)
   {
-    unmoved.publish(images, 3 * batch, 3);
+    unmoved.publish(images, 2 * batch, 2);
     const auto r = verify();
     ASSERT_TRUE(r.success) << r.message;
     EXPECT_EQ(r.moved, "no") << r.message;
@@ -215,7 +219,16 @@ TEST(CameraWatchdog, MovedCamerasAreDetectedAndUnmovedOnesNot)
 
   MovedCamera(rotated(), 21).publish(images, 0, 7);
   expectMovedAsTruth(verify(), rotated());
-  ros::WallDuration(1.5).sleep();  // a /diagnostics update
+  const ros::WallTime diagnostics_deadline = ros::WallTime::now() + ros::WallDuration(3.0);  // updated every 1 s
+  while (ros::WallTime::now() < diagnostics_deadline)
+  {
+    {
+      std::lock_guard<std::mutex> lock(g_mutex);
+      if (!g_camera_warnings.empty())
+        break;
+    }
+    ros::WallDuration(0.1).sleep();
+  }
   {
     std::lock_guard<std::mutex> lock(g_mutex);
     ASSERT_FALSE(g_camera_warnings.empty());
