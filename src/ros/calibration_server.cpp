@@ -140,6 +140,23 @@ visualization_msgs::Marker lineList(const std::string& frame, const std::string&
   }
   return m;
 }
+
+// How far the camera moved from the calibration a new one replaces (the operator asked for a new one: why?), into
+// the result; returns it in words ("; moved by ..."), empty without a previous calibration.
+std::string notePreviousCalibration(const std::optional<CalibrationFile>& previous, const CalibrationFile& now,
+                                    const std::vector<Segment3d>& map, insitu_calibration::CalibrationResult* msg)
+{
+  if (!previous)
+    return "";
+  const PoseDifference change = calibrationChange(*previous, now, map);
+  msg->had_previous = true;
+  msg->moved_displacement_px = change.displacement_px;
+  msg->moved_rotation_deg = change.rotation_deg;
+  msg->moved_translation_m = change.translation_m;
+  const std::string note = "; " + describeChange(change);
+  msg->message += note;
+  return note;
+}
 }  // namespace
 
 CalibrationServer::CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private_nh)
@@ -189,6 +206,7 @@ CalibrationServer::CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private
   service_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &service_queue_);
   work_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &work_queue_);
   setupStatusReporting();
+  setupWatchdog();
   marker_timer_ = nh_.createWallTimer(ros::WallDuration(2.0), [this](const ros::WallTimerEvent&) {
     std::lock_guard<std::mutex> lock(mutex_);
     publishMarkers();
@@ -270,6 +288,16 @@ SurveyOptions CalibrationServer::readParameters(ParameterReader& read)
   calibration.ransac_options.inlier_threshold_px =
       read.number("ransac_threshold_px", calibration.ransac_options.inlier_threshold_px, Range::positive(100.0, "px"));
   calibration.refine = read.flag("refine", calibration.refine);
+  CameraVerificationOptions& w = watchdog_options_;  // the moved-camera watchdog
+  w.max_displacement_px =
+      read.number("watchdog/max_displacement_px", w.max_displacement_px, Range::positive(1000.0, "px"));
+  w.max_rotation_deg = read.number("watchdog/max_rotation_deg", w.max_rotation_deg, Range::positive(180.0, "deg"));
+  w.sigma_factor = read.number("watchdog/sigma_factor", w.sigma_factor, Range::closed(0.0, 100.0));
+  w.search_distance_px =
+      read.number("watchdog/search_distance_px", w.search_distance_px, Range::positive(1000.0, "px"));
+  w.min_matched_lines = static_cast<size_t>(
+      read.integer("watchdog/min_matched_lines", static_cast<int>(w.min_matched_lines), Range::integers(4, 100000)));
+  verify_period_s_ = read.number("verify_period_s", verify_period_s_, Range::closed(0.0, 86400.0, "s"));
   calibration.ransac = read.flag("ransac", calibration.ransac);
   return options;
 }
@@ -468,7 +496,7 @@ std::string CalibrationServer::calibrationPath(const std::string& name) const
   return output_directory_ + "/" + name + ".yaml";
 }
 
-Status CalibrationServer::saveCalibration(const std::string& name)
+Status CalibrationServer::saveCalibration(const std::string& name, std::string* kept_as)
 {
   if (!survey_->camera(name).calibration())
     return Error(ErrorCode::kNotEnoughData, "camera '" + name + "' is not calibrated");
@@ -481,7 +509,7 @@ Status CalibrationServer::saveCalibration(const std::string& name)
       image.empty() ? cv::Mat()
                     : drawOverlay(image, file.image_width, file.image_height, file.camera, survey_->latestMapSegments(),
                                   last ? last->matched_image_lines : std::vector<std::vector<Eigen::Vector2d>>{});
-  return CalibrationStore(output_directory_).save(name, file, overlay);
+  return CalibrationStore(output_directory_).save(name, file, overlay, kept_as);
 }
 
 void CalibrationServer::refreshMapAdjustment()
@@ -521,6 +549,7 @@ void CalibrationServer::calibrateOne(const std::string& name, const std::functio
     sigmas = survey_->latestMapLineSigmas();
     generation = reset_generation_;
   }
+  const std::optional<CalibrationFile> previous = camera->calibration();
   stage("calibrating");
   auto result = camera->calibrate(map, world_frame_, sigmas);  // the long part, without mutex_
   if (!result)
@@ -543,8 +572,10 @@ void CalibrationServer::calibrateOne(const std::string& name, const std::functio
   }
   auto msg = toResultMsg(result->file, &result->calibration, world_frame_);
   msg.message = result->summary;
+  const std::string change_note = notePreviousCalibration(previous, result->file, map, &msg);
   stage("saving");
   std::string saved_note = "saved to " + calibrationPath(name);
+  std::string kept_as;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (generation != reset_generation_)
@@ -557,15 +588,19 @@ void CalibrationServer::calibrateOne(const std::string& name, const std::functio
       return;
     }
     survey_->camera(name) = std::move(*camera);
-    if (const Status saved = saveCalibration(name); !saved)
+    if (const Status saved = saveCalibration(name, &kept_as); !saved)
     {
       saved_note = "NOT saved: " + saved.error().message();
       ROS_ERROR_STREAM("calibration_node: " << name << ": " << saved.error().message());
     }
   }
+  forgetMotion(name);  // the watchdog's last check was of the calibration replaced
+  msg.previous_kept_as = kept_as;
+  if (!kept_as.empty())
+    saved_note += " (the previous calibration kept as " + kept_as + ")";
   saved_note += commitToDriver(name, toCameraInfo(result->file, cameras_.at(name).optical_frame));
   outcome->results.push_back(msg);
-  outcome->message += name + ": " + result->summary + "; " + saved_note + "\n";
+  outcome->message += name + ": " + result->summary + change_note + "; " + saved_note + "\n";
   ROS_INFO_STREAM("calibration_node: " << name << ": " << result->summary);
 }
 
@@ -666,6 +701,7 @@ bool CalibrationServer::resetService(Reset::Request& request, Reset::Response& r
   {
     survey_->reset();
     ++reset_generation_;
+    forgetMotion("");
     {
       std::lock_guard<std::mutex> info_lock(info_mutex_);
       calibrated_info_.clear();
@@ -679,6 +715,7 @@ bool CalibrationServer::resetService(Reset::Request& request, Reset::Response& r
     return refuseRequest(response, error);
   survey_->resetCamera(request.camera);
   ++reset_generation_;
+  forgetMotion(request.camera);
   {
     std::lock_guard<std::mutex> info_lock(info_mutex_);
     calibrated_info_.erase(request.camera);

@@ -72,6 +72,13 @@ std::vector<CameraStatus> CalibrationServer::cameraStatuses(const std::vector<st
     msg.calibrated = s.calibrated;
     msg.ready = s.ready;
     msg.message = s.message;
+    if (const auto motion = lastMotion(msg.camera_name))
+    {
+      msg.motion = toString(motion->verdict);
+      msg.motion_displacement_px = motion->displacement_px;
+      msg.motion_rotation_deg = motion->rotation_deg;
+      msg.motion_message = motion->message;
+    }
     out.push_back(msg);
   }
   return out;
@@ -144,6 +151,14 @@ void CalibrationServer::cameraDiagnostics(const std::string& name, diagnostic_up
     stat.add("sigma position (m)", sigma_position);
     stat.add("sigma rotation (deg)", sigma_rotation);
   }
+  const std::optional<CameraMotion> motion = calibration ? lastMotion(name) : std::nullopt;
+  if (motion)
+  {
+    stat.add("moved", toString(motion->verdict));
+    stat.add("displacement since calibration (px)", motion->displacement_px);
+    stat.add("rotation since calibration (deg)", motion->rotation_deg);
+    stat.add("last check", motion->message);
+  }
   using diagnostic_msgs::DiagnosticStatus;
   if (!age_s)
     stat.summaryf(DiagnosticStatus::ERROR, "no images on %s", topic.c_str());
@@ -151,6 +166,9 @@ void CalibrationServer::cameraDiagnostics(const std::string& name, diagnostic_up
     stat.summaryf(DiagnosticStatus::WARN, "stale images: the last one arrived %.0f s ago", *age_s);
   else if (!calibration)
     stat.summary(DiagnosticStatus::WARN, "not calibrated");
+  else if (motion && motion->verdict == CameraMotionVerdict::kMoved)
+    stat.summaryf(DiagnosticStatus::WARN, "camera moved by %.1f px / %.2f deg since calibration: recalibrate",
+                  motion->displacement_px, motion->rotation_deg);
   else if (sigma_position > max_sigma_position_m_ || sigma_rotation > max_sigma_rotation_deg_)
     stat.summaryf(DiagnosticStatus::WARN,
                   "calibration too uncertain: 1 sigma %.3f m, %.2f deg (limits %.3f m, %.2f deg)", sigma_position,

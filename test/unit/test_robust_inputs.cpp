@@ -301,3 +301,47 @@ TEST(CalibrationStore, StaleTemporariesGoAndOverlaysStay)
     temporaries += entry.path().filename().string().find(".tmp.") != std::string::npos;
   EXPECT_EQ(temporaries, 2u);  // only the two that are not ours
 }
+
+TEST(CalibrationStore, ARecalibrationKeepsThePreviousOneBesideIt)
+{
+  const fs::path dir = freshDir("store_archive");
+  const ic::CalibrationStore store(dir.string());
+  const auto first = ic::parseCalibration(exampleCalibrationText());
+  ASSERT_TRUE(first);
+  std::string kept = "unset";
+  ASSERT_TRUE(store.save("cam", *first, cv::Mat(960, 1280, CV_8UC3, cv::Scalar(1, 2, 3)), &kept));
+  EXPECT_TRUE(kept.empty()) << "nothing to keep before the first calibration";
+  // The same calibration saved again (~save), also as read back after a restart: nothing kept.
+  ASSERT_TRUE(store.save("cam", *first, cv::Mat(), &kept));
+  EXPECT_TRUE(kept.empty());
+  const auto reloaded = store.saved("cam");
+  ASSERT_TRUE(reloaded);
+  ASSERT_TRUE(store.save("cam", *reloaded, cv::Mat(), &kept));
+  EXPECT_TRUE(kept.empty()) << kept;
+  const std::string first_text = readText(store.calibrationPath("cam"));
+
+  ic::CalibrationFile second = *first;
+  second.camera.pose().translation.x() += 0.05;
+  ASSERT_TRUE(store.save("cam", second, cv::Mat(960, 1280, CV_8UC3, cv::Scalar(4, 5, 6)), &kept));
+  ASSERT_FALSE(kept.empty());
+  EXPECT_EQ(fs::path(kept).parent_path(), dir);
+  EXPECT_EQ(fs::path(kept).filename().string().rfind("cam.20", 0), 0u) << kept;  // cam.<UTC>.yaml
+  EXPECT_EQ(readText(kept), first_text);
+  const auto now = store.saved("cam");
+  ASSERT_TRUE(now);
+  EXPECT_NEAR(now->camera.pose().translation.x(), second.camera.pose().translation.x(), 1e-9);
+  size_t overlays = 0;
+  for (const auto& entry : fs::directory_iterator(dir))
+    overlays += entry.path().filename().string().rfind("cam_overlay.20", 0) == 0;
+  EXPECT_EQ(overlays, 1u);
+
+  // A third calibration in the same second: a second copy, the first never overwritten.
+  ic::CalibrationFile third = second;
+  third.camera.pose().translation.x() += 0.05;
+  std::string kept_again;
+  ASSERT_TRUE(store.save("cam", third, cv::Mat(), &kept_again));
+  ASSERT_FALSE(kept_again.empty());
+  EXPECT_NE(kept_again, kept);
+  EXPECT_EQ(readText(kept), first_text);
+  EXPECT_FALSE(store.saved("absent"));
+}

@@ -42,10 +42,21 @@ public:
 
   // Validates, then writes the calibration atomically, and the overlay when it is not empty. An empty overlay (the
   // image it is drawn on is gone after a restart) keeps the PNG already there instead of replacing it by a blank.
-  Status save(const std::string& camera, const CalibrationFile& calibration, const cv::Mat& overlay) const;
+  // A different calibration already saved is never overwritten silently: it is first copied beside it as
+  // <camera>.<UTC time it was written>.yaml (archivedPath; .1, .2, ... when taken), with its overlay as
+  // <camera>_overlay.<same time>.png; kept_as receives the YAML copy's path (empty when nothing was kept: no file,
+  // or the same calibration saved again).
+  Status save(const std::string& camera, const CalibrationFile& calibration, const cv::Mat& overlay,
+              std::string* kept_as = nullptr) const;
+  // The saved calibration as it is on disk, if readable and valid (no renaming, unlike load).
+  std::optional<CalibrationFile> saved(const std::string& camera) const;
+  // "<dir>/<camera>.<utc>.yaml" for a UTC time as "20261130T071100Z".
+  std::string archivedPath(const std::string& camera, const std::string& utc) const;
 
 private:
   std::string setAside(const std::string& path) const;
+  // Copies the saved calibration (and overlay) aside before it is replaced; returns the YAML copy's path.
+  Expected<std::string> keepPrevious(const std::string& camera, const CalibrationFile& replacement) const;
 
   std::string directory_;
 };

@@ -1,5 +1,6 @@
 // The calibration node's ROS side: parameters, subscriptions (Xtion RGB-D with tf2 poses, fixed cameras through
-// image_transport), services (~calibrate, ~status, ~reset, ~save), the ~calibrate action, and outputs (one static tf
+// image_transport), services (~calibrate, ~status, ~reset, ~save, ~verify), the ~calibrate action, the moved-camera
+// watchdog (every verify_period_s), and outputs (one static tf
 // broadcaster, latched and per-image CameraInfo, YAML files, markers, overlay images, /diagnostics, the latched
 // ~survey_status). The work is done by the core (RgbdLineExtractor, LineMap, FixedCamera); this class converts and
 // calls.
@@ -34,6 +35,7 @@
 #include "insitu_calibration/Reset.h"
 #include "insitu_calibration/CalibrationStatus.h"
 #include "insitu_calibration/SurveyStatus.h"
+#include "insitu_calibration/Verify.h"
 #include "insitu_calibration/ros/parameter_reader.h"
 #include "insitu_calibration/survey/survey.h"
 
@@ -115,12 +117,24 @@ private:
   bool resetService(Reset::Request& request, Reset::Response& response);
   bool saveService(std_srvs::Trigger::Request& request, std_srvs::Trigger::Response& response);
 
+  // The moved-camera watchdog (calibration_server_watchdog.cpp): ~verify and the periodic check, both on the work
+  // queue (behind a calibration, never beside it), each a check of the calibration against the median of the
+  // camera's recent images (FixedCamera::verify) without mutex_. The last result per camera feeds /diagnostics and
+  // ~status; a new calibration or a reset forgets it.
+  void setupWatchdog();
+  Expected<CameraMotion> verifyCamera(const std::string& name);
+  void verifyCalibratedCameras();
+  bool verifyService(Verify::Request& request, Verify::Response& response);
+  std::optional<CameraMotion> lastMotion(const std::string& name);
+  void forgetMotion(const std::string& name);
+
   // Publishes every calibration: tf (one broadcaster, all cameras at once), CameraInfo, markers, overlays. Takes
   // mutex_ itself (only for a snapshot): the caller must not hold it.
   void publishCalibrations();
   void publishMarkers();
   void loadSavedCalibrations();
-  Status saveCalibration(const std::string& name);
+  // kept_as: where the calibration it replaced was kept (CalibrationStore::save).
+  Status saveCalibration(const std::string& name, std::string* kept_as = nullptr);
   std::string calibrationPath(const std::string& name) const;
   std::vector<std::string> selectCameras(const std::string& name, std::string* error) const;
 
@@ -163,6 +177,11 @@ private:
   ros::ServiceServer status_server_;
   ros::ServiceServer reset_server_;
   ros::ServiceServer save_server_;
+  ros::ServiceServer verify_server_;
+  ros::WallTimer verify_timer_;
+  CameraVerificationOptions watchdog_options_;
+  std::mutex motion_mutex_;
+  std::map<std::string, CameraMotion> last_motion_;  // per camera, the watchdog's last check (motion_mutex_)
   ros::Publisher marker_publisher_;
   ros::WallTimer marker_timer_;
   ros::WallTimer adjustment_timer_;
@@ -174,6 +193,7 @@ private:
   std::string output_directory_;
   double tf_timeout_s_ = 0.2;
   double map_adjustment_period_s_ = 10.0;  // 0: only before a calibration
+  double verify_period_s_ = 60.0;          // the watchdog's period; 0: only on ~verify
 
   // State, guarded by mutex_ (callbacks run on an AsyncSpinner's threads).
   mutable std::mutex mutex_;

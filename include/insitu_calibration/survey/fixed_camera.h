@@ -15,6 +15,7 @@
 #include "insitu_calibration/io/calibration_file.h"
 #include "insitu_calibration/lines/image_lines.h"
 #include "insitu_calibration/matching/line_matcher.h"
+#include "insitu_calibration/survey/camera_verification.h"
 #include "insitu_calibration/survey/image_explanation.h"
 #include "insitu_calibration/survey/temporal_median.h"
 
@@ -93,6 +94,7 @@ public:
   // Adds an image to the median buffer. Errors: empty, or a size other than the configured one.
   Status addImage(const cv::Mat& image);
   cv::Mat medianImage() const { return median_.median(); }
+  size_t imageCount() const { return median_.size(); }  // in the median buffer (cheap, unlike medianImage)
 
   // Calibrates from the line map (prior) or the correspondence file, and keeps the result when it passes the
   // sanity checks. Errors say what is missing or wrong.
@@ -100,6 +102,11 @@ public:
   Expected<FixedCameraResult> calibrate(const std::vector<Segment3d>& map_lines, const std::string& world_frame,
                                         const std::vector<double>& map_line_sigmas_m = {});
   FixedCameraStatus status(const std::vector<Segment3d>& map_lines) const;
+  // The moved-camera check (camera_verification.h): the lines of the median of the recent images, extracted with the
+  // calibration's distortion, against the map lines projected through the calibration. Errors: not calibrated, no
+  // image, the extraction failed, an empty map.
+  Expected<CameraMotion> verify(const std::vector<Segment3d>& map_lines,
+                                const CameraVerificationOptions& options = {}) const;
 
   const std::optional<CalibrationFile>& calibration() const { return calibration_; }
   const std::optional<FixedCameraResult>& lastResult() const { return last_result_; }
@@ -120,6 +127,9 @@ private:
   Status check(const CameraCalibration& calibration, size_t matched_lines) const;
   // The final check of a map-based result: measures how well it explains the median image, refuses it if badly.
   Status checkExplanation(FixedCameraResult& result, const std::vector<Segment3d>& map_lines) const;
+  // The image lines of the median image under a distortion (the polylines only).
+  Expected<std::vector<std::vector<Eigen::Vector2d>>> medianLines(const DivisionModel& distortion) const;
+  void measureVerificationReference(const std::vector<Segment3d>& map_lines);
 
   FixedCameraConfig config_;
   FixedCameraOptions options_;
@@ -128,6 +138,16 @@ private:
   std::optional<FixedCameraResult> last_result_;
   std::optional<FixedCameraResult> last_refused_;
   size_t last_matched_ = 0;
+  // The watchdog's zero (verify): the pose its own fit finds on the images of the calibration, kept with the
+  // calibrated pose it belongs to. Its line-end fit and the calibration's adjustment weigh the lines differently:
+  // their optima lie a few millimetres apart, which would otherwise read as a motion. None after a restart (the
+  // images are gone): the calibration itself is the zero then.
+  struct VerificationReference
+  {
+    CameraPose calibrated;
+    CameraPose reference;
+  };
+  std::optional<VerificationReference> verification_reference_;
 };
 
 // Share of the image (a 4 x 4 grid of cells) that the lines' points touch, in percent.

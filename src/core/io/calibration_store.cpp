@@ -1,7 +1,13 @@
 #include "insitu_calibration/io/calibration_store.h"
 
+#include <algorithm>
 #include <cctype>
+#include <cmath>
+#include <chrono>
+#include <ctime>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -22,6 +28,55 @@ bool isTemporaryOf(const std::string& file_name, const std::string& prefix)
     if (!std::isalnum(static_cast<unsigned char>(file_name[i])))
       return false;
   return true;
+}
+
+std::string readWhole(const std::string& path)
+{
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// Whether a saved file holds this calibration's camera (to the digits a file keeps: a file read and written again
+// differs from the first write in the last ones). The quality block may differ (sigmas widened afterwards).
+bool sameCalibration(const std::string& saved_text, const CalibrationFile& calibration)
+{
+  const auto saved = parseCalibration(saved_text);
+  if (!saved || saved->camera_name != calibration.camera_name || saved->image_width != calibration.image_width ||
+      saved->image_height != calibration.image_height || saved->world_frame != calibration.world_frame)
+    return false;
+  const CameraModel& a = saved->camera;
+  const CameraModel& b = calibration.camera;
+  const auto close = [](double x, double y) { return std::abs(x - y) <= 1e-9 * std::max(1.0, std::abs(x)); };
+  const Intrinsics &ka = a.intrinsics(), &kb = b.intrinsics();
+  bool same = close(ka.fx, kb.fx) && close(ka.fy, kb.fy) && close(ka.skew, kb.skew) && close(ka.cx, kb.cx) &&
+              close(ka.cy, kb.cy) && std::abs(a.distortion().lambda - b.distortion().lambda) <= 1e-18 &&
+              close(a.distortion().center.x(), b.distortion().center.x()) &&
+              close(a.distortion().center.y(), b.distortion().center.y());
+  for (int i = 0; i < 3; ++i)
+  {
+    same = same && close(a.pose().translation(i), b.pose().translation(i));
+    for (int j = 0; j < 3; ++j)
+      same = same && close(a.pose().rotation(i, j), b.pose().rotation(i, j));
+  }
+  return same;
+}
+
+// When a file was last written, as UTC "20261130T071100Z".
+std::string utcWriteTime(const std::string& path)
+{
+  std::error_code ec;
+  const auto written = fs::last_write_time(path, ec);
+  const auto system = ec ? std::chrono::system_clock::now()
+                         : std::chrono::time_point_cast<std::chrono::system_clock::duration>(
+                               written - fs::file_time_type::clock::now() + std::chrono::system_clock::now());
+  const std::time_t t = std::chrono::system_clock::to_time_t(system);
+  std::tm utc{};
+  gmtime_r(&t, &utc);
+  char text[32];
+  std::strftime(text, sizeof(text), "%Y%m%dT%H%M%SZ", &utc);
+  return text;
 }
 }  // namespace
 
@@ -95,11 +150,56 @@ CalibrationStore::Loaded CalibrationStore::load(const std::string& camera, int i
   return loaded;
 }
 
-Status CalibrationStore::save(const std::string& camera, const CalibrationFile& calibration,
-                              const cv::Mat& overlay) const
+std::string CalibrationStore::archivedPath(const std::string& camera, const std::string& utc) const
+{
+  return directory_ + "/" + camera + "." + utc + ".yaml";
+}
+
+std::optional<CalibrationFile> CalibrationStore::saved(const std::string& camera) const
+{
+  std::error_code ec;
+  if (!fs::exists(calibrationPath(camera), ec))
+    return std::nullopt;
+  auto file = loadCalibrationFile(calibrationPath(camera));
+  return file ? std::optional<CalibrationFile>(*file) : std::nullopt;
+}
+
+Expected<std::string> CalibrationStore::keepPrevious(const std::string& camera,
+                                                     const CalibrationFile& replacement) const
+{
+  const std::string path = calibrationPath(camera);
+  std::error_code ec;
+  if (!fs::exists(path, ec))
+    return std::string();
+  const std::string previous = readWhole(path);
+  if (sameCalibration(previous, replacement))
+    return std::string();  // the same calibration saved again: nothing to keep
+  const std::string utc = utcWriteTime(path);
+  std::string target = archivedPath(camera, utc);
+  std::string overlay_target = directory_ + "/" + camera + "_overlay." + utc + ".png";
+  for (int n = 1; fs::exists(target, ec) && n < 1000; ++n)
+  {
+    target = archivedPath(camera, utc + "." + std::to_string(n));
+    overlay_target = directory_ + "/" + camera + "_overlay." + utc + "." + std::to_string(n) + ".png";
+  }
+  if (const Status written = writeFileAtomically(target, previous); !written)
+    return Error(ErrorCode::kIoError, "not replacing the calibration of '" + camera +
+                                          "': cannot keep the previous one: " + written.error().message());
+  if (fs::exists(overlayPath(camera), ec))
+    fs::copy_file(overlayPath(camera), overlay_target, ec);  // for people only: a failure loses no calibration
+  return target;
+}
+
+Status CalibrationStore::save(const std::string& camera, const CalibrationFile& calibration, const cv::Mat& overlay,
+                              std::string* kept_as) const
 {
   if (const Status valid = validateCalibration(calibration); !valid)
     return Error(valid.error().code(), "not saving the calibration of '" + camera + "': " + valid.error().message());
+  const auto kept = keepPrevious(camera, calibration);
+  if (!kept)
+    return kept.error();
+  if (kept_as)
+    *kept_as = *kept;
   if (const Status saved = saveCalibrationFile(calibrationPath(camera), calibration); !saved)
     return saved;
   if (overlay.empty())

@@ -91,6 +91,7 @@ void FixedCamera::reset()
 {
   median_.clear();
   calibration_.reset();
+  verification_reference_.reset();
   last_result_.reset();
   last_refused_.reset();
   last_matched_ = 0;
@@ -267,8 +268,57 @@ Expected<FixedCameraResult> FixedCamera::calibrate(const std::vector<Segment3d>&
   if (config_.correspondence_file.empty())
     result->summary += "; " + result->explanation.describe();
   calibration_ = result->file;
+  if (config_.correspondence_file.empty())
+    measureVerificationReference(map_lines);
   last_result_ = *result;
   return result;
+}
+
+Expected<std::vector<std::vector<Eigen::Vector2d>>> FixedCamera::medianLines(const DivisionModel& distortion) const
+{
+  const auto lines = extractImageLines(median_.median(), distortion, options_.image_lines);
+  if (!lines)
+    return lines.error();
+  std::vector<std::vector<Eigen::Vector2d>> polylines;
+  for (const auto& l : *lines)
+    polylines.push_back(l.points);
+  return polylines;
+}
+
+void FixedCamera::measureVerificationReference(const std::vector<Segment3d>& map_lines)
+{
+  verification_reference_.reset();
+  const CameraModel& camera = calibration_->camera;
+  const auto lines = medianLines(camera.distortion());
+  if (!lines)
+    return;
+  CameraVerificationOptions options;
+  options.search_range_deg = 0.0;  // the camera is where it was calibrated: no search
+  const auto zero = verifyCameraPose(camera, config_.image_width, config_.image_height, map_lines, *lines, options);
+  if (!zero || zero->verdict != CameraMotionVerdict::kUnmoved)
+    return;  // no sane zero: the calibration itself serves
+  VerificationReference r;
+  r.calibrated = camera.pose();
+  r.reference.rotation = zero->rotation * camera.pose().rotation;
+  r.reference.translation = zero->rotation * camera.pose().translation + zero->translation;
+  verification_reference_ = r;
+}
+
+Expected<CameraMotion> FixedCamera::verify(const std::vector<Segment3d>& map_lines,
+                                           const CameraVerificationOptions& options) const
+{
+  if (!calibration_)
+    return Error(ErrorCode::kNotEnoughData, "camera " + config_.name + " is not calibrated: nothing to verify");
+  if (median_.empty())
+    return Error(ErrorCode::kNotEnoughData, "no image has arrived from " + config_.image_topic + " yet");
+  CameraModel zero = calibration_->camera;
+  const auto& r = verification_reference_;
+  if (r && r->calibrated.rotation == zero.pose().rotation && r->calibrated.translation == zero.pose().translation)
+    zero.pose() = r->reference;
+  const auto lines = medianLines(zero.distortion());
+  if (!lines)
+    return lines.error();
+  return verifyCameraPose(zero, config_.image_width, config_.image_height, map_lines, *lines, options);
 }
 
 FixedCameraStatus FixedCamera::status(const std::vector<Segment3d>& map_lines) const
