@@ -1,6 +1,7 @@
 // bench_accuracy: the accuracy benchmark against ground truth (the paper's Fig. 2 experiment, outliers, number of
 // lines, the OpenCV peer, and the honesty of the reported standard deviations). Writes a CSV and a markdown summary,
 // then plots with scripts/plot_accuracy.py.
+#include <filesystem>
 #include <algorithm>
 #include <cstdio>
 #include <limits>
@@ -433,58 +434,24 @@ struct Writer
     groups[{experiment, x, method}].push_back(e);
   }
 };
-}  // namespace
 
-int main(int argc, char** argv)
+// What every experiment needs: where its rows go, how many trials from which seed, the image size.
+struct BenchRun
 {
-  ic::quietSolverLogging();
-  ic::CommandLine cli(argc, argv, {"trials", "out-dir", "seed", "experiments", "linear-stage"},
-                      {"no-plot", "previous-defaults", "true-noise"});
-  if (cli.help())
-  {
-    std::cout << kUsage;
-    return 0;
-  }
-  g_previous_defaults = cli.flag("previous-defaults");
-  g_true_noise = cli.flag("true-noise");
-  if (cli.has("linear-stage"))
-  {
-    g_linear_stage = ic::parseLinearStage(cli.value("linear-stage"));
-    if (!g_linear_stage)
-    {
-      std::cerr << "bench_accuracy: --linear-stage must be auto, plumb-line or parts\n";
-      return 2;
-    }
-  }
-  const int trials = static_cast<int>(cli.number("trials", 100));
-  const unsigned seed = static_cast<unsigned>(cli.number("seed", 1000));
-  const std::string out_dir = cli.value("out-dir", "accuracy");
-  if (!cli.error().empty() || trials <= 0)
-  {
-    std::cerr << "bench_accuracy: " << (cli.error().empty() ? "--trials must be positive" : cli.error()) << "\n\n"
-              << kUsage;
-    return 2;
-  }
-  std::system(("mkdir -p '" + out_dir + "'").c_str());
-  Writer w;
-  w.csv.open(out_dir + "/accuracy.csv");
-  if (!w.csv)
-  {
-    std::cerr << "bench_accuracy: cannot write " << out_dir << "/accuracy.csv\n";
-    return 1;
-  }
-  w.csv << "experiment,x,method,trial,ok,focal_rel,reprojection_px,rotation_deg,center_m,lambda_rel,fx_covered,"
-           "cx_covered,lambda_covered,position_covered,rotation_covered\n";
-  std::cout << "bench_accuracy: " << trials << " trials per setting, seed " << seed << "\n";
+  Writer& w;
+  int trials;
+  unsigned seed;
+  int width = 1280;
+  int height = 960;
+};
 
-  const int width = 1280;
-  const int height = 960;
-  const std::string experiments =
-      "," + cli.value("experiments", "fig2,fig2_rendered,outliers,outliers_added,lines,dense,dense_fixed") + ",";
-  const auto runs = [&](const char* name) {
-    return experiments.find("," + std::string(name) + ",") != std::string::npos;
-  };
-  for (int step = 0; step <= 8 && runs("fig2"); ++step)
+// Fig. 2 of the paper: image noise 0..4 px, the DLT variants, refinement and OpenCV.
+void runFig2(const BenchRun& r)
+{
+  Writer& w = r.w;
+  const int trials = r.trials, width = r.width, height = r.height;
+  const unsigned seed = r.seed;
+  for (int step = 0; step <= 8; ++step)
   {
     const double noise = 0.5 * step;
     const double threshold = std::max(3.0, 4.0 * noise);
@@ -507,58 +474,73 @@ int main(int argc, char** argv)
     }
     std::cout << "fig2: sigma " << noise << " px done" << std::endl;
   }
-  // The rendered Fig. 2: fine-tuned lines. One image per trial, every noise level on it.
-  if (runs("fig2_rendered"))
+}
+
+// One rendered trial at one noise level: the true lines with noise, and the same fine-tuned on the image.
+void addRenderedTrial(const BenchRun& r, const RenderedTrial& rendered, double noise, int k)
+{
+  Writer& w = r.w;
+  const int width = r.width, height = r.height;
+  const unsigned seed = r.seed;
+  const int step = static_cast<int>(std::lround(noise / 0.5));
+  const double threshold = std::max(3.0, 4.0 * noise);
+  std::mt19937 rng(seed + 40000 + 1000 * step + k);
+  std::normal_distribution<double> n(0.0, 1.0);
+  ic::CorrespondenceSet noisy, tuned;
+  noisy.image_width = tuned.image_width = width;
+  noisy.image_height = tuned.image_height = height;
+  // The fine-tuning searches as far as the initial error can reach.
+  ic::RefinerOptions options = rendered.refiner->options();
+  options.search_px = std::max(2.0, 3.0 * noise);
+  auto refiner = ic::LineRefiner::create(rendered.refiner->image(), options);
+  for (size_t i = 0; i < rendered.edges.size(); ++i)
   {
-    std::vector<RenderedTrial> rendered;
-    for (int k = 0; k < trials; ++k)
-      rendered.push_back(makeRenderedTrial(seed + 30000 + k, width, height));
-    for (int step = 0; step <= 8; ++step)
-    {
-      const double noise = 0.5 * step;
-      const double threshold = std::max(3.0, 4.0 * noise);
-      for (int k = 0; k < trials; ++k)
-      {
-        const RenderedTrial& r = rendered[k];
-        if (!r.refiner)
-          continue;
-        std::mt19937 rng(seed + 40000 + 1000 * step + k);
-        std::normal_distribution<double> n(0.0, 1.0);
-        ic::CorrespondenceSet noisy, tuned;
-        noisy.image_width = tuned.image_width = width;
-        noisy.image_height = tuned.image_height = height;
-        // The fine-tuning searches as far as the initial error can reach.
-        ic::RefinerOptions options = r.refiner->options();
-        options.search_px = std::max(2.0, 3.0 * noise);
-        auto refiner = ic::LineRefiner::create(r.refiner->image(), options);
-        for (size_t i = 0; i < r.edges.size(); ++i)
-        {
-          ic::LineCorrespondence line;
-          line.world = {r.edges[i].a, r.edges[i].b};
-          for (const auto& m : r.true_lines[i])
-            line.image.push_back(m + noise * Eigen::Vector2d(n(rng), n(rng)));
-          const auto fine = refiner ? refiner->refinePolyline(line.image)
-                                    : ic::Expected<ic::RefinedPolyline>(ic::Error(ic::ErrorCode::kNoSolution, ""));
-          if (!fine || fine->failed_parts > 0)
-            continue;  // an edge hidden in the image: no line there to fine-tune
-          noisy.lines.push_back(line);
-          line.image = fine->points;
-          tuned.lines.push_back(line);
-        }
-        Trial t;
-        t.truth = r.truth;
-        t.lines.segments = r.edges;
-        w.add("fig2_rendered", noise, "dlt_lines", k,
-              runCalibration(t, noisy, ic::DltMethod::kLines, true, false, threshold));
-        w.add("fig2_rendered", noise, "dlt_lines_finetuned", k,
-              runCalibration(t, tuned, ic::DltMethod::kLines, true, false, threshold));
-        w.add("fig2_rendered", noise, "dlt_lines_finetuned_refined", k,
-              runCalibration(t, tuned, ic::DltMethod::kLines, true, true, threshold));
-      }
-      std::cout << "fig2_rendered: sigma " << noise << " px done" << std::endl;
-    }
+    ic::LineCorrespondence line;
+    line.world = {rendered.edges[i].a, rendered.edges[i].b};
+    for (const auto& m : rendered.true_lines[i])
+      line.image.push_back(m + noise * Eigen::Vector2d(n(rng), n(rng)));
+    const auto fine = refiner ? refiner->refinePolyline(line.image)
+                              : ic::Expected<ic::RefinedPolyline>(ic::Error(ic::ErrorCode::kNoSolution, ""));
+    if (!fine || fine->failed_parts > 0)
+      continue;  // an edge hidden in the image: no line there to fine-tune
+    noisy.lines.push_back(line);
+    line.image = fine->points;
+    tuned.lines.push_back(line);
   }
-  for (int step = 0; step <= 5 && runs("outliers"); ++step)
+  Trial t;
+  t.truth = rendered.truth;
+  t.lines.segments = rendered.edges;
+  w.add("fig2_rendered", noise, "dlt_lines", k,
+        runCalibration(t, noisy, ic::DltMethod::kLines, true, false, threshold));
+  w.add("fig2_rendered", noise, "dlt_lines_finetuned", k,
+        runCalibration(t, tuned, ic::DltMethod::kLines, true, false, threshold));
+  w.add("fig2_rendered", noise, "dlt_lines_finetuned_refined", k,
+        runCalibration(t, tuned, ic::DltMethod::kLines, true, true, threshold));
+}
+
+// The rendered Fig. 2: fine-tuned lines. One image per trial, every noise level on it.
+void runFig2Rendered(const BenchRun& r)
+{
+  std::vector<RenderedTrial> rendered;
+  for (int k = 0; k < r.trials; ++k)
+    rendered.push_back(makeRenderedTrial(r.seed + 30000 + k, r.width, r.height));
+  for (int step = 0; step <= 8; ++step)
+  {
+    const double noise = 0.5 * step;
+    for (int k = 0; k < r.trials; ++k)
+      if (rendered[k].refiner)
+        addRenderedTrial(r, rendered[k], noise, k);
+    std::cout << "fig2_rendered: sigma " << noise << " px done" << std::endl;
+  }
+}
+
+// 0..50 % wrong line correspondences at 1 px.
+void runOutliers(const BenchRun& r)
+{
+  Writer& w = r.w;
+  const int trials = r.trials;
+  const unsigned seed = r.seed;
+  for (int step = 0; step <= 5; ++step)
   {
     const double fraction = 0.1 * step;
     std::mt19937 rng(seed + 77 * step);
@@ -575,9 +557,16 @@ int main(int argc, char** argv)
     }
     std::cout << "outliers: " << 100 * fraction << " % done" << std::endl;
   }
-  // The same with the wrong correspondences added to the 30 good lines (a fraction of the total), so that the data
-  // an oracle would keep do not shrink: the robust path's own cost.
-  for (int step = 0; step <= 5 && runs("outliers_added"); ++step)
+}
+
+// The same with the wrong correspondences added to the 30 good lines (a fraction of the total), so that the data
+// an oracle would keep do not shrink: the robust path's own cost.
+void runOutliersAdded(const BenchRun& r)
+{
+  Writer& w = r.w;
+  const int trials = r.trials;
+  const unsigned seed = r.seed;
+  for (int step = 0; step <= 5; ++step)
   {
     const double fraction = 0.1 * step;
     std::mt19937 rng(seed + 177 * step);
@@ -602,10 +591,16 @@ int main(int argc, char** argv)
     }
     std::cout << "outliers_added: " << 100 * fraction << " % done" << std::endl;
   }
+}
+
+// 7..200 lines at 1 px.
+void runLines(const BenchRun& r)
+{
+  Writer& w = r.w;
+  const int trials = r.trials;
+  const unsigned seed = r.seed;
   for (int lines : {7, 8, 10, 15, 20, 30, 50, 100, 200})
   {
-    if (!runs("lines"))
-      break;
     for (int k = 0; k < trials; ++k)
     {
       const Trial t = makeTrial(seed + 90000 + 1000 * lines + k, 1.0, lines);
@@ -615,11 +610,16 @@ int main(int argc, char** argv)
     }
     std::cout << "lines: " << lines << " done" << std::endl;
   }
-  // Issue 13: dense noisy polylines and noisy 3D points, the calibrate_lines defaults against OpenCV on points.
+}
+
+// Issue 13: dense noisy polylines and noisy 3D points, the calibrate_lines defaults against OpenCV on points.
+void runDense(const BenchRun& r)
+{
+  Writer& w = r.w;
+  const int trials = r.trials, width = r.width, height = r.height;
+  const unsigned seed = r.seed;
   for (double noise : {0.3, 1.0, 3.0})
   {
-    if (!runs("dense"))
-      break;
     for (int k = 0; k < trials; ++k)
     {
       const Trial t = makeDenseTrial(seed + 110000 + static_cast<unsigned>(1000 * noise) + k, noise);
@@ -632,12 +632,17 @@ int main(int argc, char** argv)
     }
     std::cout << "dense: sigma " << noise << " px done" << std::endl;
   }
-  // The issue's own two cases at 1 px: 6 image and 6 world points per line with 3 mm world noise (x = 6), and 10
-  // image points with exact world points (x = 10).
+}
+
+// The issue's own two cases at 1 px: 6 image and 6 world points per line with 3 mm world noise (x = 6), and 10
+// image points with exact world points (x = 10).
+void runDenseFixed(const BenchRun& r)
+{
+  Writer& w = r.w;
+  const int trials = r.trials, width = r.width, height = r.height;
+  const unsigned seed = r.seed;
   for (int case_points : {6, 10})
   {
-    if (!runs("dense_fixed"))
-      break;
     for (int k = 0; k < trials; ++k)
     {
       const Trial t = case_points == 6 ? makeDenseTrial(seed + 130000 + k, 1.0, 6, 6)
@@ -651,13 +656,56 @@ int main(int argc, char** argv)
     }
     std::cout << "dense_fixed: " << case_points << " image points done" << std::endl;
   }
-  if (runs("dense"))
-    printMedians("dense", w.groups);
-  if (runs("dense_fixed"))
-    printMedians("dense_fixed", w.groups);
-  w.csv.close();
+}
 
-  // Markdown summary: means over the successful trials, failures counted.
+// One row of the markdown summary: means over the successful trials, failures counted, and the sigmas' coverage.
+std::string summaryRow(const std::string& experiment, double x, const std::string& method,
+                       const std::vector<Errors>& errors)
+{
+  double focal = 0, reprojection = 0, rotation = 0, center = 0, lambda = 0;
+  int ok = 0;
+  int covered[5] = {0, 0, 0, 0, 0};
+  int with_sigma = 0;
+  for (const Errors& e : errors)
+  {
+    if (!e.ok)
+      continue;
+    ++ok;
+    focal += e.focal;
+    reprojection += e.reprojection_px;
+    rotation += e.rotation_deg;
+    center += e.center_m;
+    lambda += e.lambda;
+    if (e.fx_covered >= 0)
+    {
+      ++with_sigma;
+      covered[0] += e.fx_covered;
+      covered[1] += e.cx_covered;
+      covered[2] += e.lambda_covered;
+      covered[3] += e.position_covered;
+      covered[4] += e.rotation_covered;
+    }
+  }
+  char row[512];
+  const double n = std::max(ok, 1);
+  std::string coverage = "";
+  if (with_sigma > 0)
+  {
+    char c[128];
+    std::snprintf(c, sizeof(c), "%.0f / %.0f / %.0f / %.0f / %.0f %%", 100.0 * covered[0] / with_sigma,
+                  100.0 * covered[1] / with_sigma, 100.0 * covered[2] / with_sigma, 100.0 * covered[3] / with_sigma,
+                  100.0 * covered[4] / with_sigma);
+    coverage = c;
+  }
+  std::snprintf(row, sizeof(row), "| %s | %g | %s | %d / %zu | %.4f | %.4f | %.4f | %.3f | %.3f | %s |\n",
+                experiment.c_str(), x, method.c_str(), ok, errors.size(), 100.0 * focal / n, reprojection / n,
+                rotation / n, 1000.0 * center / n, 100.0 * lambda / n, coverage.c_str());
+  return row;
+}
+
+// DIR/accuracy.md: one summary row per experiment, x and method.
+void writeMarkdown(const std::string& out_dir, const Writer& w)
+{
   std::ofstream md(out_dir + "/accuracy.md");
   md << "| experiment | x | method | ok / trials | mean focal error % | mean reprojection px | mean rotation deg | "
         "mean centre mm | mean lambda error % | 2-sigma coverage fx / cx / lambda / position / rotation |\n"
@@ -665,58 +713,88 @@ int main(int argc, char** argv)
   for (const auto& [key, errors] : w.groups)
   {
     const auto& [experiment, x, method] = key;
-    double focal = 0, reprojection = 0, rotation = 0, center = 0, lambda = 0;
-    int ok = 0;
-    int covered[5] = {0, 0, 0, 0, 0};
-    int with_sigma = 0;
-    for (const Errors& e : errors)
-    {
-      if (!e.ok)
-        continue;
-      ++ok;
-      focal += e.focal;
-      reprojection += e.reprojection_px;
-      rotation += e.rotation_deg;
-      center += e.center_m;
-      lambda += e.lambda;
-      if (e.fx_covered >= 0)
-      {
-        ++with_sigma;
-        covered[0] += e.fx_covered;
-        covered[1] += e.cx_covered;
-        covered[2] += e.lambda_covered;
-        covered[3] += e.position_covered;
-        covered[4] += e.rotation_covered;
-      }
-    }
-    char row[512];
-    const double n = std::max(ok, 1);
-    std::string coverage = "";
-    if (with_sigma > 0)
-    {
-      char c[128];
-      std::snprintf(c, sizeof(c), "%.0f / %.0f / %.0f / %.0f / %.0f %%", 100.0 * covered[0] / with_sigma,
-                    100.0 * covered[1] / with_sigma, 100.0 * covered[2] / with_sigma, 100.0 * covered[3] / with_sigma,
-                    100.0 * covered[4] / with_sigma);
-      coverage = c;
-    }
-    std::snprintf(row, sizeof(row), "| %s | %g | %s | %d / %zu | %.4f | %.4f | %.4f | %.3f | %.3f | %s |\n",
-                  experiment.c_str(), x, method.c_str(), ok, errors.size(), 100.0 * focal / n, reprojection / n,
-                  rotation / n, 1000.0 * center / n, 100.0 * lambda / n, coverage.c_str());
-    md << row;
+    md << summaryRow(experiment, x, method, errors);
   }
-  md.close();
-  std::cout << "wrote " << out_dir << "/accuracy.csv and " << out_dir << "/accuracy.md\n";
+}
 
-  if (!cli.flag("no-plot"))
+// Reads the run-wide flags into the globals the experiments read; false (after saying why) on a bad value.
+bool readGlobalFlags(const ic::CommandLine& cli)
+{
+  g_previous_defaults = cli.flag("previous-defaults");
+  g_true_noise = cli.flag("true-noise");
+  if (!cli.has("linear-stage"))
+    return true;
+  g_linear_stage = ic::parseLinearStage(cli.value("linear-stage"));
+  if (g_linear_stage)
+    return true;
+  std::cerr << "bench_accuracy: --linear-stage must be auto, plumb-line or parts\n";
+  return false;
+}
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  ic::quietSolverLogging();
+  ic::CommandLine cli(argc, argv, {"trials", "out-dir", "seed", "experiments", "linear-stage"},
+                      {"no-plot", "previous-defaults", "true-noise"});
+  if (cli.help())
   {
-    const std::string script = std::string(INSITU_SOURCE_DIR) + "/scripts/plot_accuracy.py";
-    const int status = std::system(("/usr/bin/python3 '" + script + "' '" + out_dir + "'").c_str());
-    if (status != 0)
-    {
-      std::cerr << "bench_accuracy: plotting failed (" << script << ")\n";
-      return 1;
-    }
+    std::cout << kUsage;
+    return 0;
+  }
+  if (!readGlobalFlags(cli))
+    return 2;
+  const int trials = static_cast<int>(cli.number("trials", 100));
+  const unsigned seed = static_cast<unsigned>(cli.number("seed", 1000));
+  const std::string out_dir = cli.value("out-dir", "accuracy");
+  if (!cli.error().empty() || trials <= 0)
+  {
+    std::cerr << "bench_accuracy: " << (cli.error().empty() ? "--trials must be positive" : cli.error()) << "\n\n"
+              << kUsage;
+    return 2;
+  }
+  std::error_code ec;
+  std::filesystem::create_directories(out_dir, ec);
+  Writer w;
+  w.csv.open(out_dir + "/accuracy.csv");
+  if (!w.csv)
+  {
+    std::cerr << "bench_accuracy: cannot write " << out_dir << "/accuracy.csv\n";
+    return 1;
+  }
+  w.csv << "experiment,x,method,trial,ok,focal_rel,reprojection_px,rotation_deg,center_m,lambda_rel,fx_covered,"
+           "cx_covered,lambda_covered,position_covered,rotation_covered\n";
+  std::cout << "bench_accuracy: " << trials << " trials per setting, seed " << seed << "\n";
+  const std::string experiments =
+      "," + cli.value("experiments", "fig2,fig2_rendered,outliers,outliers_added,lines,dense,dense_fixed") + ",";
+  const auto runs = [&](const char* name) {
+    return experiments.find("," + std::string(name) + ",") != std::string::npos;
+  };
+  const BenchRun run{w, trials, seed};
+  const std::vector<std::pair<const char*, void (*)(const BenchRun&)>> all = {{"fig2", runFig2},
+                                                                              {"fig2_rendered", runFig2Rendered},
+                                                                              {"outliers", runOutliers},
+                                                                              {"outliers_added", runOutliersAdded},
+                                                                              {"lines", runLines},
+                                                                              {"dense", runDense},
+                                                                              {"dense_fixed", runDenseFixed}};
+  for (const auto& [name, experiment] : all)
+    if (runs(name))
+      experiment(run);
+  if (runs("dense"))
+    printMedians("dense", w.groups);
+  if (runs("dense_fixed"))
+    printMedians("dense_fixed", w.groups);
+  w.csv.close();
+  writeMarkdown(out_dir, w);
+  std::cout << "wrote " << out_dir << "/accuracy.csv and " << out_dir << "/accuracy.md\n";
+  if (cli.flag("no-plot"))
+    return 0;
+  const std::string script = std::string(INSITU_SOURCE_DIR) + "/scripts/plot_accuracy.py";
+  if (std::system(("/usr/bin/python3 '" + script + "' '" + out_dir + "'").c_str()) != 0)
+  {
+    std::cerr << "bench_accuracy: plotting failed (" << script << ")\n";
+    return 1;
   }
   return 0;
 }
