@@ -321,6 +321,127 @@ Expected<CameraCalibration> calibrateCamera(const CorrespondenceSet& data, const
 
 namespace
 {
+// Whether to estimate the distortion, and why, in result->distortion_note.
+void chooseDistortion(const CorrespondenceSet& selected, const CalibrationOptions& options, DltOptions* dlt,
+                      CameraCalibration* result)
+{
+  switch (options.distortion)
+  {
+    case DistortionMode::kOff:
+      dlt->estimate_distortion = false;
+      result->distortion_note = "distortion off (pin-hole model)";
+      break;
+    case DistortionMode::kOn:
+      dlt->estimate_distortion = true;
+      result->distortion_note = "distortion estimated (requested)";
+      break;
+    case DistortionMode::kAuto: {
+      DltOptions with_lambda = *dlt;
+      with_lambda.estimate_distortion = true;
+      const Status identifiable = checkDltInput(selected, with_lambda);
+      dlt->estimate_distortion = identifiable.ok();
+      result->distortion_note = identifiable
+                                    ? "distortion estimated (curved image lines or point correspondences identify it)"
+                                    : "distortion not estimated: " + identifiable.error().message();
+      break;
+    }
+  }
+}
+
+// The first inliers (result->inlier_lines): the anchor's (the known camera refined robustly) when so many that RANSAC
+// cannot do better, else RANSAC's, the lower MSAC score of the two deciding.
+Status selectInitialInliers(const CorrespondenceSet& selected, const DltOptions& dlt, const CalibrationOptions& options,
+                            const std::optional<CameraModel>& anchor, size_t minimal, CameraCalibration* result)
+{
+  if (const Status s = checkDltInput(selected, dlt); !s)
+    return s.error();
+  const double t = options.ransac_options.inlier_threshold_px;
+  std::vector<bool> anchor_inliers;
+  double anchor_score = std::numeric_limits<double>::infinity();
+  if (anchor)
+    anchor_score = msacScore(*anchor, selected, t, &anchor_inliers);
+  const long anchor_count = std::count(anchor_inliers.begin(), anchor_inliers.end(), true);
+  if (anchor && anchor_count >= static_cast<long>(minimal) &&
+      anchor_count >= options.anchor_skips_ransac_fraction * static_cast<double>(selected.lines.size()))
+  {
+    result->inlier_lines = anchor_inliers;
+    return Success{};
+  }
+  // With an anchor competing, RANSAC only has to find a better consensus when there is one: fewer draws.
+  RansacOptions ransac_options = options.ransac_options;
+  if (anchor)
+    ransac_options.max_iterations = std::min(ransac_options.max_iterations, options.anchored_ransac_iterations);
+  const auto ransac = selectLines(selected, dlt, options, ransac_options);
+  if (!ransac)
+    return ransac.error();
+  result->inlier_lines = ransac->inliers;
+  // Noisier data than the threshold was set for: the lines are judged again with the threshold their noise calls for,
+  // so that true lines are not dropped.
+  const double scaled = noiseThreshold(ransac->camera, selected, ransac->inliers, options);
+  if (scaled > t)
+    for (size_t i = 0; i < selected.lines.size(); ++i)
+      result->inlier_lines[i] = lineError(ransac->camera, selected.lines[i]) < scaled;
+  result->ransac_iterations = ransac->iterations;
+  // The known camera against RANSAC's hypothesis: the lower MSAC score picks the inliers.
+  std::vector<bool> ransac_inliers;
+  const double ransac_score = msacScore(ransac->camera, selected, t, &ransac_inliers);
+  if (anchor && anchor_score < ransac_score && anchor_count >= static_cast<long>(minimal))
+    result->inlier_lines = anchor_inliers;
+  return Success{};
+}
+
+// Once refined, the residuals tell the noise level: lines beyond inlier_sigmas of it are outliers too, which a loose
+// RANSAC threshold let through and which would bias a weakly constrained camera. The noise level: from the
+// refinement's residual variance, or robustly (the median absolute residual over the inliers' world points), which
+// does not grow with the very outliers it is meant to find.
+double inlierThreshold(const CameraCalibration& result, const CorrespondenceSet& inliers,
+                       const CorrespondenceSet& selected, const CalibrationOptions& options)
+{
+  double threshold = options.ransac_options.inlier_threshold_px;
+  if (options.robust_noise_level && result.refinement)
+  {
+    std::vector<double> residuals;
+    for (const auto& line : inliers.lines)
+      for (double r : lineResiduals(result.camera, line))
+        if (std::isfinite(r))
+          residuals.push_back(std::abs(r));
+    if (!residuals.empty())
+    {
+      const double sigma = 1.4826 * summarize(residuals).median_px;
+      threshold = std::min(threshold, std::max(options.min_inlier_threshold_px, options.inlier_sigmas * sigma));
+    }
+  }
+  else if (result.uncertainty.available && result.uncertainty.residual_sigma_px > 0.0)
+  {
+    threshold = std::min(threshold, std::max(options.min_inlier_threshold_px,
+                                             options.inlier_sigmas * result.uncertainty.residual_sigma_px));
+  }
+  return std::max(threshold, noiseThreshold(result.camera, selected, result.inlier_lines, options));
+}
+
+// A line is judged by its own error and, when the refinement ran, by its error had it been left out: a wrong line
+// with enough leverage pulls the camera onto itself and only the second shows it.
+std::vector<bool> judgeLines(const CameraCalibration& result, const CorrespondenceSet& selected, double threshold,
+                             const CalibrationOptions& options)
+{
+  std::vector<bool> judged(selected.lines.size());
+  std::vector<double> loo(selected.lines.size(), 0.0);
+  if (result.refinement && options.leave_one_out)
+  {
+    size_t k = 0;
+    for (size_t i = 0; i < selected.lines.size(); ++i)
+      if (result.inlier_lines[i])
+      {
+        const double e = result.refinement->line_loo_rms_px[k++];
+        loo[i] = std::isnan(e) ? 0.0 : e;
+      }
+  }
+  const std::vector<double> factors = lineThresholdFactors(result.camera, selected, options, result.refinement);
+  for (size_t i = 0; i < selected.lines.size(); ++i)
+    judged[i] = lineError(result.camera, selected.lines[i]) < threshold * factors[i] && loo[i] < threshold * factors[i];
+  return judged;
+}
+
 Expected<CameraCalibration> calibrateInFrame(const CorrespondenceSet& data, const CalibrationOptions& options,
                                              const std::optional<CameraModel>& initial)
 {
@@ -332,28 +453,7 @@ Expected<CameraCalibration> calibrateInFrame(const CorrespondenceSet& data, cons
     selected.points.clear();
   if (options.method == DltMethod::kPoints)
     selected.lines.clear();
-
-  switch (options.distortion)
-  {
-    case DistortionMode::kOff:
-      dlt.estimate_distortion = false;
-      result.distortion_note = "distortion off (pin-hole model)";
-      break;
-    case DistortionMode::kOn:
-      dlt.estimate_distortion = true;
-      result.distortion_note = "distortion estimated (requested)";
-      break;
-    case DistortionMode::kAuto: {
-      DltOptions with_lambda = dlt;
-      with_lambda.estimate_distortion = true;
-      const Status identifiable = checkDltInput(selected, with_lambda);
-      dlt.estimate_distortion = identifiable.ok();
-      result.distortion_note = identifiable
-                                   ? "distortion estimated (curved image lines or point correspondences identify it)"
-                                   : "distortion not estimated: " + identifiable.error().message();
-      break;
-    }
-  }
+  chooseDistortion(selected, options, &dlt, &result);
 
   // Robust selection of lines, then the DLT with the principal-point iteration on the inliers.
   result.inlier_lines.assign(selected.lines.size(), true);
@@ -366,45 +466,8 @@ Expected<CameraCalibration> calibrateInFrame(const CorrespondenceSet& data, cons
   if (initial && options.refine && !selected.lines.empty())
     anchor = robustRefinement(selected, *initial, options, dlt.estimate_distortion);
   if (options.ransac && selected.lines.size() > minimal)
-  {
-    if (const Status s = checkDltInput(selected, dlt); !s)
+    if (const Status s = selectInitialInliers(selected, dlt, options, anchor, minimal, &result); !s)
       return s.error();
-    // The anchor's inliers, and whether they are so many that RANSAC cannot do better (it is then skipped).
-    const double t = options.ransac_options.inlier_threshold_px;
-    std::vector<bool> anchor_inliers;
-    double anchor_score = std::numeric_limits<double>::infinity();
-    if (anchor)
-      anchor_score = msacScore(*anchor, selected, t, &anchor_inliers);
-    const long anchor_count = std::count(anchor_inliers.begin(), anchor_inliers.end(), true);
-    if (anchor && anchor_count >= static_cast<long>(minimal) &&
-        anchor_count >= options.anchor_skips_ransac_fraction * static_cast<double>(selected.lines.size()))
-    {
-      result.inlier_lines = anchor_inliers;
-    }
-    else
-    {
-      // With an anchor competing, RANSAC only has to find a better consensus when there is one: fewer draws.
-      RansacOptions ransac_options = options.ransac_options;
-      if (anchor)
-        ransac_options.max_iterations = std::min(ransac_options.max_iterations, options.anchored_ransac_iterations);
-      const auto ransac = selectLines(selected, dlt, options, ransac_options);
-      if (!ransac)
-        return ransac.error();
-      result.inlier_lines = ransac->inliers;
-      // Noisier data than the threshold was set for: the lines are judged again with the threshold their noise
-      // calls for, so that true lines are not dropped.
-      const double scaled = noiseThreshold(ransac->camera, selected, ransac->inliers, options);
-      if (scaled > t)
-        for (size_t i = 0; i < selected.lines.size(); ++i)
-          result.inlier_lines[i] = lineError(ransac->camera, selected.lines[i]) < scaled;
-      result.ransac_iterations = ransac->iterations;
-      // The known camera against RANSAC's hypothesis: the lower MSAC score picks the inliers.
-      std::vector<bool> ransac_inliers;
-      const double ransac_score = msacScore(ransac->camera, selected, t, &ransac_inliers);
-      if (anchor && anchor_score < ransac_score && anchor_count >= static_cast<long>(minimal))
-        result.inlier_lines = anchor_inliers;
-    }
-  }
   // The RANSAC hypotheses are linear and centred on the image centre; the final camera judges the lines better, so
   // the inlier set is re-evaluated with it and the solve repeated once when it changes.
   CorrespondenceSet inliers;
@@ -422,49 +485,9 @@ Expected<CameraCalibration> calibrateInFrame(const CorrespondenceSet& data, cons
       anchor = result.camera;
     if (!options.ransac)
       break;
-    // Once refined, the residuals tell the noise level: lines beyond inlier_sigmas of it are outliers too, which a
-    // loose RANSAC threshold let through and which would bias a weakly constrained camera.
-    // The noise level: from the refinement's residual variance, or robustly (the median absolute residual over the
-    // inliers' world points), which does not grow with the very outliers it is meant to find.
-    double threshold = options.ransac_options.inlier_threshold_px;
-    if (options.robust_noise_level && result.refinement)
-    {
-      std::vector<double> residuals;
-      for (const auto& line : inliers.lines)
-        for (double r : lineResiduals(result.camera, line))
-          if (std::isfinite(r))
-            residuals.push_back(std::abs(r));
-      if (!residuals.empty())
-      {
-        const double sigma = 1.4826 * summarize(residuals).median_px;
-        threshold = std::min(threshold, std::max(options.min_inlier_threshold_px, options.inlier_sigmas * sigma));
-      }
-    }
-    else if (result.uncertainty.available && result.uncertainty.residual_sigma_px > 0.0)
-    {
-      threshold = std::min(threshold, std::max(options.min_inlier_threshold_px,
-                                               options.inlier_sigmas * result.uncertainty.residual_sigma_px));
-    }
-    threshold = std::max(threshold, noiseThreshold(result.camera, selected, result.inlier_lines, options));
+    const double threshold = inlierThreshold(result, inliers, selected, options);
     result.inlier_threshold_px = threshold;
-    // A line is judged by its own error and, when the refinement ran, by its error had it been left out: a wrong
-    // line with enough leverage pulls the camera onto itself and only the second shows it.
-    std::vector<bool> judged(selected.lines.size());
-    std::vector<double> loo(selected.lines.size(), 0.0);
-    if (result.refinement && options.leave_one_out)
-    {
-      size_t k = 0;
-      for (size_t i = 0; i < selected.lines.size(); ++i)
-        if (result.inlier_lines[i])
-        {
-          const double e = result.refinement->line_loo_rms_px[k++];
-          loo[i] = std::isnan(e) ? 0.0 : e;
-        }
-    }
-    const std::vector<double> factors = lineThresholdFactors(result.camera, selected, options, result.refinement);
-    for (size_t i = 0; i < selected.lines.size(); ++i)
-      judged[i] =
-          lineError(result.camera, selected.lines[i]) < threshold * factors[i] && loo[i] < threshold * factors[i];
+    const std::vector<bool> judged = judgeLines(result, selected, threshold, options);
     if (judged == result.inlier_lines || std::count(judged.begin(), judged.end(), true) < static_cast<long>(minimal))
       break;
     result.inlier_lines = judged;
