@@ -263,15 +263,9 @@ std::optional<CameraModel> robustRefinement(const CorrespondenceSet& data, const
 // MSAC score of a camera over the lines (sum of min(e^2, t^2), e a line's RMS error) and its inliers (e < t).
 double msacScore(const CameraModel& camera, const CorrespondenceSet& data, double t, std::vector<bool>* inliers)
 {
-  double score = 0.0;
-  inliers->assign(data.lines.size(), false);
-  for (size_t i = 0; i < data.lines.size(); ++i)
-  {
-    const double e = lineError(camera, data.lines[i]);
-    (*inliers)[i] = e < t;
-    score += std::isfinite(e) ? std::min(e * e, t * t) : t * t;
-  }
-  return score;
+  LineConsensus c = scoreLines(camera, data, t);
+  *inliers = std::move(c.inliers);
+  return c.score;
 }
 }  // namespace
 
@@ -457,7 +451,7 @@ Expected<CameraCalibration> calibrateInFrame(const CorrespondenceSet& data, cons
 
   // Robust selection of lines, then the DLT with the principal-point iteration on the inliers.
   result.inlier_lines.assign(selected.lines.size(), true);
-  const size_t minimal = dlt.estimate_distortion ? 7 : 6;
+  const size_t minimal = minimalLineCount(dlt);
   // The known camera, refined robustly on every line: the anchor. Graduated: a Cauchy loss whose scale starts at
   // the lines' typical error under the known camera and shrinks (x 0.4) down to a third of the inlier threshold, so
   // that the right lines pull first and the wrong ones fall out as the scale shrinks; focal length and pose only while

@@ -33,6 +33,20 @@ struct RansacResult
 // RMS distance in px of a line's world points (projected) to its image polyline; infinity when one cannot project.
 double lineError(const CameraModel& camera, const LineCorrespondence& line);
 
+// The fewest lines DLT-Lines solves from: 6, 7 with distortion. RANSAC's sample size and the robust selection's floor.
+size_t minimalLineCount(const DltOptions& dlt);
+
+// A camera's consensus over the lines, as RANSAC and the robust selection (calibration.h) both judge it: the MSAC
+// score, the sum over lines of min(e^2, t^2) with e = lineError (a line that cannot project counts t^2), and the
+// inliers, e < t.
+struct LineConsensus
+{
+  double score = 0.0;
+  std::vector<bool> inliers;
+  size_t inlier_count = 0;
+};
+LineConsensus scoreLines(const CameraModel& camera, const CorrespondenceSet& data, double threshold);
+
 Expected<RansacResult> ransacDlt(const CorrespondenceSet& data, const DltOptions& dlt, const RansacOptions& options);
 
 }  // namespace insitu_calibration

@@ -52,23 +52,8 @@ std::optional<CameraModel> fitCamera(const CorrespondenceSet& data, const DltOpt
 
 Hypothesis score(const CorrespondenceSet& data, const CameraModel& camera, double threshold)
 {
-  Hypothesis h;
-  h.camera = camera;
-  h.score = 0.0;
-  h.inliers.assign(data.lines.size(), false);
-  const double t2 = threshold * threshold;
-  for (size_t i = 0; i < data.lines.size(); ++i)
-  {
-    const double e = lineError(camera, data.lines[i]);
-    const double e2 = std::isfinite(e) ? e * e : t2;
-    h.score += std::min(e2, t2);
-    if (e2 < t2)
-    {
-      h.inliers[i] = true;
-      ++h.inlier_count;
-    }
-  }
-  return h;
+  LineConsensus c = scoreLines(camera, data, threshold);
+  return Hypothesis{camera, c.score, std::move(c.inliers), c.inlier_count};
 }
 }  // namespace
 
@@ -84,9 +69,33 @@ double lineError(const CameraModel& camera, const LineCorrespondence& line)
   return line.world.empty() ? 0.0 : std::sqrt(sum / line.world.size());
 }
 
+size_t minimalLineCount(const DltOptions& dlt)
+{
+  return dlt.estimate_distortion ? 7 : 6;
+}
+
+LineConsensus scoreLines(const CameraModel& camera, const CorrespondenceSet& data, double threshold)
+{
+  LineConsensus c;
+  c.inliers.assign(data.lines.size(), false);
+  const double t2 = threshold * threshold;
+  for (size_t i = 0; i < data.lines.size(); ++i)
+  {
+    const double e = lineError(camera, data.lines[i]);
+    const double e2 = std::isfinite(e) ? e * e : t2;
+    c.score += std::min(e2, t2);
+    if (e2 < t2)
+    {
+      c.inliers[i] = true;
+      ++c.inlier_count;
+    }
+  }
+  return c;
+}
+
 Expected<RansacResult> ransacDlt(const CorrespondenceSet& data, const DltOptions& dlt, const RansacOptions& options)
 {
-  const size_t minimal = dlt.estimate_distortion ? 7 : 6;
+  const size_t minimal = minimalLineCount(dlt);
   // Lines that can be sampled: with two world points they give their two equations.
   std::vector<size_t> candidates;
   for (size_t i = 0; i < data.lines.size(); ++i)
