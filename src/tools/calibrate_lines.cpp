@@ -94,15 +94,17 @@ std::string parseOptions(ic::CommandLine& cli, ic::CalibrationOptions* options)
   options->detect_left_handed = true;
   options->ransac = !cli.flag("no-ransac") && !cli.flag("paper");
   options->refine = !cli.flag("no-refine") && !cli.flag("paper");
-  options->ransac_options.inlier_threshold_px = cli.number("inlier-threshold", 3.0);
-  options->ransac_options.seed = static_cast<unsigned>(cli.number("seed", 1));
+  // The numbers' defaults are the option structs' own (one home for each default).
+  options->ransac_options.inlier_threshold_px =
+      cli.number("inlier-threshold", options->ransac_options.inlier_threshold_px);
+  options->ransac_options.seed = static_cast<unsigned>(cli.number("seed", options->ransac_options.seed));
   options->refinement.loss = *loss;
-  options->refinement.loss_scale_px = cli.number("loss-scale", 0.0);
+  options->refinement.loss_scale_px = cli.number("loss-scale", options->refinement.loss_scale_px);
   options->refinement.single_focal = cli.flag("single-focal");
   options->refinement.estimate_skew = cli.flag("estimate-skew");
   options->refinement.line_residual = *line_residual;
-  options->refinement.image_sigma_px = cli.number("image-sigma", 0.0);
-  options->refinement.world_sigma_m = cli.number("world-sigma", -1.0);
+  options->refinement.image_sigma_px = cli.number("image-sigma", options->refinement.image_sigma_px);
+  options->refinement.world_sigma_m = cli.number("world-sigma", options->refinement.world_sigma_m);
   if (!cli.error().empty())
     return cli.error();
   if (!(options->ransac_options.inlier_threshold_px > 0) || options->refinement.loss_scale_px < 0)

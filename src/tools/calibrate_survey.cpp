@@ -490,7 +490,7 @@ double seconds(std::chrono::steady_clock::time_point start)
 // The survey's options from the command line; false (after saying why) on a malformed value.
 bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options)
 {
-  options->min_map_support = static_cast<int>(cli.number("min-support", 2));
+  options->min_map_support = static_cast<int>(cli.number("min-support", options->min_map_support));
   options->max_map_spread_m = cli.number("max-spread", options->max_map_spread_m);
   if (cli.has("odometry-sigma"))
   {
@@ -520,7 +520,8 @@ bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options)
   }
   options->cameras.matcher.calibration.refine = !cli.flag("no-refine");
   options->cameras.matcher.calibration.ransac = !cli.flag("no-ransac");
-  options->cameras.matcher.search_starts = static_cast<int>(cli.number("search-starts", 4));
+  options->cameras.matcher.search_starts =
+      static_cast<int>(cli.number("search-starts", options->cameras.matcher.search_starts));
   if (cli.flag("trace"))
     options->cameras.matcher.trace = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
   if (!cli.error().empty())
