@@ -8,6 +8,10 @@ namespace insitu_calibration
 {
 namespace
 {
+const cv::Scalar kMapLineColour(40, 40, 230);        // red (BGR)
+const cv::Scalar kMatchedLineColour(60, 200, 60);    // green
+const cv::Scalar kUnmatchedLineColour(0, 215, 255);  // yellow
+
 cv::Point toPoint(const Eigen::Vector2d& m)
 {
   return cv::Point(cvRound(m.x() * 16.0), cvRound(m.y() * 16.0));
@@ -22,7 +26,8 @@ void drawPolyline(cv::Mat* canvas, const std::vector<Eigen::Vector2d>& points, c
 
 cv::Mat drawOverlay(const cv::Mat& image, int width, int height, const CameraModel& camera,
                     const std::vector<Segment3d>& map_lines,
-                    const std::vector<std::vector<Eigen::Vector2d>>& matched_image_lines)
+                    const std::vector<std::vector<Eigen::Vector2d>>& matched_image_lines,
+                    const std::vector<std::vector<Eigen::Vector2d>>& unmatched_image_lines)
 {
   cv::Mat canvas;
   if (image.empty())
@@ -32,6 +37,8 @@ cv::Mat drawOverlay(const cv::Mat& image, int width, int height, const CameraMod
   else
     canvas = image.clone();
   const int thickness = std::max(1, width / 640);
+  for (const auto& line : unmatched_image_lines)
+    drawPolyline(&canvas, line, kUnmatchedLineColour, thickness);
   for (const auto& segment : map_lines)
   {
     const auto interval = visibleInterval(camera, segment, width, height);
@@ -44,11 +51,41 @@ cv::Mat drawOverlay(const cv::Mat& image, int width, int height, const CameraMod
       if (m)
         curve.push_back(*m);
     }
-    drawPolyline(&canvas, curve, cv::Scalar(40, 40, 230), thickness);  // red (BGR)
+    drawPolyline(&canvas, curve, kMapLineColour, 2 * thickness + 1);  // wider: visible beside a matched line
   }
   for (const auto& line : matched_image_lines)
-    drawPolyline(&canvas, line, cv::Scalar(60, 200, 60), thickness);  // green
+    drawPolyline(&canvas, line, kMatchedLineColour, thickness);
   return canvas;
+}
+
+void drawOverlayLegend(cv::Mat* canvas, bool with_unmatched)
+{
+  std::vector<std::pair<cv::Scalar, std::string>> entries = {
+      {kMapLineColour, "map lines through the calibration"},
+      {kMatchedLineColour, "matched image lines"},
+  };
+  if (with_unmatched)
+    entries.push_back({kUnmatchedLineColour, "unmatched image lines"});
+  const double scale = std::max(0.5, canvas->cols / 1280.0);
+  const int row = cvRound(28 * scale), pad = cvRound(10 * scale), sample = cvRound(40 * scale);
+  const int font = cv::FONT_HERSHEY_SIMPLEX, text_thickness = std::max(1, cvRound(scale));
+  int text_width = 0;
+  for (const auto& entry : entries)
+    text_width = std::max(text_width, cv::getTextSize(entry.second, font, 0.6 * scale, text_thickness, nullptr).width);
+  const cv::Rect box(pad, pad, std::min(canvas->cols - 2 * pad, 3 * pad + sample + text_width),
+                     std::min(canvas->rows - 2 * pad, row * static_cast<int>(entries.size()) + pad));
+  if (box.width <= 0 || box.height <= 0)
+    return;
+  cv::Mat region = (*canvas)(box);
+  region = region * 0.25 + cv::Scalar(40, 40, 40) * 0.75;  // a dark box that keeps a hint of the image
+  for (size_t k = 0; k < entries.size(); ++k)
+  {
+    const int y = box.y + pad / 2 + row * static_cast<int>(k) + row / 2;
+    cv::line(*canvas, cv::Point(box.x + pad, y), cv::Point(box.x + pad + sample, y), entries[k].first,
+             std::max(2, cvRound(3 * scale)), cv::LINE_AA);
+    cv::putText(*canvas, entries[k].second, cv::Point(box.x + 2 * pad + sample, y + cvRound(6 * scale)), font,
+                0.6 * scale, cv::Scalar(255, 255, 255), text_thickness, cv::LINE_AA);
+  }
 }
 
 std::vector<Segment3d> frustumSegments(const CameraModel& camera, int width, int height, double depth_m)
