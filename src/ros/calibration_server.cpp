@@ -161,13 +161,13 @@ std::string notePreviousCalibration(const std::optional<CalibrationFile>& previo
 
 // The calibration report beside the YAML (calibration_report.h), for people: a failure loses no calibration and is
 // only logged.
-void writeReport(const std::string& directory, const std::string& name, const FixedCameraResult& result,
+void writeReport(const std::string& directory, const FixedCameraConfig& camera, const FixedCameraResult& result,
                  const cv::Mat& image, const std::vector<Segment3d>& map, size_t keyframes)
 {
   const auto files = writeCalibrationReport(
-      directory, fixedCameraReport(name, result, image, map, ReportSurveySummary{keyframes, map.size()}));
+      directory, fixedCameraReport(camera, result, image, map, ReportSurveySummary{keyframes, map.size()}));
   if (!files)
-    ROS_WARN_STREAM("calibration_node: " << name << ": " << files.error().message());
+    ROS_WARN_STREAM("calibration_node: " << camera.name << ": " << files.error().message());
 }
 }  // namespace
 
@@ -590,6 +590,7 @@ void CalibrationServer::calibrateOne(const std::string& name, const std::functio
   const std::string change_note = notePreviousCalibration(previous, result->file, map, &msg);
   stage("saving");
   const cv::Mat image = camera->medianImage();  // for the report, drawn after the lock
+  const FixedCameraConfig config = camera->config();
   std::string saved_note = "saved to " + calibrationPath(name);
   bool saved_ok = true;
   std::string kept_as;
@@ -614,7 +615,7 @@ void CalibrationServer::calibrateOne(const std::string& name, const std::functio
   }
   forgetMotion(name);  // the watchdog's last check was of the calibration replaced
   if (write_report_ && saved_ok)
-    writeReport(output_directory_, name, *result, image, map, keyframes);
+    writeReport(output_directory_, config, *result, image, map, keyframes);
   msg.previous_kept_as = kept_as;
   if (!kept_as.empty())
     saved_note += " (the previous calibration kept as " + kept_as + ")";

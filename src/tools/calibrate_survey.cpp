@@ -604,8 +604,9 @@ void writeReport(const ic::CommandLine& cli, ic::Survey& survey, const std::stri
 {
   if (cli.flag("no-report"))
     return;
-  ic::CalibrationReport report = ic::fixedCameraReport(name, result, survey.camera(name).medianImage(), map,
-                                                       ic::ReportSurveySummary{survey.stats().keyframes, map.size()});
+  ic::CalibrationReport report =
+      ic::fixedCameraReport(survey.camera(name).config(), result, survey.camera(name).medianImage(), map,
+                            ic::ReportSurveySummary{survey.stats().keyframes, map.size()});
   if (!refusal.empty())
   {
     report.accepted = false;

@@ -18,6 +18,7 @@
 #include "insitu_calibration/metrics.h"
 #include "insitu_calibration/robust_statistics.h"
 #include "insitu_calibration/survey/calibration_report.h"
+#include "insitu_calibration/survey/overlay.h"
 #include "insitu_calibration/synthetic/synthetic_lines.h"
 
 namespace ic = insitu_calibration;
@@ -255,4 +256,31 @@ TEST_F(CalibrationReportTest, ADirectoryThatCannotBeWrittenGivesAnErrorAndNoFile
     EXPECT_EQ(entry.path().string().find(".tmp."), std::string::npos) << entry.path();
   EXPECT_TRUE(fs::is_directory(directory_ / "out" / "cam_a&b_report.html"));
   EXPECT_EQ(std::distance(fs::directory_iterator(directory_), fs::directory_iterator()), 2);  // a_file and out
+}
+
+// A map edge along image row 480: seen as a black/white edge left of column 640, hidden behind a uniform grey
+// foreground object right of it. The report's overlay draws the map line wide only where it is seen.
+TEST(CalibrationReportOverlay, AMapEdgeHiddenBehindAForegroundObjectIsNotDrawnThroughIt)
+{
+  const ic::CameraModel camera({1000.0, 1000.0, 0.0, 640.0, 480.0}, {0.0, {640.0, 480.0}}, {});
+  const std::vector<ic::Segment3d> map = {{Eigen::Vector3d(-3.0, 0.0, 5.0), Eigen::Vector3d(3.0, 0.0, 5.0)}};
+  cv::Mat image(960, 1280, CV_8UC1, cv::Scalar(0));
+  image(cv::Rect(0, 481, 1280, 479)).setTo(255);   // the edge between rows 480 and 481
+  image(cv::Rect(640, 400, 640, 160)).setTo(128);  // the foreground object over its right half
+  const auto red = [](const cv::Mat& overlay, int x, int y) {
+    const cv::Vec3b p = overlay.at<cv::Vec3b>(y, x);
+    return p[2] > 150 && p[1] < 100 && p[0] < 100;
+  };
+  // Wide (5 px at this size) where seen; where hidden at most the thin dashes (2 px) on the line itself.
+  const cv::Mat overlay = ic::drawOverlayWithHiddenEdges(image, 1280, 960, camera, map, {}, {});
+  size_t seen_wide = 0, hidden_wide = 0;
+  for (int x = 100; x < 560; ++x)
+    seen_wide += red(overlay, x, 478) && red(overlay, x, 482) ? 1 : 0;
+  for (int x = 720; x < 1200; ++x)
+    hidden_wide += red(overlay, x, 478) || red(overlay, x, 482) ? 1 : 0;
+  EXPECT_GT(seen_wide, 440u);
+  EXPECT_EQ(hidden_wide, 0u);
+  // The plain overlay draws it wide all the way across (what the report's must not do).
+  const cv::Mat plain = ic::drawOverlay(image, 1280, 960, camera, map, {});
+  EXPECT_TRUE(red(plain, 900, 479) && red(plain, 900, 481));
 }

@@ -45,8 +45,8 @@ struct CalibrationReport
   std::optional<ReportSurveySummary> survey;  // none: calibrated without a survey (calibrate_lines)
 };
 
-// The report of a fixed camera's result (FixedCamera::calibrate, Survey::calibrate).
-CalibrationReport fixedCameraReport(const std::string& camera_name, const FixedCameraResult& result,
+// The report of a fixed camera's result (FixedCamera::calibrate, Survey::calibrate), accepted with its summary.
+CalibrationReport fixedCameraReport(const FixedCameraConfig& camera, const FixedCameraResult& result,
                                     const cv::Mat& image, const std::vector<Segment3d>& map_lines,
                                     const std::optional<ReportSurveySummary>& survey);
 

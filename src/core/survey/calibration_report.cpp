@@ -199,15 +199,17 @@ std::string escapeHtml(const std::string& text)
   return out;
 }
 
-CalibrationReport fixedCameraReport(const std::string& camera_name, const FixedCameraResult& result,
+CalibrationReport fixedCameraReport(const FixedCameraConfig& camera, const FixedCameraResult& result,
                                     const cv::Mat& image, const std::vector<Segment3d>& map_lines,
                                     const std::optional<ReportSurveySummary>& survey)
 {
   CalibrationReport report;
-  report.camera_name = camera_name;
+  report.camera_name = camera.name;
   report.image_width = result.file.image_width;
   report.image_height = result.file.image_height;
-  report.source = survey ? "the survey's line map (automatic matching)" : "a correspondence file";
+  report.source = camera.correspondence_file.empty()
+                      ? "the survey's line map (matched automatically from the camera's prior)"
+                      : "the correspondence file " + camera.correspondence_file;
   report.verdict = result.summary;
   report.calibration = result.calibration;
   report.correspondences = result.correspondences;

@@ -191,9 +191,10 @@ std::vector<LineRow> lineRows(const CalibrationReport& report)
 
 cv::Mat overlayFigure(const CalibrationReport& report)
 {
-  cv::Mat canvas = drawOverlay(report.image, report.image_width, report.image_height, report.calibration.camera,
-                               report.map_lines, report.matched_image_lines, report.unmatched_image_lines);
-  drawOverlayLegend(&canvas, !report.unmatched_image_lines.empty());
+  cv::Mat canvas =
+      drawOverlayWithHiddenEdges(report.image, report.image_width, report.image_height, report.calibration.camera,
+                                 report.map_lines, report.matched_image_lines, report.unmatched_image_lines);
+  drawOverlayLegend(&canvas, !report.unmatched_image_lines.empty(), !report.image.empty());
   return canvas;
 }
 
