@@ -232,6 +232,13 @@ TEST_F(CalibrationReportTest, EscapesStringsAndShowsTheSurvey)
                       std::to_string(c.data.lines.size() - kWrongLines.size()) + "</td>"),
             std::string::npos);
   EXPECT_EQ(html.find("No survey"), std::string::npos);
+  EXPECT_NE(html.find("<p id=\"verdict\" class=\"accepted\">Accepted: "), std::string::npos);
+
+  report.accepted = false;
+  report.verdict = "only 5 lines matched (8 needed)";
+  EXPECT_NE(ic::formatReportHtml(report).find(
+                "<p id=\"verdict\" class=\"refused\">Refused (not saved): only 5 lines matched (8 needed)</p>"),
+            std::string::npos);
 }
 
 TEST_F(CalibrationReportTest, ADirectoryThatCannotBeWrittenGivesAnErrorAndNoFile)
