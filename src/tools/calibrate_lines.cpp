@@ -56,7 +56,8 @@ Options:
   --quiet                 print only errors
   -h, --help              this text
 
-Exit status: 0 success, 1 calibration failed, 2 bad command line or unreadable input.
+Exit status: 0 success, 1 calibration failed (or the --report could not be written; the YAML is), 2 bad command
+line or unreadable input.
 )";
 
 void printComparison(const ic::CameraModel& truth, const ic::CameraModel& estimate)

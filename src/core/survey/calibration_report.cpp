@@ -256,7 +256,7 @@ Expected<ReportFiles> writeCalibrationReport(const std::string& directory, const
   std::error_code ec;
   fs::create_directories(directory, ec);
   if (ec || !fs::is_directory(directory))
-    return Error(ErrorCode::kIoError, what + ": it is not a directory that can be created (" +
+    return Error(ErrorCode::kIoError, what + ": it is not a directory and cannot be made one (" +
                                           (ec ? ec.message() : std::string("a file is in the way")) + ")");
   const ReportFiles files = reportFiles(directory, report.camera_name);
   const std::vector<report::LineRow> rows = report::lineRows(report);
