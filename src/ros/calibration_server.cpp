@@ -207,6 +207,7 @@ CalibrationServer::CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private
   work_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &work_queue_);
   setupStatusReporting();
   setupWatchdog();
+  setupReconfigure();
   marker_timer_ = nh_.createWallTimer(ros::WallDuration(2.0), [this](const ros::WallTimerEvent&) {
     std::lock_guard<std::mutex> lock(mutex_);
     publishMarkers();
@@ -250,9 +251,6 @@ SurveyOptions CalibrationServer::readParameters(ParameterReader& read)
   // 0: the map is adjusted only before a calibration.
   map_adjustment_period_s_ =
       read.number("map_adjustment_period", map_adjustment_period_s_, Range::closed(0.0, 86400.0, "s"));
-  stale_image_s_ = read.number("diagnostics/stale_image_s", 10.0, Range::positive(86400.0, "s"));
-  max_sigma_position_m_ = read.number("diagnostics/max_sigma_position_m", 0.05, Range::positive(1000.0, "m"));
-  max_sigma_rotation_deg_ = read.number("diagnostics/max_sigma_rotation_deg", 0.5, Range::positive(180.0, "deg"));
   // The defaults are the option structs' own (one home for each default).
   SurveyOptions options;
   options.fixed_image_period_s =
@@ -272,33 +270,16 @@ SurveyOptions CalibrationServer::readParameters(ParameterReader& read)
   FixedCameraOptions& camera_options = options.cameras;
   camera_options.median_images = static_cast<size_t>(
       read.integer("median_images", static_cast<int>(camera_options.median_images), Range::integers(1, 255)));
-  camera_options.max_rms_px = read.number("max_rms_px", camera_options.max_rms_px, Range::positive(100.0, "px"));
-  camera_options.min_focal_ratio =
-      read.number("min_focal_ratio", camera_options.min_focal_ratio, Range::positive(100.0));
-  camera_options.max_focal_ratio =
-      read.number("max_focal_ratio", camera_options.max_focal_ratio, Range::positive(100.0));
-  if (camera_options.min_focal_ratio >= camera_options.max_focal_ratio)
-    read.fail("parameters ~min_focal_ratio (" + formatParameterValue(camera_options.min_focal_ratio) +
-              ") and ~max_focal_ratio (" + formatParameterValue(camera_options.max_focal_ratio) +
-              "): the minimum must be below the maximum");
-  // Six lines at least: DLT-Lines' minimum.
-  camera_options.min_matched_lines = static_cast<size_t>(read.integer(
-      "min_matched_lines", static_cast<int>(camera_options.min_matched_lines), Range::integers(6, 100000)));
   CalibrationOptions& calibration = camera_options.matcher.calibration;
-  calibration.ransac_options.inlier_threshold_px =
-      read.number("ransac_threshold_px", calibration.ransac_options.inlier_threshold_px, Range::positive(100.0, "px"));
   calibration.refine = read.flag("refine", calibration.refine);
-  CameraVerificationOptions& w = watchdog_options_;  // the moved-camera watchdog
-  w.max_displacement_px =
-      read.number("watchdog/max_displacement_px", w.max_displacement_px, Range::positive(1000.0, "px"));
-  w.max_rotation_deg = read.number("watchdog/max_rotation_deg", w.max_rotation_deg, Range::positive(180.0, "deg"));
-  w.sigma_factor = read.number("watchdog/sigma_factor", w.sigma_factor, Range::closed(0.0, 100.0));
-  w.search_distance_px =
-      read.number("watchdog/search_distance_px", w.search_distance_px, Range::positive(1000.0, "px"));
-  w.min_matched_lines = static_cast<size_t>(
-      read.integer("watchdog/min_matched_lines", static_cast<int>(w.min_matched_lines), Range::integers(4, 100000)));
-  verify_period_s_ = read.number("verify_period_s", verify_period_s_, Range::closed(0.0, 86400.0, "s"));
   calibration.ransac = read.flag("ransac", calibration.ransac);
+  // The thresholds tuned in the field (also through dynamic_reconfigure): names, ranges and defaults from one table.
+  thresholds_.cameras = camera_options;
+  for (const FieldThreshold& threshold : fieldThresholds())
+    threshold.set(thresholds_, read.number(threshold.parameter, threshold.get(thresholds_), threshold.range));
+  if (const Status consistent = checkFieldThresholds(thresholds_); !consistent)
+    read.fail(consistent.error().message());
+  camera_options = thresholds_.cameras;
   return options;
 }
 
