@@ -179,14 +179,13 @@ CalibrationServer::CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private
   synchronizer_->registerCallback(boost::bind(&CalibrationServer::rgbdCallback, this, boost::placeholders::_1,
                                               boost::placeholders::_2, boost::placeholders::_3));
 
-  image_transport::ImageTransport private_it(private_nh_);
   for (auto& [name, camera] : cameras_)
   {
     const std::string camera_name = name;
     camera.subscriber = it_.subscribe(
         survey_->camera(name).config().image_topic, 2,
         [this, camera_name](const sensor_msgs::ImageConstPtr& image) { fixedImageCallback(camera_name, image); });
-    camera.overlay_publisher = private_it.advertise(name + "/overlay", 1, true);
+    camera.overlay_publisher = private_nh_.advertise<sensor_msgs::Image>(name + "/overlay", 1, true);
     if (camera.camera_info_topic.empty())
       continue;
     if (camera.relay_image)
@@ -803,8 +802,8 @@ void CalibrationServer::publishMarkers()
     label.action = calibration ? visualization_msgs::Marker::ADD : visualization_msgs::Marker::DELETE;
     label.pose.orientation.w = 1.0;
     if (calibration)
-      label.pose.position = toPoint(calibration->camera.pose().center() + Eigen::Vector3d(0, 0, 0.15));
-    label.scale.z = 0.15;
+      label.pose.position = toPoint(calibration->camera.pose().center() + Eigen::Vector3d(0, 0, 0.3));
+    label.scale.z = 0.3;  // m: readable from rviz's default view of a room (0.15 was a few pixels high)
     label.color.r = label.color.g = label.color.b = label.color.a = 1.0;
     label.text = name;
     markers.markers.push_back(label);

@@ -58,7 +58,9 @@ private:
   {
     image_transport::Subscriber subscriber;
     ros::Publisher info_publisher;  // latched, once per calibration (calibrated_info_topic)
-    image_transport::Publisher overlay_publisher;
+    // Latched, so a plain ros::Publisher: image_transport's publishes only to transports with a subscriber at the
+    // time, so the overlay of a calibration made before rviz started was never seen ("No Image").
+    ros::Publisher overlay_publisher;
     std::string link_frame;
     std::string optical_frame;
     // The camera info that image_proc pairs with each image (same header), on camera_info_topic; with relay_image

@@ -13,7 +13,8 @@
 namespace insitu_calibration
 {
 // The image (grey or colour) in colour with every map line the camera sees drawn through its division model (red),
-// and the matched image lines (green). An empty image gives a black canvas of the given size.
+// and the matched image lines (green), with a legend in the top left corner. An empty image gives a black canvas of
+// the given size.
 cv::Mat drawOverlay(const cv::Mat& image, int width, int height, const CameraModel& camera,
                     const std::vector<Segment3d>& map_lines,
                     const std::vector<std::vector<Eigen::Vector2d>>& matched_image_lines);
