@@ -192,14 +192,13 @@ CalibrationServer::CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private
   synchronizer_->registerCallback(boost::bind(&CalibrationServer::rgbdCallback, this, boost::placeholders::_1,
                                               boost::placeholders::_2, boost::placeholders::_3));
 
-  image_transport::ImageTransport private_it(private_nh_);
   for (auto& [name, camera] : cameras_)
   {
     const std::string camera_name = name;
     camera.subscriber = it_.subscribe(
         survey_->camera(name).config().image_topic, 2,
         [this, camera_name](const sensor_msgs::ImageConstPtr& image) { fixedImageCallback(camera_name, image); });
-    camera.overlay_publisher = private_it.advertise(name + "/overlay", 1, true);
+    camera.overlay_publisher = private_nh_.advertise<sensor_msgs::Image>(name + "/overlay", 1, true);
     if (camera.camera_info_topic.empty())
       continue;
     if (camera.relay_image)
@@ -220,6 +219,7 @@ CalibrationServer::CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private
   work_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &work_queue_);
   setupStatusReporting();
   setupWatchdog();
+  setupReconfigure();
   marker_timer_ = nh_.createWallTimer(ros::WallDuration(2.0), [this](const ros::WallTimerEvent&) {
     std::lock_guard<std::mutex> lock(mutex_);
     publishMarkers();
@@ -263,21 +263,9 @@ SurveyOptions CalibrationServer::readParameters(ParameterReader& read)
   // 0: the map is adjusted only before a calibration.
   map_adjustment_period_s_ =
       read.number("map_adjustment_period", map_adjustment_period_s_, Range::closed(0.0, 86400.0, "s"));
-  stale_image_s_ = read.number("diagnostics/stale_image_s", 10.0, Range::positive(86400.0, "s"));
-  max_sigma_position_m_ = read.number("diagnostics/max_sigma_position_m", 0.05, Range::positive(1000.0, "m"));
-  max_sigma_rotation_deg_ = read.number("diagnostics/max_sigma_rotation_deg", 0.5, Range::positive(180.0, "deg"));
-  // The survey's parameters, shared with calibrate_survey; the defaults are the option structs' own.
-  const SurveyOptions options = readSurveyParameters(read);
-  CameraVerificationOptions& w = watchdog_options_;  // the moved-camera watchdog
-  w.max_displacement_px =
-      read.number("watchdog/max_displacement_px", w.max_displacement_px, Range::positive(1000.0, "px"));
-  w.max_rotation_deg = read.number("watchdog/max_rotation_deg", w.max_rotation_deg, Range::positive(180.0, "deg"));
-  w.sigma_factor = read.number("watchdog/sigma_factor", w.sigma_factor, Range::closed(0.0, 100.0));
-  w.search_distance_px =
-      read.number("watchdog/search_distance_px", w.search_distance_px, Range::positive(1000.0, "px"));
-  w.min_matched_lines = static_cast<size_t>(
-      read.integer("watchdog/min_matched_lines", static_cast<int>(w.min_matched_lines), Range::integers(4, 100000)));
-  verify_period_s_ = read.number("verify_period_s", verify_period_s_, Range::closed(0.0, 86400.0, "s"));
+  // The survey's parameters, shared with calibrate_survey, and the thresholds tuned in the field (also through
+  // dynamic_reconfigure, from one table): the defaults are the option structs' own.
+  const SurveyOptions options = readSurveyParameters(read, SurveyOptions{}, &thresholds_);
   write_report_ = read.flag("write_report", write_report_);
   return options;
 }
@@ -487,8 +475,9 @@ Status CalibrationServer::saveCalibration(const std::string& name, std::string* 
   const auto last = survey_->camera(name).lastResult();
   const cv::Mat overlay =
       image.empty() ? cv::Mat()
-                    : drawOverlay(image, file.image_width, file.image_height, file.camera, survey_->latestMapSegments(),
-                                  last ? last->matched_image_lines : std::vector<std::vector<Eigen::Vector2d>>{});
+                    : drawCalibrationOverlay(
+                          image, file.image_width, file.image_height, file.camera, survey_->latestMapSegments(),
+                          last ? last->matched_image_lines : std::vector<std::vector<Eigen::Vector2d>>{});
   return CalibrationStore(output_directory_).save(name, file, overlay, kept_as);
 }
 
@@ -770,9 +759,9 @@ void CalibrationServer::publishCalibrations()
       calibrated_info_[name] = info;
     }
     const auto& last = fixed.lastResult();
-    const cv::Mat overlay =
-        drawOverlay(fixed.medianImage(), calibration.image_width, calibration.image_height, calibration.camera, map,
-                    last ? last->matched_image_lines : std::vector<std::vector<Eigen::Vector2d>>{});
+    const cv::Mat overlay = drawCalibrationOverlay(
+        fixed.medianImage(), calibration.image_width, calibration.image_height, calibration.camera, map,
+        last ? last->matched_image_lines : std::vector<std::vector<Eigen::Vector2d>>{});
     std_msgs::Header header;
     header.stamp = now;
     header.frame_id = camera.optical_frame;
@@ -810,8 +799,8 @@ void CalibrationServer::publishMarkers()
     label.action = calibration ? visualization_msgs::Marker::ADD : visualization_msgs::Marker::DELETE;
     label.pose.orientation.w = 1.0;
     if (calibration)
-      label.pose.position = toPoint(calibration->camera.pose().center() + Eigen::Vector3d(0, 0, 0.15));
-    label.scale.z = 0.15;
+      label.pose.position = toPoint(calibration->camera.pose().center() + Eigen::Vector3d(0, 0, 0.3));
+    label.scale.z = 0.3;  // m: readable from rviz's default view of a room (0.15 was a few pixels high)
     label.color.r = label.color.g = label.color.b = label.color.a = 1.0;
     label.text = name;
     markers.markers.push_back(label);

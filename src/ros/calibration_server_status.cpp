@@ -124,9 +124,11 @@ void CalibrationServer::surveyDiagnostics(diagnostic_updater::DiagnosticStatusWr
 void CalibrationServer::cameraDiagnostics(const std::string& name, diagnostic_updater::DiagnosticStatusWrapper& stat)
 {
   std::optional<CalibrationFile> calibration;
+  FieldThresholds limits;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     calibration = survey_->camera(name).calibration();
+    limits = thresholds_;
   }
   size_t images = 0;
   std::optional<double> age_s;
@@ -162,17 +164,17 @@ void CalibrationServer::cameraDiagnostics(const std::string& name, diagnostic_up
   using diagnostic_msgs::DiagnosticStatus;
   if (!age_s)
     stat.summaryf(DiagnosticStatus::ERROR, "no images on %s", topic.c_str());
-  else if (*age_s > stale_image_s_)
+  else if (*age_s > limits.stale_image_s)
     stat.summaryf(DiagnosticStatus::WARN, "stale images: the last one arrived %.0f s ago", *age_s);
   else if (!calibration)
     stat.summary(DiagnosticStatus::WARN, "not calibrated");
   else if (motion && motion->verdict == CameraMotionVerdict::kMoved)
     stat.summaryf(DiagnosticStatus::WARN, "camera moved by %.1f px / %.2f deg since calibration: recalibrate",
                   motion->displacement_px, motion->rotation_deg);
-  else if (sigma_position > max_sigma_position_m_ || sigma_rotation > max_sigma_rotation_deg_)
+  else if (sigma_position > limits.max_sigma_position_m || sigma_rotation > limits.max_sigma_rotation_deg)
     stat.summaryf(DiagnosticStatus::WARN,
                   "calibration too uncertain: 1 sigma %.3f m, %.2f deg (limits %.3f m, %.2f deg)", sigma_position,
-                  sigma_rotation, max_sigma_position_m_, max_sigma_rotation_deg_);
+                  sigma_rotation, limits.max_sigma_position_m, limits.max_sigma_rotation_deg);
   else
     stat.summary(DiagnosticStatus::OK, "calibrated");
 }

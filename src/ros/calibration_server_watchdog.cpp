@@ -22,25 +22,35 @@ void CalibrationServer::setupWatchdog()
 {
   // On the work queue: a check waits for a calibration in progress instead of judging the calibration it replaces.
   verify_server_ = work_nh_.advertiseService("verify", &CalibrationServer::verifyService, this);
-  if (verify_period_s_ > 0.0)
-    verify_timer_ = work_nh_.createWallTimer(ros::WallDuration(verify_period_s_),
-                                             [this](const ros::WallTimerEvent&) { verifyCalibratedCameras(); });
+  // Created even when off (period 0): dynamic_reconfigure may start it (applyThresholds).
+  const double period_s = thresholds().verify_period_s;
+  verify_timer_ = work_nh_.createWallTimer(
+      ros::WallDuration(period_s > 0.0 ? period_s : 60.0),
+      [this](const ros::WallTimerEvent&) { verifyCalibratedCameras(); }, false, period_s > 0.0);
+}
+
+FieldThresholds CalibrationServer::thresholds() const
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  return thresholds_;
 }
 
 Expected<CameraMotion> CalibrationServer::verifyCamera(const std::string& name)
 {
   std::optional<FixedCamera> camera;
   std::vector<Segment3d> map;
+  CameraVerificationOptions options;
   {
     std::lock_guard<std::mutex> lock(mutex_);  // a snapshot (the copy shares its images); the work without the lock
     camera.emplace(survey_->camera(name));
     map = survey_->latestMapSegments();
+    options = thresholds_.watchdog;
   }
   if (camera->calibration() && map.empty())
     return Error(ErrorCode::kNotEnoughData, "cannot verify '" + name +
                                                 "': the 3D line map is empty (it is not saved: survey the camera's "
                                                 "view again after a restart)");
-  auto motion = camera->verify(map, watchdog_options_);
+  auto motion = camera->verify(map, options);
   if (!motion)
     return motion;
   {

@@ -656,8 +656,9 @@ bool calibrateAndSave(const ic::CommandLine& cli, ic::Survey& survey, const std:
     return false;
   }
   const ic::CalibrationStore store(cli.value("out-dir"));
-  const cv::Mat overlay = ic::drawOverlay(camera.medianImage(), result->file.image_width, result->file.image_height,
-                                          result->file.camera, map, result->matched_image_lines);
+  const cv::Mat overlay =
+      ic::drawCalibrationOverlay(camera.medianImage(), result->file.image_width, result->file.image_height,
+                                 result->file.camera, map, result->matched_image_lines);
   if (const ic::Status saved = store.save(name, result->file, overlay); !saved)
   {
     std::printf("%s: %s\n", name.c_str(), saved.error().describe().c_str());

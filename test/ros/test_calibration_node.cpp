@@ -28,6 +28,7 @@
 #include "insitu_calibration/simulation/true_edges.h"
 #include "insitu_calibration/survey/calibration_report.h"
 #include "insitu_calibration/test_support/synthetic_lines.h"
+#include "message_checks.h"
 
 namespace ic = insitu_calibration;
 namespace fs = std::filesystem;
@@ -224,6 +225,91 @@ TEST(CalibrationNode, CalibratesEveryCameraFromTheSurvey)
     EXPECT_NEAR(info->K[0], file->camera.intrinsics().fx, 1e-6);
     EXPECT_EQ(info->distortion_model, "plumb_bob");
   }
+}
+
+// The latest message on a (latched) topic within `seconds` of wall time (the bag's /clock may have stopped).
+template <typename Message>
+boost::shared_ptr<const Message> waitForLatched(const std::string& topic, double seconds)
+{
+  boost::shared_ptr<const Message> received;
+  std::mutex mutex;
+  ros::NodeHandle nh;
+  const ros::Subscriber sub = nh.subscribe<Message>(topic, 1, [&](const boost::shared_ptr<const Message>& msg) {
+    std::lock_guard<std::mutex> lock(mutex);
+    received = msg;
+  });
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(seconds);
+  while (ros::ok() && ros::WallTime::now() < deadline)
+  {
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (received)
+        return received;
+    }
+    ros::WallDuration(0.05).sleep();
+  }
+  return nullptr;
+}
+
+// What rviz shows after the calibrations (issue 14: rviz aborted once under Xvfb): the markers and every overlay
+// are well-formed (message_checks.h), and the markers show each calibrated camera (frustum, name, matched lines).
+TEST(CalibrationNode, WhatRvizShowsIsWellFormed)
+{
+  const auto markers = waitForLatched<visualization_msgs::MarkerArray>("/calibration_node/markers", 20.0);
+  ASSERT_TRUE(markers);
+  for (const std::string& problem : message_checks::markerArrayProblems(*markers))
+    ADD_FAILURE() << "marker " << problem;
+  size_t shown = 0, map_points = 0;
+  for (const auto& m : markers->markers)
+  {
+    shown += m.action == visualization_msgs::Marker::ADD && m.ns == "frustum" ? 1 : 0;
+    map_points += m.ns == "line_map" ? m.points.size() : 0;
+  }
+  EXPECT_GE(shown, 3u) << "a frustum per calibrated camera";
+  EXPECT_GT(map_points, 0u) << "the line map";
+  for (const std::string camera : {"cam_east", "cam_wide", "cam_desk"})
+  {
+    const auto overlay = waitForLatched<sensor_msgs::Image>("/calibration_node/" + camera + "/overlay", 20.0);
+    ASSERT_TRUE(overlay) << camera;
+    for (const std::string& problem : message_checks::imageProblems(*overlay))
+      ADD_FAILURE() << camera << " overlay: " << problem;
+  }
+}
+
+// The checks above can fail: each kind of bad content is reported.
+TEST(CalibrationNode, MessageChecksFindBadContent)
+{
+  visualization_msgs::Marker line;
+  line.header.frame_id = "map";
+  line.type = visualization_msgs::Marker::LINE_LIST;
+  line.pose.orientation.w = 1.0;
+  line.scale.x = 0.01;
+  line.color.a = 1.0;
+  line.points.resize(2);
+  EXPECT_TRUE(message_checks::markerProblems(line).empty());
+  auto odd = line;
+  odd.points.resize(3);
+  auto nan = line;
+  nan.points[1].y = std::nan("");
+  auto colours = line;
+  colours.colors.resize(1);
+  auto flat = line;
+  flat.scale.x = 0.0;
+  auto rotated = line;
+  rotated.pose.orientation.x = 1.0;
+  for (const auto& bad : {odd, nan, colours, flat, rotated})
+    EXPECT_EQ(message_checks::markerProblems(bad).size(), 1u);
+  sensor_msgs::Image image;
+  image.header.frame_id = "cam";
+  image.encoding = "bgr8";
+  image.width = 4;
+  image.height = 2;
+  image.step = 12;
+  image.data.resize(24);
+  EXPECT_TRUE(message_checks::imageProblems(image).empty());
+  image.step = 8;
+  image.data.resize(16);
+  EXPECT_EQ(message_checks::imageProblems(image).size(), 1u);
 }
 
 TEST(CalibrationNode, ErrorCasesKeepTheNodeRunning)

@@ -107,9 +107,9 @@ median_images: [1, 2]
       "params.yaml: parameter ~keyframe/min_translation is -1, allowed: a number in [0, 100] m",
       "params.yaml: parameter ~localization_sigma_m is nan, allowed: a number in [0, 10] m",
       "params.yaml: parameter ~median_images is a list of 2, allowed: an integer in [1, 255]",
+      "params.yaml: parameter ~ransac is the number 1, allowed: true or false",
       "params.yaml: parameter ~max_rms_px is the string 'fast', allowed: a number in (0, 100] px",
       "parameters ~min_focal_ratio (4) and ~max_focal_ratio (3): the minimum must be below the maximum",
-      "params.yaml: parameter ~ransac is the number 1, allowed: true or false",
   };
   EXPECT_EQ(source.errors(), expected);
   EXPECT_EQ(o.cameras.max_rms_px, defaults.cameras.max_rms_px);

@@ -16,6 +16,8 @@
 
 #include <actionlib/server/simple_action_server.h>
 #include <diagnostic_updater/diagnostic_updater.h>
+#include <dynamic_reconfigure/Config.h>
+#include <dynamic_reconfigure/Reconfigure.h>
 #include <image_transport/image_transport.h>
 #include <message_filters/subscriber.h>
 #include <message_filters/sync_policies/approximate_time.h>
@@ -37,6 +39,7 @@
 #include "insitu_calibration/SurveyStatus.h"
 #include "insitu_calibration/Verify.h"
 #include "insitu_calibration/ros/parameter_reader.h"
+#include "insitu_calibration/survey/field_thresholds.h"
 #include "insitu_calibration/survey/survey.h"
 
 namespace insitu_calibration
@@ -55,7 +58,9 @@ private:
   {
     image_transport::Subscriber subscriber;
     ros::Publisher info_publisher;  // latched, once per calibration (calibrated_info_topic)
-    image_transport::Publisher overlay_publisher;
+    // Latched, so a plain ros::Publisher: image_transport's publishes only to transports with a subscriber at the
+    // time, so the overlay of a calibration made before rviz started was never seen ("No Image").
+    ros::Publisher overlay_publisher;
     std::string link_frame;
     std::string optical_frame;
     // The camera info that image_proc pairs with each image (same header), on camera_info_topic; with relay_image
@@ -127,6 +132,19 @@ private:
   bool verifyService(Verify::Request& request, Verify::Response& response);
   std::optional<CameraMotion> lastMotion(const std::string& name);
   void forgetMotion(const std::string& name);
+  // A copy of the thresholds, taken under mutex_ (they change at runtime).
+  FieldThresholds thresholds() const;
+
+  // dynamic_reconfigure (calibration_server_reconfigure.cpp): the field-tuned thresholds (field_thresholds.h) through
+  // dynamic_reconfigure's protocol (~set_parameters, ~parameter_descriptions, ~parameter_updates). Its own server,
+  // not dynamic_reconfigure::Server, which clamps a value out of range instead of refusing it.
+  void setupReconfigure();
+  bool reconfigureService(dynamic_reconfigure::Reconfigure::Request& request,
+                          dynamic_reconfigure::Reconfigure::Response& response);
+  // The thresholds as dynamic_reconfigure's message (call under mutex_).
+  dynamic_reconfigure::Config reconfigureState() const;
+  // Makes new thresholds current: the survey's cameras and the watchdog's timer follow (call under mutex_).
+  void applyThresholds(const FieldThresholds& thresholds);
 
   // Publishes every calibration: tf (one broadcaster, all cameras at once), CameraInfo, markers, overlays. Takes
   // mutex_ itself (only for a snapshot): the caller must not hold it.
@@ -167,9 +185,6 @@ private:
   ros::WallTimer diagnostics_timer_;
   ros::WallTimer survey_status_timer_;
   ros::Publisher survey_status_publisher_;
-  double stale_image_s_ = 10.0;         // a camera whose last image is older is stale
-  double max_sigma_position_m_ = 0.05;  // a calibration more uncertain than this is reported (WARN)
-  double max_sigma_rotation_deg_ = 0.5;
   double status_period_s_ = 5.0;   // ~survey_status's period (0: only after calibrations)
   uint64_t reset_generation_ = 0;  // guarded by mutex_; a calibration started before a reset is discarded
 
@@ -178,8 +193,7 @@ private:
   ros::ServiceServer reset_server_;
   ros::ServiceServer save_server_;
   ros::ServiceServer verify_server_;
-  ros::WallTimer verify_timer_;
-  CameraVerificationOptions watchdog_options_;
+  ros::WallTimer verify_timer_;  // stopped while thresholds_.verify_period_s is 0
   std::mutex motion_mutex_;
   std::map<std::string, CameraMotion> last_motion_;  // per camera, the watchdog's last check (motion_mutex_)
   ros::Publisher marker_publisher_;
@@ -193,12 +207,17 @@ private:
   std::string output_directory_;
   double tf_timeout_s_ = 0.2;
   double map_adjustment_period_s_ = 10.0;  // 0: only before a calibration
-  double verify_period_s_ = 60.0;          // the watchdog's period; 0: only on ~verify
   bool write_report_ = true;               // <name>_report.html beside the YAML on every calibration
+  ros::ServiceServer reconfigure_server_;
+  ros::Publisher reconfigure_descriptions_publisher_;
+  ros::Publisher reconfigure_updates_publisher_;
 
   // State, guarded by mutex_ (callbacks run on an AsyncSpinner's threads).
   mutable std::mutex mutex_;
   std::unique_ptr<Survey> survey_;
+  // The field-tuned thresholds (dynamic_reconfigure): the watchdog's, /diagnostics', and the cameras' (a copy of
+  // the survey's camera options, kept in step by applyThresholds).
+  FieldThresholds thresholds_;
   std::map<std::string, Camera> cameras_;
   // Each calibrated camera's CameraInfo (header filled per image), written under both locks, read under info_mutex_.
   std::mutex info_mutex_;

@@ -117,6 +117,9 @@ public:
   // that far.
   const std::optional<FixedCameraResult>& lastRefused() const { return last_refused_; }
   void setCalibration(const CalibrationFile& calibration) { calibration_ = calibration; }
+  const FixedCameraOptions& options() const { return options_; }
+  // Survey::setCameraOptions (median_images as at construction).
+  void setOptions(const FixedCameraOptions& options);
   // Forgets images, matches and calibration.
   void reset();
 

@@ -32,6 +32,12 @@ cv::Mat drawOverlayWithHiddenEdges(const cv::Mat& image, int width, int height, 
 // with_unmatched; with_hidden: drawOverlayWithHiddenEdges's two kinds of map line).
 void drawOverlayLegend(cv::Mat* canvas, bool with_unmatched, bool with_hidden = false);
 
+// The overlay that the node publishes (~<name>/overlay) and saves (<name>_overlay.png), and calibrate_survey saves:
+// drawOverlay with its legend, so that it reads without the README in rviz's image panel.
+cv::Mat drawCalibrationOverlay(const cv::Mat& image, int width, int height, const CameraModel& camera,
+                               const std::vector<Segment3d>& map_lines,
+                               const std::vector<std::vector<Eigen::Vector2d>>& matched_image_lines);
+
 // The 8 edges of the camera's viewing pyramid out to `depth_m` (through the distorted image corners) in the world.
 std::vector<Segment3d> frustumSegments(const CameraModel& camera, int width, int height, double depth_m);
 

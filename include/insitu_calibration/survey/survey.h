@@ -124,6 +124,9 @@ public:
   void reset();
 
   const SurveyOptions& options() const { return options_; }
+  // New options for every fixed camera (thresholds tuned while the node runs), from their next calibration or
+  // status on; median_images keeps its start-up value (the median buffers are sized by it).
+  void setCameraOptions(const FixedCameraOptions& options);
 
   // The map adjustment apart from the survey, for a caller that must not hold the survey while it runs (the node
   // holds its lock for every survey call; an adjustment takes seconds): under the lock, adjustmentDue() and a copy

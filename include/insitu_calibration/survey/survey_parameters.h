@@ -5,13 +5,17 @@
 #define INSITU_CALIBRATION_SURVEY_SURVEY_PARAMETERS_H
 
 #include "insitu_calibration/io/parameter_source.h"
+#include "insitu_calibration/survey/field_thresholds.h"
 #include "insitu_calibration/survey/survey.h"
 
 namespace insitu_calibration
 {
 // options with every parameter that source sets; errors (wrong type, out of range, min_focal_ratio not below
-// max_focal_ratio) are collected in source.
-SurveyOptions readSurveyParameters(ParameterSource& source, SurveyOptions options = {});
+// max_focal_ratio) are collected in source. The thresholds tuned in the field (max_rms_px, ransac_threshold_px, ...)
+// are read through their table (survey/field_thresholds.h), with the watchdog's and the diagnostics', which the node
+// gets in *thresholds (the cameras' part of it is options.cameras).
+SurveyOptions readSurveyParameters(ParameterSource& source, SurveyOptions options = {},
+                                   FieldThresholds* thresholds = nullptr);
 }  // namespace insitu_calibration
 
 #endif  // INSITU_CALIBRATION_SURVEY_SURVEY_PARAMETERS_H

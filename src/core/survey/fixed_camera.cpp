@@ -90,6 +90,13 @@ Status FixedCamera::addImage(const cv::Mat& image)
   return median_.add(image);
 }
 
+void FixedCamera::setOptions(const FixedCameraOptions& options)
+{
+  const size_t median_images = options_.median_images;
+  options_ = options;
+  options_.median_images = median_images;
+}
+
 void FixedCamera::reset()
 {
   median_.clear();

@@ -127,6 +127,15 @@ void drawOverlayLegend(cv::Mat* canvas, bool with_unmatched, bool with_hidden)
   }
 }
 
+cv::Mat drawCalibrationOverlay(const cv::Mat& image, int width, int height, const CameraModel& camera,
+                               const std::vector<Segment3d>& map_lines,
+                               const std::vector<std::vector<Eigen::Vector2d>>& matched_image_lines)
+{
+  cv::Mat canvas = drawOverlay(image, width, height, camera, map_lines, matched_image_lines);
+  drawOverlayLegend(&canvas, false);
+  return canvas;
+}
+
 std::vector<Segment3d> frustumSegments(const CameraModel& camera, int width, int height, double depth_m)
 {
   const Eigen::Isometry3d world_from_camera = camera.pose().worldFromCamera();

@@ -352,6 +352,15 @@ std::vector<std::string> Survey::cameraNames() const
   return names;
 }
 
+void Survey::setCameraOptions(const FixedCameraOptions& options)
+{
+  const size_t median_images = options_.cameras.median_images;
+  options_.cameras = options;
+  options_.cameras.median_images = median_images;
+  for (auto& [name, camera] : cameras_)
+    camera->setOptions(options_.cameras);
+}
+
 void Survey::reset()
 {
   map_.clear();

@@ -30,34 +30,29 @@ void readMapParameters(ParameterSource& read, SurveyOptions& options)
   a.odometry_sigma_per_deg = read.number("odometry/sigma_per_deg", a.odometry_sigma_per_deg, Range::closed(0.0, 10.0));
 }
 
-// A fixed camera's calibration: its median image, the acceptance checks, matching and the robust estimation.
+// A fixed camera's calibration options set once at start-up (its median image, the prior search, the robust
+// estimation's switches); its thresholds are the table's (readFieldThresholds).
 void readCameraParameters(ParameterSource& read, FixedCameraOptions& camera)
 {
   camera.median_images = static_cast<size_t>(
       read.integer("median_images", static_cast<int>(camera.median_images), Range::integers(1, 255)));
-  camera.max_rms_px = read.number("max_rms_px", camera.max_rms_px, Range::positive(100.0, "px"));
-  camera.min_focal_ratio = read.number("min_focal_ratio", camera.min_focal_ratio, Range::positive(100.0));
-  camera.max_focal_ratio = read.number("max_focal_ratio", camera.max_focal_ratio, Range::positive(100.0));
-  if (camera.min_focal_ratio >= camera.max_focal_ratio)
-    read.fail("parameters ~min_focal_ratio (" + formatParameterValue(camera.min_focal_ratio) +
-              ") and ~max_focal_ratio (" + formatParameterValue(camera.max_focal_ratio) +
-              "): the minimum must be below the maximum");
-  // Six lines at least: DLT-Lines' minimum.
-  camera.min_matched_lines = static_cast<size_t>(
-      read.integer("min_matched_lines", static_cast<int>(camera.min_matched_lines), Range::integers(6, 100000)));
   camera.matcher.search_starts = read.integer("search_starts", camera.matcher.search_starts, Range::integers(1, 64));
   CalibrationOptions& calibration = camera.matcher.calibration;
-  calibration.ransac_options.inlier_threshold_px =
-      read.number("ransac_threshold_px", calibration.ransac_options.inlier_threshold_px, Range::positive(100.0, "px"));
   calibration.refine = read.flag("refine", calibration.refine);
   calibration.ransac = read.flag("ransac", calibration.ransac);
 }
 }  // namespace
 
-SurveyOptions readSurveyParameters(ParameterSource& source, SurveyOptions options)
+SurveyOptions readSurveyParameters(ParameterSource& source, SurveyOptions options, FieldThresholds* thresholds)
 {
   readMapParameters(source, options);
   readCameraParameters(source, options.cameras);
+  FieldThresholds field = thresholds ? *thresholds : FieldThresholds{};
+  field.cameras = options.cameras;
+  readFieldThresholds(source, field);
+  options.cameras = field.cameras;
+  if (thresholds)
+    *thresholds = field;
   return options;
 }
 }  // namespace insitu_calibration
