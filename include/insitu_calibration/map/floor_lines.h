@@ -5,10 +5,11 @@
 // propagated along the ray, the pixel noise also across it.
 //
 // A candidate becomes a map line only when candidates from at least min_keyframes keyframes agree within their
-// predicted errors and the keyframes are far enough apart across the line that an edge min_edge_height_m above the
-// floor (a table's edge, a skirting board's top) would have landed at floor positions that differ by more than
-// confirm_sigmas of their errors: an edge off the floor projects to the floor at a place that depends on the
-// viewpoint. Candidates whose segment has depth that disagrees with the floor are refused at extraction.
+// predicted errors and their offsets across the line do not follow their cameras' offsets: an edge at height e
+// seen from height h lands on the floor shifted by e / (h - e) times the camera's move across it, so the slope of
+// that regression tells an edge min_edge_height_m above the floor (a table's edge, a skirting board's top) from the
+// floor at confirm_sigmas. Candidates whose segment has depth that disagrees with the floor are refused at
+// extraction, and a floor line that a depth map line already holds (over half its extent) is left out.
 #ifndef INSITU_CALIBRATION_MAP_FLOOR_LINES_H
 #define INSITU_CALIBRATION_MAP_FLOOR_LINES_H
 
@@ -38,9 +39,9 @@ struct FloorLineOptions
   double depth_tolerance_m = 0.02;
   double depth_tolerance_per_m2 = 0.006;
   int min_depth_samples = 5;
-  // Confirmation: candidates within merge_sigmas of each other (their random errors) and max_angle_deg join one
-  // line; it is kept when seen from min_keyframes keyframes whose spread across it would move an edge
-  // min_edge_height_m above the floor by confirm_sigmas of the candidates' error.
+  // Confirmation: candidates within merge_sigmas of each other (their random errors, plus merge_floor_m) and
+  // max_angle_deg join one line; it is kept when seen from min_keyframes keyframes and the slope test (above) puts
+  // it nearer the floor than min_edge_height_m / 2, resolved at confirm_sigmas.
   double merge_sigmas = 3.0;
   double merge_floor_m = 0.01;
   double max_angle_deg = 2.0;

@@ -4,8 +4,6 @@
 #include <cmath>
 #include <limits>
 #include <set>
-#include <cstdio>
-#include <cstdlib>
 
 #include <Eigen/Dense>
 
@@ -341,24 +339,15 @@ std::vector<MapLine> confirmFloorLines(const std::vector<Keyframe>& keyframes,
       candidates.push_back(c);
     }
   }
-  const auto clusters = clusterCandidates(candidates, options);
-  int n_multi = 0, n_conf = 0, n_sigma = 0, n_held = 0;
-  for (const auto& k : clusters)
+  for (const auto& k : clusterCandidates(candidates, options))
   {
-    n_multi += k.members.size() >= 2;
     if (!confirmed(k, candidates, options))
       continue;
-    ++n_conf;
-    MapLine line = toMapLine(k, candidates, keyframes);
-    n_sigma += line.sigma() > options.max_sigma_m;
-    n_held += heldByDepthLine(line, depth_lines, options.max_angle_deg);
+    const MapLine line = toMapLine(k, candidates, keyframes);
     if (line.sigma() <= options.max_sigma_m && line.length() >= options.min_length_m &&
         !heldByDepthLine(line, depth_lines, options.max_angle_deg))
       out.push_back(line);
   }
-  if (getenv("FLOOR_DEBUG"))
-    fprintf(stderr, "floor: %zu candidates, %zu clusters, %d with 2+, %d confirmed, %d sigma, %d held, %zu out\n",
-            candidates.size(), clusters.size(), n_multi, n_conf, n_sigma, n_held, out.size());
   return out;
 }
 
