@@ -255,12 +255,12 @@ TEST(FloorLines, SimulatedFloorHallGainsFloorLinesBeyondTheDepthRange)
       "floor lines: %d used (%d reaching beyond 5 m of every keyframe), %d within 3 sigma of a true floor edge, %d "
       "nearest an edge off the floor; %zu candidates, %zu refused by depth\n",
       floor_lines, beyond, within, off_floor, survey.stats().floor_candidates, survey.stats().floor_refused);
-  EXPECT_GE(beyond, 20);  // seeds 1 and 4: 38 of 46
+  EXPECT_GE(beyond, 20);  // seed 4: 43 of 58
   EXPECT_EQ(off_floor, 0);
   EXPECT_GE(within, 0.95 * floor_lines);
 
-  // Coverage of each fixed camera's true floor edges: depth lines only vs with the floor lines (seed 1: +31, +21
-  // and +7 percentage points; cam_north looks at floor the 40 s route sees little of).
+  // Coverage of each fixed camera's true floor edges: depth lines only vs with the floor lines (seed 4: +30, +23
+  // and +6 percentage points; cam_north looks at floor the 40 s route sees little of).
   double best_gain = 0.0;
   for (const auto& camera : world->fixed_cameras)
   {
