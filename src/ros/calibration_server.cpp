@@ -14,6 +14,7 @@
 
 #include "insitu_calibration/ros/conversions.h"
 #include "insitu_calibration/ros/parameter_reader.h"
+#include "insitu_calibration/survey/survey_parameters.h"
 #include "insitu_calibration/survey/camera_config.h"
 #include "insitu_calibration/survey/overlay.h"
 #include "insitu_calibration/io/calibration_store.h"
@@ -253,41 +254,8 @@ SurveyOptions CalibrationServer::readParameters(ParameterReader& read)
   stale_image_s_ = read.number("diagnostics/stale_image_s", 10.0, Range::positive(86400.0, "s"));
   max_sigma_position_m_ = read.number("diagnostics/max_sigma_position_m", 0.05, Range::positive(1000.0, "m"));
   max_sigma_rotation_deg_ = read.number("diagnostics/max_sigma_rotation_deg", 0.5, Range::positive(180.0, "deg"));
-  // The defaults are the option structs' own (one home for each default).
-  SurveyOptions options;
-  options.fixed_image_period_s =
-      read.number("fixed_image_period", options.fixed_image_period_s, Range::closed(0.0, 3600.0, "s"));
-  options.min_map_support = read.integer("min_map_support", options.min_map_support, Range::integers(1, 1000));
-  options.keyframes.min_translation_m =
-      read.number("keyframe/min_translation", options.keyframes.min_translation_m, Range::closed(0.0, 100.0, "m"));
-  options.keyframes.min_rotation_deg =
-      read.number("keyframe/min_rotation_deg", options.keyframes.min_rotation_deg, Range::closed(0.0, 180.0, "deg"));
-  // The localiser's error behind tf (0: exact) for the map adjustment (survey.h).
-  options.localization_sigma_m =
-      read.number("localization_sigma_m", options.localization_sigma_m, Range::closed(0.0, 10.0, "m"));
-  options.localization_sigma_deg =
-      read.number("localization_sigma_deg", options.localization_sigma_deg, Range::closed(0.0, 90.0, "deg"));
-  options.localization_correlation_s =
-      read.number("localization_correlation_s", options.localization_correlation_s, Range::positive(86400.0, "s"));
-  FixedCameraOptions& camera_options = options.cameras;
-  camera_options.median_images = static_cast<size_t>(
-      read.integer("median_images", static_cast<int>(camera_options.median_images), Range::integers(1, 255)));
-  camera_options.max_rms_px = read.number("max_rms_px", camera_options.max_rms_px, Range::positive(100.0, "px"));
-  camera_options.min_focal_ratio =
-      read.number("min_focal_ratio", camera_options.min_focal_ratio, Range::positive(100.0));
-  camera_options.max_focal_ratio =
-      read.number("max_focal_ratio", camera_options.max_focal_ratio, Range::positive(100.0));
-  if (camera_options.min_focal_ratio >= camera_options.max_focal_ratio)
-    read.fail("parameters ~min_focal_ratio (" + formatParameterValue(camera_options.min_focal_ratio) +
-              ") and ~max_focal_ratio (" + formatParameterValue(camera_options.max_focal_ratio) +
-              "): the minimum must be below the maximum");
-  // Six lines at least: DLT-Lines' minimum.
-  camera_options.min_matched_lines = static_cast<size_t>(read.integer(
-      "min_matched_lines", static_cast<int>(camera_options.min_matched_lines), Range::integers(6, 100000)));
-  CalibrationOptions& calibration = camera_options.matcher.calibration;
-  calibration.ransac_options.inlier_threshold_px =
-      read.number("ransac_threshold_px", calibration.ransac_options.inlier_threshold_px, Range::positive(100.0, "px"));
-  calibration.refine = read.flag("refine", calibration.refine);
+  // The survey's parameters, shared with calibrate_survey; the defaults are the option structs' own.
+  const SurveyOptions options = readSurveyParameters(read);
   CameraVerificationOptions& w = watchdog_options_;  // the moved-camera watchdog
   w.max_displacement_px =
       read.number("watchdog/max_displacement_px", w.max_displacement_px, Range::positive(1000.0, "px"));
@@ -298,7 +266,6 @@ SurveyOptions CalibrationServer::readParameters(ParameterReader& read)
   w.min_matched_lines = static_cast<size_t>(
       read.integer("watchdog/min_matched_lines", static_cast<int>(w.min_matched_lines), Range::integers(4, 100000)));
   verify_period_s_ = read.number("verify_period_s", verify_period_s_, Range::closed(0.0, 86400.0, "s"));
-  calibration.ransac = read.flag("ransac", calibration.ransac);
   return options;
 }
 

@@ -53,13 +53,6 @@ double ParameterReader::number(const std::string& name, double fallback, const P
   return number;
 }
 
-int ParameterReader::integer(const std::string& name, int fallback, ParameterRange range)
-{
-  range.integer = true;
-  // A number with an integral value (2.0) is accepted; 2.5 is refused by the range's integer check.
-  return static_cast<int>(number(name, fallback, range));
-}
-
 std::vector<double> ParameterReader::numbers(const std::string& name, const std::vector<double>& fallback, size_t size,
                                              const ParameterRange& range)
 {
@@ -92,14 +85,6 @@ std::vector<double> ParameterReader::numbers(const std::string& name, const std:
     }
   }
   return numbers;
-}
-
-std::string ParameterReader::summary() const
-{
-  std::string text;
-  for (const std::string& error : errors_)
-    text += (text.empty() ? "" : "; ") + error;
-  return text;
 }
 
 bool ParameterReader::flag(const std::string& name, bool fallback)

@@ -26,8 +26,8 @@
 #include "insitu_calibration/lines/gradient_refiner.h"
 #include "insitu_calibration/matching/line_matcher.h"
 #include "insitu_calibration/metrics.h"
-#include "insitu_calibration/synthetic/line_scene.h"
-#include "insitu_calibration/synthetic/synthetic_lines.h"
+#include "insitu_calibration/test_support/line_scene.h"
+#include "insitu_calibration/test_support/synthetic_lines.h"
 
 namespace ic = insitu_calibration;
 
@@ -305,7 +305,7 @@ RenderedTrial makeRenderedTrial(unsigned seed, int width, int height)
   ic::SyntheticCameraOptions camera_options;
   camera_options.height_m = 2.4;
   t.truth = ic::randomCamera(camera_options, rng);
-  ic::RenderOptions render;
+  ic::LineSceneRenderOptions render;
   render.noise_sigma = 2.0;
   const cv::Mat image = ic::renderGrey(scene, t.truth, width, height, render, rng);
   for (const auto& edge : scene.edges())

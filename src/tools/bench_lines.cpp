@@ -22,8 +22,8 @@
 #include "insitu_calibration/simulation/line_frames.h"
 #include "insitu_calibration/simulation/survey.h"
 #include "insitu_calibration/simulation/true_edges.h"
-#include "insitu_calibration/synthetic/line_scene.h"
-#include "insitu_calibration/synthetic/synthetic_lines.h"
+#include "insitu_calibration/test_support/line_scene.h"
+#include "insitu_calibration/test_support/synthetic_lines.h"
 #include "insitu_calibration/geometry/optical_frame.h"
 
 #include "insitu_calibration/cpu_time.h"
@@ -59,9 +59,9 @@ Simulator frames (default): the survey simulator (docs/simulator.md) on a world 
   --end-tolerance PX  fixed cameras: RefinerOptions::end_tolerance_px (0: ends not trimmed, no part broken), default 0.3
   --split-kink PX     fixed cameras: ImageLineOptions::split_kink_px (0: no split at kinks), default 0.5
   --min-break PX      fixed cameras: RefinerOptions::min_break_px (0: parts not tested for a break), default 8
---room: the synthetic room of synthetic/line_scene.h (the benchmark before the simulator existed; 1920x1080 fixed
-images f = 1100 px with the corner moved 20 px; --frames default 30, --fixed default 2, --detector default both,
---save DIR writes the rendered images).
+--room: the synthetic room of the test support's line_scene.h (flat-shaded quads drawn by the simulator's renderer;
+1920x1080 fixed images f = 1100 px with the corner moved 20 px; --frames default 30, --fixed default 2, --detector
+default both, --save DIR writes the rendered images).
 --verbose: every 2D line worse than 0.15 px (0.1 px with --room) after fine-tuning or on no true edge, every 3D line
 worse than 1 cm or 0.5 deg or on no true edge, and every map line more than 5 mm off its edge.
 )";
@@ -165,8 +165,8 @@ std::vector<ic::RgbdFrame> renderRoomSurvey(const ic::LineScene& scene, int fram
     f.stamp = i / 30.0;
     const ic::CameraModel model(f.camera.intrinsics, ic::DivisionModel{0.0, f.camera.intrinsics.principalPoint()},
                                 ic::CameraPose::fromWorldFromCamera(f.T_map_camera));
-    ic::RenderOptions render;
-    render.supersamples = 16;
+    ic::LineSceneRenderOptions render;
+    render.supersampling = 4;
     render.noise_sigma = 2.0;
     render.blur_sigma_px = 0.5;
     const cv::Mat grey = ic::renderGrey(scene, model, 640, 480, render, rng);
@@ -325,8 +325,8 @@ std::vector<FixedImage> renderRoomFixedImages(const ic::LineScene& scene, int fi
     dm.lambda = ic::lambdaForCornerDisplacement(dm.center, width, height, -20.0);
     FixedImage fi;
     fi.camera = ic::CameraModel(k, dm, ic::CameraPose::fromWorldFromCamera(lookAt(position, target)));
-    ic::RenderOptions render;
-    render.supersamples = 32;
+    ic::LineSceneRenderOptions render;
+    render.supersampling = 6;
     render.noise_sigma = 2.0;
     render.blur_sigma_px = 0.6;
     fi.image = ic::renderGrey(scene, fi.camera, width, height, render, rng);

@@ -11,7 +11,7 @@
 
 #include "insitu_calibration/solvers/dlt.h"
 #include "insitu_calibration/solvers/normalization.h"
-#include "insitu_calibration/synthetic/synthetic_lines.h"
+#include "insitu_calibration/test_support/synthetic_lines.h"
 
 namespace ic = insitu_calibration;
 using Clock = std::chrono::steady_clock;

@@ -21,6 +21,7 @@
 #include "insitu_calibration/survey/overlay.h"
 #include "insitu_calibration/io/calibration_store.h"
 #include "insitu_calibration/survey/survey.h"
+#include "insitu_calibration/survey/survey_parameters.h"
 #include "insitu_calibration/geometry/optical_frame.h"
 
 namespace ic = insitu_calibration;
@@ -37,6 +38,10 @@ DIR/<camera>_overlay.png are written, as the node writes them.
 
 Options:
   --cameras FILE        fixed-camera configuration (config/cameras.yaml format)
+  --params FILE         calibration_node's parameters (README "Parameters": max_rms_px, ransac_threshold_px,
+                        localization_sigma_m, keyframe/min_translation, ...) as YAML, e.g. from
+                        `rosparam dump FILE /calibration_node` (default: the --cameras file, which the node loads as
+                        its parameters too); the flags below override them
   --out-dir DIR         where to write the calibrations
   --world-frame NAME    default map
   --min-support N       map lines seen fewer times are not used (default 2)
@@ -491,9 +496,21 @@ double seconds(std::chrono::steady_clock::time_point start)
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-// The survey's options from the command line; false (after saying why) on a malformed value.
+// The survey's parameters as calibration_node reads them (survey/survey_parameters.h), from --params or else the
+// --cameras file, then the command line's flags, which win; false (after saying why) on a malformed value.
 bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options)
 {
+  auto parameters = ic::YamlParameterSource::load(cli.value("params", cli.value("cameras")));
+  if (!parameters)
+  {
+    std::cerr << "calibrate_survey: " << parameters.error().describe() << "\n";
+    return false;
+  }
+  *options = ic::readSurveyParameters(*parameters, *options);
+  for (const std::string& error : parameters->errors())
+    std::cerr << "calibrate_survey: " << error << "\n";
+  if (!parameters->ok())
+    return false;
   options->min_map_support = static_cast<int>(cli.number("min-support", options->min_map_support));
   options->max_map_spread_m = cli.number("max-spread", options->max_map_spread_m);
   if (cli.has("odometry-sigma"))
@@ -525,8 +542,10 @@ bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options)
   options->floor.enabled = cli.number("floor-lines", options->floor.enabled ? 1.0 : 0.0) != 0.0;
   options->floor.floor_height_m = cli.number("floor-height", options->floor.floor_height_m);
   options->floor.max_range_m = cli.number("floor-max-range", options->floor.max_range_m);
-  options->cameras.matcher.calibration.refine = !cli.flag("no-refine");
-  options->cameras.matcher.calibration.ransac = !cli.flag("no-ransac");
+  if (cli.flag("no-refine"))
+    options->cameras.matcher.calibration.refine = false;
+  if (cli.flag("no-ransac"))
+    options->cameras.matcher.calibration.ransac = false;
   options->cameras.matcher.search_starts =
       static_cast<int>(cli.number("search-starts", options->cameras.matcher.search_starts));
   if (cli.flag("trace"))
@@ -667,8 +686,8 @@ int main(int argc, char** argv)
   ic::quietSolverLogging();
   ic::CommandLine cli(
       argc, argv,
-      {"cameras", "out-dir", "world-frame", "min-support", "camera", "search-starts", "truth-dir", "prior-from-truth",
-       "prior-sigmas", "max-spread", "localization-sigma", "odom-frame", "odometry-sigma"},
+      {"cameras", "params", "out-dir", "world-frame", "min-support", "camera", "search-starts", "truth-dir",
+       "prior-from-truth", "prior-sigmas", "max-spread", "localization-sigma", "odom-frame", "odometry-sigma"},
       {"no-refine", "no-ransac", "quiet", "oracle", "oracle-details", "trace", "no-odometry"});
   if (cli.help())
   {

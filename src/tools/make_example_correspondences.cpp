@@ -5,7 +5,7 @@
 #include "command_line.h"
 #include "insitu_calibration/io/calibration_file.h"
 #include "insitu_calibration/io/correspondence_file.h"
-#include "insitu_calibration/synthetic/synthetic_lines.h"
+#include "insitu_calibration/test_support/synthetic_lines.h"
 
 namespace ic = insitu_calibration;
 

@@ -1,5 +1,5 @@
-// The core library must not depend on ROS: no ROS header in its sources or public headers (except the ros/
-// headers of the ROS layer).
+// The core libraries must not depend on ROS: no ROS header in their sources or public headers (except the ros/
+// headers of the ROS layer), nor in the test support that the plain unit tests link.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -14,7 +14,8 @@ TEST(Architecture, CoreIncludesNoRosHeader)
   const std::regex ros_include(
       R"(#\s*include\s*[<"](ros/|tf2_ros/|tf2/|sensor_msgs/|geometry_msgs/|std_msgs/|cv_bridge/|image_transport/|rosbag/|message_filters/|visualization_msgs/|pcl_conversions/|pcl_ros/))");
   size_t checked = 0;
-  for (const fs::path& dir : {root / "src" / "core", root / "include" / "insitu_calibration"})
+  for (const fs::path& dir :
+       {root / "src" / "core", root / "include" / "insitu_calibration", root / "test" / "support"})
   {
     ASSERT_TRUE(fs::is_directory(dir)) << dir;
     for (const auto& entry : fs::recursive_directory_iterator(dir))

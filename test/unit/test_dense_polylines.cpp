@@ -11,7 +11,7 @@
 #include "insitu_calibration/metrics.h"
 #include "insitu_calibration/refine/noise_model.h"
 #include "insitu_calibration/solvers/plumb_line.h"
-#include "insitu_calibration/synthetic/synthetic_lines.h"
+#include "insitu_calibration/test_support/synthetic_lines.h"
 
 namespace ic = insitu_calibration;
 

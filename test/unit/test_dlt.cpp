@@ -6,8 +6,8 @@
 #include "insitu_calibration/metrics.h"
 #include "insitu_calibration/solvers/dlt.h"
 #include "insitu_calibration/solvers/generalized_eigen.h"
-#include "insitu_calibration/synthetic/synthetic_lines.h"
-#include "test_helpers.h"
+#include "insitu_calibration/test_support/synthetic_lines.h"
+#include "insitu_calibration/test_support/test_helpers.h"
 
 namespace ic = insitu_calibration;
 

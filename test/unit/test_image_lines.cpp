@@ -7,7 +7,7 @@
 
 #include "insitu_calibration/lines/image_lines.h"
 #include "insitu_calibration/lines/line_evaluation.h"
-#include "insitu_calibration/synthetic/line_scene.h"
+#include "insitu_calibration/test_support/line_scene.h"
 
 namespace ic = insitu_calibration;
 
@@ -60,8 +60,8 @@ TEST(ImageLines, RenderedRectangleFineTunedWithinTenthPixel)
 {
   std::cout << "seed " << kSeed << std::endl;
   std::mt19937 rng(kSeed);
-  ic::RenderOptions render;
-  render.supersamples = 64;
+  ic::LineSceneRenderOptions render;
+  render.supersampling = 8;
   render.noise_sigma = 3.0;
   for (const double angle : {0.0, 7.0, 17.0, 33.0, 45.0})
   {
@@ -100,8 +100,8 @@ TEST(ImageLines, DistortedRectangleGivesOneCurvedPolylinePerSide)
 {
   std::cout << "seed " << kSeed << std::endl;
   std::mt19937 rng(kSeed);
-  ic::RenderOptions render;
-  render.supersamples = 64;
+  ic::LineSceneRenderOptions render;
+  render.supersampling = 8;
   render.noise_sigma = 2.0;
   // Barrel distortion moving the image corner 12 px inwards on 640 x 480.
   const double corner_r = std::hypot(319.5, 239.5);
@@ -152,7 +152,7 @@ TEST(ImageLines, DistortedRectangleGivesOneCurvedPolylinePerSide)
 TEST(ImageLines, RefinerConvergesFromAnOffsetSegment)
 {
   std::mt19937 rng(kSeed);
-  ic::RenderOptions render;
+  ic::LineSceneRenderOptions render;
   render.noise_sigma = 2.0;
   const RectangleScene r = makeRectangle(320, 240, 160.0, 120.0, 100.0, 70.0, 21.0);
   const cv::Mat image = ic::renderGrey(r.scene, r.camera, r.width, r.height, render, rng);
@@ -252,6 +252,21 @@ cv::Mat renderFunction(int width, int height, F grey, double noise_sigma, std::m
   return image;
 }
 
+// The largest distance (px) from a line, sampled at every 5 % of each of its polyline's segments, to the straight
+// edge y = edge_y(x) of the given slope, wherever keep(x) holds (away from a junction, say).
+template <typename Edge, typename Keep>
+double largestDistanceToEdge(const ic::ImageLine& line, Edge edge_y, double slope, Keep keep)
+{
+  double largest = 0.0;
+  for (size_t k = 0; k + 1 < line.points.size(); ++k)
+    for (double t = 0.0; t <= 1.0; t += 0.05)
+    {
+      const Eigen::Vector2d p = line.points[k] + t * (line.points[k + 1] - line.points[k]);
+      if (keep(p.x()))
+        largest = std::max(largest, std::abs(p.y() - edge_y(p.x())) / std::sqrt(1.0 + slope * slope));
+    }
+  return largest;
+}
 }  // namespace
 
 // A second, weaker edge of the same polarity 2.2 px beside the edge (a ceiling tile's edge beside the wall-ceiling
@@ -293,16 +308,8 @@ TEST(ImageLines, PolylineAlongTwoNearlyCollinearEdgesIsSplit)
   auto edge_y = [](double x) { return x < 300.0 ? 100.3 + 0.01 * x : 101.2 + 0.01 * x; };
   const cv::Mat image = renderFunction(
       600, 200, [&](double x, double y) { return y < edge_y(x) ? 190.0 : 70.0; }, 2.0, rng, 6);
-  auto worst = [&](const ic::ImageLine& line) {
-    double w = 0.0;
-    for (size_t k = 0; k + 1 < line.points.size(); ++k)
-      for (double t = 0.0; t <= 1.0; t += 0.1)
-      {
-        const Eigen::Vector2d p = line.points[k] + t * (line.points[k + 1] - line.points[k]);
-        if (std::abs(p.x() - 300.0) > 3.0)  // not at the step itself
-          w = std::max(w, std::abs(p.y() - edge_y(p.x())) / std::sqrt(1.0001));
-      }
-    return w;
+  auto worst = [&](const ic::ImageLine& line) {  // not at the step itself
+    return largestDistanceToEdge(line, edge_y, 0.01, [](double x) { return std::abs(x - 300.0) > 3.0; });
   };
   ic::DivisionModel none;
   none.center = Eigen::Vector2d(299.5, 99.5);
@@ -363,15 +370,8 @@ TEST(ImageLines, LineEndsWhereANearlyCollinearEdgeTakesOver)
 
   // The whole extraction: every line within 0.1 px of the edge under it.
   auto worst = [&](const ic::ImageLine& line) {
-    double w = 0.0;
-    for (size_t k = 0; k + 1 < line.points.size(); ++k)
-      for (double t = 0.0; t <= 1.0; t += 0.05)
-      {
-        const Eigen::Vector2d p = line.points[k] + t * (line.points[k + 1] - line.points[k]);
-        if (std::abs(p.x() - kJunction) > 2.0 && p.x() < kEnd - 2.0)
-          w = std::max(w, std::abs(p.y() - edge_y(p.x())) / std::sqrt(1.0001));
-      }
-    return w;
+    return largestDistanceToEdge(line, edge_y, 0.01,
+                                 [&](double x) { return std::abs(x - kJunction) > 2.0 && x < kEnd - 2.0; });
   };
   ic::DivisionModel none;
   none.center = Eigen::Vector2d(259.5, 99.5);
@@ -409,15 +409,7 @@ TEST(ImageLines, PartAcrossTwoEdgesMeetingAtAnAngleIsBroken)
   const cv::Mat image = renderFunction(
       600, 200, [&](double x, double y) { return y < edge_y(x) ? 190.0 : 70.0; }, 2.0, rng, 6);
   auto worst = [&](const ic::ImageLine& line) {
-    double w = 0.0;
-    for (size_t k = 0; k + 1 < line.points.size(); ++k)
-      for (double t = 0.0; t <= 1.0; t += 0.05)
-      {
-        const Eigen::Vector2d p = line.points[k] + t * (line.points[k + 1] - line.points[k]);
-        if (std::abs(p.x() - kJunction) > 3.0)
-          w = std::max(w, std::abs(p.y() - edge_y(p.x())) / std::sqrt(1.0 + 0.045 * 0.045));
-      }
-    return w;
+    return largestDistanceToEdge(line, edge_y, 0.045, [&](double x) { return std::abs(x - kJunction) > 3.0; });
   };
   ic::DivisionModel none;
   none.center = Eigen::Vector2d(299.5, 99.5);

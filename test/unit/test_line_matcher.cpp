@@ -5,7 +5,7 @@
 
 #include "insitu_calibration/matching/line_matcher.h"
 #include "insitu_calibration/metrics.h"
-#include "insitu_calibration/synthetic/synthetic_lines.h"
+#include "insitu_calibration/test_support/synthetic_lines.h"
 
 namespace ic = insitu_calibration;
 

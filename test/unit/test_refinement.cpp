@@ -6,7 +6,7 @@
 #include "insitu_calibration/calibration.h"
 #include "insitu_calibration/metrics.h"
 #include "insitu_calibration/refine/refinement.h"
-#include "insitu_calibration/synthetic/synthetic_lines.h"
+#include "insitu_calibration/test_support/synthetic_lines.h"
 
 namespace ic = insitu_calibration;
 

@@ -11,7 +11,7 @@
 
 #include "insitu_calibration/lines/line_evaluation.h"
 #include "insitu_calibration/lines/rgbd_lines.h"
-#include "insitu_calibration/synthetic/line_scene.h"
+#include "insitu_calibration/test_support/line_scene.h"
 #include "insitu_calibration/geometry/optical_frame.h"
 
 namespace ic = insitu_calibration;
@@ -68,8 +68,8 @@ ic::RgbdFrame renderFrame(const ic::LineScene& scene, const Eigen::Isometry3d& T
   f.T_map_camera = T_map_camera;
   const ic::CameraModel model(f.camera.intrinsics, ic::DivisionModel{0.0, f.camera.intrinsics.principalPoint()},
                               ic::CameraPose::fromWorldFromCamera(T_map_camera));
-  ic::RenderOptions render;
-  render.supersamples = 16;
+  ic::LineSceneRenderOptions render;
+  render.supersampling = 4;
   render.noise_sigma = 2.0;
   render.blur_sigma_px = 0.5;
   cv::Mat grey = ic::renderGrey(scene, model, 640, 480, render, rng);

@@ -17,7 +17,7 @@
 #include "insitu_calibration/io/correspondence_file.h"
 #include "insitu_calibration/simulation/world.h"
 #include "insitu_calibration/survey/camera_config.h"
-#include "insitu_calibration/synthetic/synthetic_lines.h"
+#include "insitu_calibration/test_support/synthetic_lines.h"
 
 namespace ic = insitu_calibration;
 namespace sim = insitu_calibration::simulation;

@@ -15,7 +15,7 @@
 #include "insitu_calibration/simulation/world.h"
 #include "insitu_calibration/survey/camera_config.h"
 #include "insitu_calibration/survey/survey.h"
-#include "simulated_survey.h"
+#include "insitu_calibration/test_support/simulated_survey.h"
 
 namespace ic = insitu_calibration;
 namespace sim = insitu_calibration::simulation;

@@ -50,6 +50,10 @@ struct DivisionModel
   std::optional<Eigen::Vector2d> distort(const Eigen::Vector2d& undistorted) const;
 };
 
+// lambda such that the image corner farthest from center moves radially by displacement_px (negative: inwards,
+// barrel), the way distortion is specified for simulated cameras (0 px at the corner: no distortion).
+double lambdaForCornerDisplacement(const Eigen::Vector2d& center, int width, int height, double displacement_px);
+
 // World-to-camera transform: X_c = rotation * X_w + translation.
 struct CameraPose
 {

@@ -1,5 +1,6 @@
 #include "insitu_calibration/camera/camera_model.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace insitu_calibration
@@ -41,6 +42,17 @@ std::optional<Eigen::Vector2d> DivisionModel::distort(const Eigen::Vector2d& und
     return std::nullopt;
   // r_d = 2 r_u / (1 + sqrt(disc)), so m_d - c = 2 (m_u - c) / (1 + sqrt(disc)): no cancellation near lambda = 0.
   return center + u * (2.0 / (1.0 + std::sqrt(disc)));
+}
+
+double lambdaForCornerDisplacement(const Eigen::Vector2d& center, int width, int height, double displacement_px)
+{
+  // Farthest image corner from the centre: r_d there, and r_u = r_d - displacement.
+  double rd = 0.0;
+  for (double x : {0.0, width - 1.0})
+    for (double y : {0.0, height - 1.0})
+      rd = std::max(rd, (Eigen::Vector2d(x, y) - center).norm());
+  const double ru = rd - displacement_px;
+  return (rd / ru - 1.0) / (rd * rd);
 }
 
 Eigen::Isometry3d CameraPose::worldFromCamera() const

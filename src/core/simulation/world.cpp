@@ -10,7 +10,6 @@
 #include <set>
 
 #include "insitu_calibration/io/atomic_file.h"
-#include "insitu_calibration/synthetic/synthetic_lines.h"
 #include "insitu_calibration/geometry/optical_frame.h"
 #include "io/yaml_util.h"
 

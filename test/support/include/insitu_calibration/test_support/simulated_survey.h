@@ -1,7 +1,7 @@
 // Shared by the survey tests: a simulated survey fed into a Survey as the node would feed it (RGB-D frames at their
 // true poses, fixed-camera images in grey).
-#ifndef INSITU_CALIBRATION_TEST_UNIT_SIMULATED_SURVEY_H
-#define INSITU_CALIBRATION_TEST_UNIT_SIMULATED_SURVEY_H
+#ifndef INSITU_CALIBRATION_TEST_SUPPORT_SIMULATED_SURVEY_H
+#define INSITU_CALIBRATION_TEST_SUPPORT_SIMULATED_SURVEY_H
 
 #include <opencv2/imgproc.hpp>
 
@@ -47,4 +47,4 @@ inline int feedSimulatedSurvey(const simulation::SurveySimulator& simulator, Sur
 }  // namespace test
 }  // namespace insitu_calibration
 
-#endif  // INSITU_CALIBRATION_TEST_UNIT_SIMULATED_SURVEY_H
+#endif  // INSITU_CALIBRATION_TEST_SUPPORT_SIMULATED_SURVEY_H

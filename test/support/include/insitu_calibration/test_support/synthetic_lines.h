@@ -1,7 +1,7 @@
 // Synthetic cameras and line correspondences with known truth, for tests, benchmarks and the bundled example.
 // Every random choice comes from the caller's seeded generator.
-#ifndef INSITU_CALIBRATION_SYNTHETIC_SYNTHETIC_LINES_H
-#define INSITU_CALIBRATION_SYNTHETIC_SYNTHETIC_LINES_H
+#ifndef INSITU_CALIBRATION_TEST_SUPPORT_SYNTHETIC_LINES_H
+#define INSITU_CALIBRATION_TEST_SUPPORT_SYNTHETIC_LINES_H
 
 #include <random>
 #include <vector>
@@ -29,9 +29,6 @@ struct SyntheticCameraOptions
 
 // A camera mounted like a surveillance camera: in the corner region of a room, looking down into it.
 CameraModel randomCamera(const SyntheticCameraOptions& options, std::mt19937& rng);
-
-// lambda such that the image corner moves radially by corner_displacement_px (negative: inwards, barrel).
-double lambdaForCornerDisplacement(const Eigen::Vector2d& center, int width, int height, double displacement_px);
 
 struct SyntheticLineOptions
 {
@@ -82,4 +79,4 @@ SyntheticLines makeDensePolylines(const CameraModel& camera, int image_width, in
 
 }  // namespace insitu_calibration
 
-#endif  // INSITU_CALIBRATION_SYNTHETIC_SYNTHETIC_LINES_H
+#endif  // INSITU_CALIBRATION_TEST_SUPPORT_SYNTHETIC_LINES_H

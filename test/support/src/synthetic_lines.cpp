@@ -1,6 +1,6 @@
 #include <Eigen/Geometry>
 
-#include "insitu_calibration/synthetic/synthetic_lines.h"
+#include "insitu_calibration/test_support/synthetic_lines.h"
 #include "insitu_calibration/geometry/optical_frame.h"
 
 #include <cmath>
@@ -27,17 +27,6 @@ Eigen::Vector3d randomUnitVector(std::mt19937& rng)
   return v.normalized();
 }
 }  // namespace
-
-double lambdaForCornerDisplacement(const Eigen::Vector2d& center, int width, int height, double displacement_px)
-{
-  // Farthest image corner from the centre: r_d there, and r_u = r_d - displacement.
-  double rd = 0.0;
-  for (double x : {0.0, width - 1.0})
-    for (double y : {0.0, height - 1.0})
-      rd = std::max(rd, (Eigen::Vector2d(x, y) - center).norm());
-  const double ru = rd - displacement_px;
-  return (rd / ru - 1.0) / (rd * rd);
-}
 
 CameraModel randomCamera(const SyntheticCameraOptions& options, std::mt19937& rng)
 {

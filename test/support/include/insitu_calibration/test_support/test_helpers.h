@@ -1,6 +1,6 @@
 // Shared helpers of the core unit tests.
-#ifndef INSITU_CALIBRATION_TEST_UNIT_TEST_HELPERS_H
-#define INSITU_CALIBRATION_TEST_UNIT_TEST_HELPERS_H
+#ifndef INSITU_CALIBRATION_TEST_SUPPORT_TEST_HELPERS_H
+#define INSITU_CALIBRATION_TEST_SUPPORT_TEST_HELPERS_H
 
 #include <cmath>
 
@@ -30,4 +30,4 @@ inline double lambdaDifference(double a, double b, double corner_radius_px)
 }  // namespace test
 }  // namespace insitu_calibration
 
-#endif  // INSITU_CALIBRATION_TEST_UNIT_TEST_HELPERS_H
+#endif  // INSITU_CALIBRATION_TEST_SUPPORT_TEST_HELPERS_H

@@ -1,0 +1,74 @@
+#include "insitu_calibration/survey/survey_parameters.h"
+
+namespace insitu_calibration
+{
+namespace
+{
+using Range = ParameterRange;
+
+// The keyframes, the map lines used and the localiser behind tf (the map adjustment).
+void readMapParameters(ParameterSource& read, SurveyOptions& options)
+{
+  options.fixed_image_period_s =
+      read.number("fixed_image_period", options.fixed_image_period_s, Range::closed(0.0, 3600.0, "s"));
+  options.min_map_support = read.integer("min_map_support", options.min_map_support, Range::integers(1, 1000));
+  options.max_map_spread_m = read.number("max_map_spread", options.max_map_spread_m, Range::positive(10.0, "m"));
+  options.keyframes.min_translation_m =
+      read.number("keyframe/min_translation", options.keyframes.min_translation_m, Range::closed(0.0, 100.0, "m"));
+  options.keyframes.min_rotation_deg =
+      read.number("keyframe/min_rotation_deg", options.keyframes.min_rotation_deg, Range::closed(0.0, 180.0, "deg"));
+  options.localization_sigma_m =
+      read.number("localization_sigma_m", options.localization_sigma_m, Range::closed(0.0, 10.0, "m"));
+  options.localization_sigma_deg =
+      read.number("localization_sigma_deg", options.localization_sigma_deg, Range::closed(0.0, 90.0, "deg"));
+  options.localization_correlation_s =
+      read.number("localization_correlation_s", options.localization_correlation_s, Range::positive(86400.0, "s"));
+  LineMapAdjustmentOptions& a = options.adjustment;  // odometry between consecutive keyframes (0 m: not used)
+  a.odometry_sigma_m = read.number("odometry/sigma_m", a.odometry_sigma_m, Range::closed(0.0, 10.0, "m"));
+  a.odometry_sigma_per_m = read.number("odometry/sigma_per_m", a.odometry_sigma_per_m, Range::closed(0.0, 10.0));
+  a.odometry_sigma_deg = read.number("odometry/sigma_deg", a.odometry_sigma_deg, Range::closed(0.0, 180.0, "deg"));
+  a.odometry_sigma_per_deg = read.number("odometry/sigma_per_deg", a.odometry_sigma_per_deg, Range::closed(0.0, 10.0));
+}
+
+// Lines on the floor beyond the depth range (map/floor_lines.h).
+void readFloorParameters(ParameterSource& read, FloorLineOptions& floor)
+{
+  floor.enabled = read.flag("floor_lines", floor.enabled);
+  floor.floor_height_m = read.number("floor/height", floor.floor_height_m, Range::closed(-100.0, 100.0, "m"));
+  floor.max_range_m = read.number("floor/max_range", floor.max_range_m, Range::positive(100.0, "m"));
+  floor.tilt_sigma_deg = read.number("floor/tilt_sigma_deg", floor.tilt_sigma_deg, Range::closed(0.0, 10.0, "deg"));
+  floor.height_sigma_m = read.number("floor/height_sigma", floor.height_sigma_m, Range::closed(0.0, 1.0, "m"));
+}
+
+// A fixed camera's calibration: its median image, the acceptance checks, matching and the robust estimation.
+void readCameraParameters(ParameterSource& read, FixedCameraOptions& camera)
+{
+  camera.median_images = static_cast<size_t>(
+      read.integer("median_images", static_cast<int>(camera.median_images), Range::integers(1, 255)));
+  camera.max_rms_px = read.number("max_rms_px", camera.max_rms_px, Range::positive(100.0, "px"));
+  camera.min_focal_ratio = read.number("min_focal_ratio", camera.min_focal_ratio, Range::positive(100.0));
+  camera.max_focal_ratio = read.number("max_focal_ratio", camera.max_focal_ratio, Range::positive(100.0));
+  if (camera.min_focal_ratio >= camera.max_focal_ratio)
+    read.fail("parameters ~min_focal_ratio (" + formatParameterValue(camera.min_focal_ratio) +
+              ") and ~max_focal_ratio (" + formatParameterValue(camera.max_focal_ratio) +
+              "): the minimum must be below the maximum");
+  // Six lines at least: DLT-Lines' minimum.
+  camera.min_matched_lines = static_cast<size_t>(
+      read.integer("min_matched_lines", static_cast<int>(camera.min_matched_lines), Range::integers(6, 100000)));
+  camera.matcher.search_starts = read.integer("search_starts", camera.matcher.search_starts, Range::integers(1, 64));
+  CalibrationOptions& calibration = camera.matcher.calibration;
+  calibration.ransac_options.inlier_threshold_px =
+      read.number("ransac_threshold_px", calibration.ransac_options.inlier_threshold_px, Range::positive(100.0, "px"));
+  calibration.refine = read.flag("refine", calibration.refine);
+  calibration.ransac = read.flag("ransac", calibration.ransac);
+}
+}  // namespace
+
+SurveyOptions readSurveyParameters(ParameterSource& source, SurveyOptions options)
+{
+  readMapParameters(source, options);
+  readFloorParameters(source, options.floor);
+  readCameraParameters(source, options.cameras);
+  return options;
+}
+}  // namespace insitu_calibration

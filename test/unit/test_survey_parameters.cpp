@@ -1,0 +1,150 @@
+// The survey's parameters read by name (survey/survey_parameters.h) from a YAML parameter file
+// (io/parameter_source.h), as calibrate_survey reads them: the option structs' defaults when unset, every value set
+// taken, and every bad one reported with its name, its value and the allowed range.
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "insitu_calibration/io/parameter_source.h"
+#include "insitu_calibration/survey/survey_parameters.h"
+
+namespace ic = insitu_calibration;
+
+namespace
+{
+ic::YamlParameterSource parsed(const std::string& yaml)
+{
+  auto source = ic::YamlParameterSource::parse(yaml, "params.yaml");
+  EXPECT_TRUE(source) << (source ? "" : source.error().message());
+  return source ? *source : *ic::YamlParameterSource::parse("{}", "empty");
+}
+}  // namespace
+
+TEST(SurveyParameters, UnsetParametersKeepTheStructsDefaults)
+{
+  // A camera list with no parameters beside it, as config/cameras.yaml.
+  ic::YamlParameterSource source = parsed("cameras:\n  - name: a\n    image_width: 640\n");
+  const ic::SurveyOptions read = ic::readSurveyParameters(source);
+  const ic::SurveyOptions defaults;
+  EXPECT_TRUE(source.ok()) << source.summary();
+  EXPECT_EQ(read.min_map_support, defaults.min_map_support);
+  EXPECT_EQ(read.max_map_spread_m, defaults.max_map_spread_m);
+  EXPECT_EQ(read.keyframes.min_translation_m, defaults.keyframes.min_translation_m);
+  EXPECT_EQ(read.localization_sigma_m, defaults.localization_sigma_m);
+  EXPECT_EQ(read.adjustment.odometry_sigma_per_deg, defaults.adjustment.odometry_sigma_per_deg);
+  EXPECT_EQ(read.floor.enabled, defaults.floor.enabled);
+  EXPECT_EQ(read.floor.max_range_m, defaults.floor.max_range_m);
+  EXPECT_EQ(read.cameras.max_rms_px, defaults.cameras.max_rms_px);
+  EXPECT_EQ(read.cameras.matcher.search_starts, defaults.cameras.matcher.search_starts);
+  EXPECT_EQ(read.cameras.matcher.calibration.ransac_options.inlier_threshold_px,
+            defaults.cameras.matcher.calibration.ransac_options.inlier_threshold_px);
+  EXPECT_EQ(read.cameras.matcher.calibration.refine, defaults.cameras.matcher.calibration.refine);
+}
+
+TEST(SurveyParameters, EverySetParameterIsTaken)
+{
+  ic::YamlParameterSource source = parsed(R"(
+fixed_image_period: 2
+min_map_support: 3
+max_map_spread: 0.02
+keyframe: {min_translation: 0.25, min_rotation_deg: 7}
+localization_sigma_m: 0.05
+localization_sigma_deg: 1.5
+localization_correlation_s: 8
+odometry: {sigma_m: 0.001, sigma_per_m: 0.02, sigma_deg: 0.1, sigma_per_deg: 0.03}
+floor_lines: false
+floor: {height: 0.05, max_range: 8, tilt_sigma_deg: 0.1, height_sigma: 0.01}
+median_images: 9
+max_rms_px: 2.5
+min_focal_ratio: 0.3
+max_focal_ratio: 5
+min_matched_lines: 12
+search_starts: 6
+ransac_threshold_px: 4.5
+ransac: false
+refine: no
+cameras: []
+)");
+  const ic::SurveyOptions o = ic::readSurveyParameters(source);
+  ASSERT_TRUE(source.ok()) << source.summary();
+  EXPECT_EQ(o.fixed_image_period_s, 2.0);
+  EXPECT_EQ(o.min_map_support, 3);
+  EXPECT_EQ(o.max_map_spread_m, 0.02);
+  EXPECT_EQ(o.keyframes.min_translation_m, 0.25);
+  EXPECT_EQ(o.keyframes.min_rotation_deg, 7.0);
+  EXPECT_EQ(o.localization_sigma_m, 0.05);
+  EXPECT_EQ(o.localization_sigma_deg, 1.5);
+  EXPECT_EQ(o.localization_correlation_s, 8.0);
+  EXPECT_EQ(o.adjustment.odometry_sigma_m, 0.001);
+  EXPECT_EQ(o.adjustment.odometry_sigma_per_m, 0.02);
+  EXPECT_EQ(o.adjustment.odometry_sigma_deg, 0.1);
+  EXPECT_EQ(o.adjustment.odometry_sigma_per_deg, 0.03);
+  EXPECT_FALSE(o.floor.enabled);
+  EXPECT_EQ(o.floor.floor_height_m, 0.05);
+  EXPECT_EQ(o.floor.max_range_m, 8.0);
+  EXPECT_EQ(o.floor.tilt_sigma_deg, 0.1);
+  EXPECT_EQ(o.floor.height_sigma_m, 0.01);
+  EXPECT_EQ(o.cameras.median_images, 9u);
+  EXPECT_EQ(o.cameras.max_rms_px, 2.5);
+  EXPECT_EQ(o.cameras.min_focal_ratio, 0.3);
+  EXPECT_EQ(o.cameras.max_focal_ratio, 5.0);
+  EXPECT_EQ(o.cameras.min_matched_lines, 12u);
+  EXPECT_EQ(o.cameras.matcher.search_starts, 6);
+  EXPECT_EQ(o.cameras.matcher.calibration.ransac_options.inlier_threshold_px, 4.5);
+  EXPECT_FALSE(o.cameras.matcher.calibration.ransac);
+  EXPECT_FALSE(o.cameras.matcher.calibration.refine);
+}
+
+TEST(SurveyParameters, BadValuesAreEachReportedAndKeepTheirDefaults)
+{
+  ic::YamlParameterSource source = parsed(R"(
+max_rms_px: fast
+min_map_support: 2.5
+keyframe: {min_translation: -1}
+localization_sigma_m: .nan
+ransac: 1
+min_focal_ratio: 4
+max_focal_ratio: 3
+median_images: [1, 2]
+)");
+  const ic::SurveyOptions o = ic::readSurveyParameters(source);
+  const ic::SurveyOptions defaults;
+  EXPECT_FALSE(source.ok());
+  const std::vector<std::string> expected = {
+      "params.yaml: parameter ~min_map_support is 2.5, allowed: an integer in [1, 1000]",
+      "params.yaml: parameter ~keyframe/min_translation is -1, allowed: a number in [0, 100] m",
+      "params.yaml: parameter ~localization_sigma_m is nan, allowed: a number in [0, 10] m",
+      "params.yaml: parameter ~median_images is a list of 2, allowed: an integer in [1, 255]",
+      "params.yaml: parameter ~max_rms_px is the string 'fast', allowed: a number in (0, 100] px",
+      "parameters ~min_focal_ratio (4) and ~max_focal_ratio (3): the minimum must be below the maximum",
+      "params.yaml: parameter ~ransac is the number 1, allowed: true or false",
+  };
+  EXPECT_EQ(source.errors(), expected);
+  EXPECT_EQ(o.cameras.max_rms_px, defaults.cameras.max_rms_px);
+  EXPECT_EQ(o.min_map_support, defaults.min_map_support);
+  EXPECT_EQ(o.keyframes.min_translation_m, defaults.keyframes.min_translation_m);
+  EXPECT_EQ(o.localization_sigma_m, defaults.localization_sigma_m);
+  EXPECT_EQ(o.cameras.median_images, defaults.cameras.median_images);
+  EXPECT_EQ(o.cameras.matcher.calibration.ransac, defaults.cameras.matcher.calibration.ransac);
+}
+
+TEST(SurveyParameters, MalformedParameterFilesAreRefused)
+{
+  const auto not_a_map = ic::YamlParameterSource::parse("- 1\n- 2\n", "list.yaml");
+  ASSERT_FALSE(not_a_map);
+  EXPECT_EQ(not_a_map.error().code(), ic::ErrorCode::kParseError);
+  EXPECT_NE(not_a_map.error().message().find("list.yaml: expected a map of parameters"), std::string::npos)
+      << not_a_map.error().message();
+  const auto broken = ic::YamlParameterSource::parse("max_rms_px: [1, 2\n", "broken.yaml");
+  ASSERT_FALSE(broken);
+  EXPECT_NE(broken.error().message().find("broken.yaml"), std::string::npos) << broken.error().message();
+  const auto missing = ic::YamlParameterSource::load("/nonexistent/params.yaml");
+  ASSERT_FALSE(missing);
+  EXPECT_NE(missing.error().message().find("/nonexistent/params.yaml"), std::string::npos) << missing.error().message();
+  // An empty file sets nothing.
+  ic::YamlParameterSource empty = parsed("");
+  const ic::SurveyOptions o = ic::readSurveyParameters(empty);
+  EXPECT_TRUE(empty.ok());
+  EXPECT_EQ(o.cameras.max_rms_px, ic::SurveyOptions().cameras.max_rms_px);
+}
