@@ -57,7 +57,7 @@ Options:
                         odometry's error between consecutive keyframes: M + PER_M times the distance, DEG + PER_DEG
                         times the turn (default 0.0005,0.01,0.02,0.01: good wheel odometry)
   --floor-lines 0|1     RGB lines beyond the depth range placed on the floor plane and confirmed from several
-                        keyframes become map lines (default 1)
+                        keyframes become map lines (default 0: off)
   --floor-height M      the floor plane's z in the world frame (default 0)
   --floor-max-range M   floor lines farther from the camera are not used (default 12)
   --camera NAME         calibrate only this camera

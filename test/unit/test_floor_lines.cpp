@@ -85,6 +85,7 @@ TEST(FloorLines, ExactFloorEdgesAreRecoveredAndAnEdgeAboveTheFloorIsRefused)
     keyframes.push_back(keyframeAt(cameraAt(s, 1.0, 0.0), edges));
   }
   ic::FloorLineOptions options;
+  options.enabled = true;
   const auto lines = ic::confirmFloorLines(keyframes, {}, {}, options);
   ASSERT_EQ(lines.size(), 2u);
   for (const auto& line : lines)
@@ -202,6 +203,7 @@ TEST(FloorLines, SimulatedFloorHallGainsFloorLinesBeyondTheDepthRange)
   ic::SurveyOptions options;
   options.localization_sigma_m = 0.0;  // a perfect localiser: the floor lines alone
   options.localization_sigma_deg = 0.0;
+  options.floor.enabled = true;
   ic::Survey survey({}, options);
   ic::test::feedSimulatedSurvey(*simulator, &survey);
 

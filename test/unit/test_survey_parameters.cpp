@@ -53,7 +53,7 @@ localization_sigma_m: 0.05
 localization_sigma_deg: 1.5
 localization_correlation_s: 8
 odometry: {sigma_m: 0.001, sigma_per_m: 0.02, sigma_deg: 0.1, sigma_per_deg: 0.03}
-floor_lines: false
+floor_lines: true
 floor: {height: 0.05, max_range: 8, tilt_sigma_deg: 0.1, height_sigma: 0.01}
 median_images: 9
 max_rms_px: 2.5
@@ -80,7 +80,7 @@ cameras: []
   EXPECT_EQ(o.adjustment.odometry_sigma_per_m, 0.02);
   EXPECT_EQ(o.adjustment.odometry_sigma_deg, 0.1);
   EXPECT_EQ(o.adjustment.odometry_sigma_per_deg, 0.03);
-  EXPECT_FALSE(o.floor.enabled);
+  EXPECT_TRUE(o.floor.enabled);
   EXPECT_EQ(o.floor.floor_height_m, 0.05);
   EXPECT_EQ(o.floor.max_range_m, 8.0);
   EXPECT_EQ(o.floor.tilt_sigma_deg, 0.1);

@@ -27,7 +27,9 @@ namespace insitu_calibration
 {
 struct FloorLineOptions
 {
-  bool enabled = true;
+  // Off by default: on the default world (seeds 1-2) the cameras moved by small amounts both ways (cam_desk's
+  // lambda 1.18 -> 1.77 %, cam_east's focal -0.009 -> +0.030 % on seed 1 while its rotation went 0.036 -> 0.008 deg).
+  bool enabled = false;
   double floor_height_m = 0.0;    // the floor plane's z in the map frame
   double max_range_m = 12.0;      // end points farther from the camera (horizontally) are not used
   double min_length_m = 0.2;      // on the floor
