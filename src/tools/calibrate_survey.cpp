@@ -58,6 +58,10 @@ Options:
   --odometry-sigma M,PER_M,DEG,PER_DEG
                         odometry's error between consecutive keyframes: M + PER_M times the distance, DEG + PER_DEG
                         times the turn (default 0.0005,0.01,0.02,0.01: good wheel odometry)
+  --floor-lines 0|1     RGB lines beyond the depth range placed on the floor plane and confirmed from several
+                        keyframes become map lines (default 0: off)
+  --floor-height M      the floor plane's z in the world frame (default 0)
+  --floor-max-range M   floor lines farther from the camera are not used (default 12)
   --camera NAME         calibrate only this camera
   --search-starts N     distinct results of the prior search refined per camera (default 4)
   --truth-dir DIR       the simulator's truth folder (<bag>_truth): also report, per camera, how many matches pair
@@ -538,6 +542,9 @@ bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options)
     if (v.size() == 3)
       options->localization_correlation_s = v[2];
   }
+  options->floor.enabled = cli.number("floor-lines", options->floor.enabled ? 1.0 : 0.0) != 0.0;
+  options->floor.floor_height_m = cli.number("floor-height", options->floor.floor_height_m);
+  options->floor.max_range_m = cli.number("floor-max-range", options->floor.max_range_m);
   if (cli.flag("no-refine"))
     options->cameras.matcher.calibration.refine = false;
   if (cli.flag("no-ransac"))
@@ -615,6 +622,14 @@ void printSurveySummary(const ic::Survey& survey, size_t frames_without_pose, do
         "%zu map lines (%zu used); %.2f s CPU\n",
         stats.adjusted_observations, stats.dropped_observations, 1000.0 * stats.mean_correction_m,
         stats.mean_correction_deg, survey.lineMap().size(), used, 1e-3 * stats.adjustment_cpu_ms);
+  if (survey.options().floor.enabled)
+  {
+    size_t floor_lines = 0;
+    for (const auto& line : survey.usedMapLines())
+      floor_lines += line.source == ic::MapLineSource::kFloor ? 1 : 0;
+    std::printf("floor lines: %zu candidates (%zu refused: depth off the floor), %zu floor map lines used\n",
+                stats.floor_candidates, stats.floor_refused, floor_lines);
+  }
 }
 
 // The camera's report beside its calibration (a refused result's too, saying why); a failure is only printed.

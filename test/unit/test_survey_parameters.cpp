@@ -33,6 +33,8 @@ TEST(SurveyParameters, UnsetParametersKeepTheStructsDefaults)
   EXPECT_EQ(read.keyframes.min_translation_m, defaults.keyframes.min_translation_m);
   EXPECT_EQ(read.localization_sigma_m, defaults.localization_sigma_m);
   EXPECT_EQ(read.adjustment.odometry_sigma_per_deg, defaults.adjustment.odometry_sigma_per_deg);
+  EXPECT_EQ(read.floor.enabled, defaults.floor.enabled);
+  EXPECT_EQ(read.floor.max_range_m, defaults.floor.max_range_m);
   EXPECT_EQ(read.cameras.max_rms_px, defaults.cameras.max_rms_px);
   EXPECT_EQ(read.cameras.matcher.search_starts, defaults.cameras.matcher.search_starts);
   EXPECT_EQ(read.cameras.matcher.calibration.ransac_options.inlier_threshold_px,
@@ -51,6 +53,8 @@ localization_sigma_m: 0.05
 localization_sigma_deg: 1.5
 localization_correlation_s: 8
 odometry: {sigma_m: 0.001, sigma_per_m: 0.02, sigma_deg: 0.1, sigma_per_deg: 0.03}
+floor_lines: true
+floor: {height: 0.05, max_range: 8, tilt_sigma_deg: 0.1, height_sigma: 0.01}
 median_images: 9
 max_rms_px: 2.5
 min_focal_ratio: 0.3
@@ -76,6 +80,11 @@ cameras: []
   EXPECT_EQ(o.adjustment.odometry_sigma_per_m, 0.02);
   EXPECT_EQ(o.adjustment.odometry_sigma_deg, 0.1);
   EXPECT_EQ(o.adjustment.odometry_sigma_per_deg, 0.03);
+  EXPECT_TRUE(o.floor.enabled);
+  EXPECT_EQ(o.floor.floor_height_m, 0.05);
+  EXPECT_EQ(o.floor.max_range_m, 8.0);
+  EXPECT_EQ(o.floor.tilt_sigma_deg, 0.1);
+  EXPECT_EQ(o.floor.height_sigma_m, 0.01);
   EXPECT_EQ(o.cameras.median_images, 9u);
   EXPECT_EQ(o.cameras.max_rms_px, 2.5);
   EXPECT_EQ(o.cameras.min_focal_ratio, 0.3);

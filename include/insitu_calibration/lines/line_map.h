@@ -74,8 +74,18 @@ struct MapObservation
   double sigma_depth = 0.0;                          // in the plane, across the line, m
 };
 
+// Where a map line comes from: RGB-D observations merged (depth), or RGB lines placed on the floor plane by
+// ray-plane intersection and confirmed from several keyframes (map/floor_lines.h; no observations or moments,
+// sigma() their predicted error).
+enum class MapLineSource
+{
+  kDepth,
+  kFloor,
+};
+
 struct MapLine
 {
+  MapLineSource source = MapLineSource::kDepth;
   Eigen::Vector3d point = Eigen::Vector3d::Zero();       // weighted centroid
   Eigen::Vector3d direction = Eigen::Vector3d::UnitX();  // unit
   double s_min = 0.0;                                    // extent along direction from point
@@ -117,6 +127,8 @@ public:
   // (ignored).
   int insert(const Line3d& observation);
   void insert(const std::vector<Line3d>& observations);
+  // Adds a finished map line as it is (floor lines): never merged with later observations' lines.
+  void add(const MapLine& line) { lines_.push_back(line); }
 
   const std::vector<MapLine>& lines() const { return lines_; }
   // The map lines seen at least min_support times.

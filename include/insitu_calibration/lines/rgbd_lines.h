@@ -44,6 +44,14 @@ struct RgbdLineStats
   std::string note;        // why the result is empty, when it is
 };
 
+// A segment of the RGB image that did not become a 3D line, with the depth sampled along it (perhaps none): a
+// candidate for lines placed on a known surface (map/floor_lines.h).
+struct UnliftedSegment
+{
+  Segment2d segment;  // fine-tuned, distorted pixels
+  std::vector<DepthSample> samples;
+};
+
 // Reusable extractor: keeps the detector between frames. Not thread-safe (one per thread).
 class RgbdLineExtractor
 {
@@ -54,14 +62,16 @@ public:
   // segment). Errors (nothing is thrown): invalid frame (validateFrame: empty images, size mismatches, zero focal
   // length, depth neither 16UC1 nor 32FC1, bad pose) as kInvalidInput, depth without any valid pixel as
   // kNotEnoughData. A frame without usable lines gives an empty vector and stats->note says why.
-  Expected<std::vector<Line3d>> extract(const RgbdFrame& frame, RgbdLineStats* stats = nullptr);
+  // unlifted (optional): the segments without a 3D line.
+  Expected<std::vector<Line3d>> extract(const RgbdFrame& frame, RgbdLineStats* stats = nullptr,
+                                        std::vector<UnliftedSegment>* unlifted = nullptr);
 
   const RgbdLineOptions& options() const { return options_; }
 
 private:
   // One segment's 3D line from the depth along it, in the map frame; none (counted in st) without one.
   std::optional<Line3d> liftSegment(const RgbdFrame& frame, const cv::Mat& depth_m, const Segment2d& segment,
-                                    uint32_t seed, RgbdLineStats* st) const;
+                                    uint32_t seed, RgbdLineStats* st, std::vector<DepthSample>* samples_out) const;
 
   RgbdLineOptions options_;
   SegmentDetector detector_;

@@ -38,6 +38,14 @@ struct KeyframeLine
   Eigen::Vector2d image_b = Eigen::Vector2d::Zero();  // coordinates (x / z, y / z)
 };
 
+// A 2D line of a keyframe's RGB image without a depth-based 3D line, a candidate for a line on the floor
+// (floor_lines.h): undistorted normalised coordinates of its end points (the ray is (x, y, 1)).
+struct FloorObservation
+{
+  Eigen::Vector2d image_a = Eigen::Vector2d::Zero();
+  Eigen::Vector2d image_b = Eigen::Vector2d::Zero();
+};
+
 // What the adjustment keeps of a keyframe (no images: memory grows with keyframes and lines only).
 struct Keyframe
 {
@@ -49,6 +57,7 @@ struct Keyframe
   bool has_odometry = false;
   Eigen::Isometry3d T_odom_camera = Eigen::Isometry3d::Identity();
   std::vector<KeyframeLine> lines;
+  std::vector<FloorObservation> floor;  // not adjusted: placed on the floor under the corrected pose
 };
 
 // A keyframe's correction: T_map_camera(corrected) = C * T_map_camera(tf), C a rotation by yaw about the vertical

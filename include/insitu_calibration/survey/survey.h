@@ -13,6 +13,7 @@
 
 #include "insitu_calibration/lines/line_map.h"
 #include "insitu_calibration/lines/rgbd_lines.h"
+#include "insitu_calibration/map/floor_lines.h"
 #include "insitu_calibration/map/line_map_adjustment.h"
 #include "insitu_calibration/survey/fixed_camera.h"
 #include "insitu_calibration/survey/keyframe_selector.h"
@@ -39,6 +40,8 @@ struct SurveyOptions
   double localization_correlation_s = 5.0;
   int adjustment_rounds = 4;  // graduated: merge tolerances widened by the localiser's error, narrowing to the map's
   LineMapAdjustmentOptions adjustment;  // its localization sigmas are set from the two above
+  // Lines on the floor beyond the depth range (map/floor_lines.h), added to the map in use (adjusted or not).
+  FloorLineOptions floor;
 };
 
 // The map's placement in the map frame: how far the whole survey may be off, as a shift and a turn about centre.
@@ -51,10 +54,12 @@ struct MapPlacementUncertainty
 
 struct SurveyStats
 {
-  size_t frames = 0;     // RGB-D frames offered
-  size_t keyframes = 0;  // used
-  size_t skipped = 0;    // refused (invalid frame or extraction error)
-  size_t lines = 0;      // 3D lines extracted in keyframes
+  size_t frames = 0;            // RGB-D frames offered
+  size_t keyframes = 0;         // used
+  size_t skipped = 0;           // refused (invalid frame or extraction error)
+  size_t lines = 0;             // 3D lines extracted in keyframes
+  size_t floor_candidates = 0;  // RGB lines without depth kept as floor candidates (floor lines enabled)
+  size_t floor_refused = 0;     // ... refused because their depth disagrees with the floor
   // The last map adjustment (0 when none ran).
   size_t adjusted_observations = 0;
   size_t dropped_observations = 0;
@@ -151,6 +156,9 @@ private:
   void cacheAdjustment(MapAdjustment adjustment) const;  // the cache's members are mutable
   std::vector<MapLine> usedLinesOf(const LineMap& map) const;
   std::vector<double> sigmasOf(const std::vector<MapLine>& used) const;
+  // The map as inserted with the confirmed floor lines (cached per keyframe generation).
+  const LineMap& unadjustedMap() const;
+  std::vector<FloorObservation> floorObservations(const RgbdFrame& frame, const std::vector<UnliftedSegment>& unlifted);
 
   SurveyOptions options_;
   RgbdLineExtractor extractor_;
@@ -165,6 +173,8 @@ private:
   mutable std::vector<PoseCorrection> corrections_;
   mutable bool adjusted_ = false;
   mutable bool has_adjustment_ = false;
+  mutable LineMap unadjusted_map_;  // map_ with the floor lines, current at unadjusted_generation_
+  mutable uint64_t unadjusted_generation_ = UINT64_MAX;
   uint64_t keyframe_generation_ = 0;  // counts keyframes added and resets
   uint64_t reset_generation_ = 0;     // keyframe_generation_ at the last reset()
   mutable SurveyStats stats_;

@@ -219,7 +219,8 @@ int LineMap::insert(const Line3d& o)
   for (size_t i = 0; i < lines_.size(); ++i)
   {
     double distance = 0.0;
-    if (compatible(lines_[i], o.a, o.b, limit, normal, lateral_limit, depth_limit, &distance) &&
+    if (lines_[i].source == MapLineSource::kDepth &&
+        compatible(lines_[i], o.a, o.b, limit, normal, lateral_limit, depth_limit, &distance) &&
         distance < best_distance)
     {
       best_distance = distance;
@@ -279,7 +280,7 @@ int LineMap::fuseWithOthers(int index)
     fused = false;
     for (size_t j = 0; j < lines_.size(); ++j)
     {
-      if (static_cast<int>(j) == index)
+      if (static_cast<int>(j) == index || lines_[j].source != MapLineSource::kDepth)
         continue;
       const MapLine& other = lines_[j];
       double distance = 0.0;

@@ -48,10 +48,12 @@ std::string noLineNote(const RgbdLineStats& st, double min_length_px)
 }  // namespace
 
 std::optional<Line3d> RgbdLineExtractor::liftSegment(const RgbdFrame& frame, const cv::Mat& depth_m,
-                                                     const Segment2d& segment, uint32_t seed, RgbdLineStats* st) const
+                                                     const Segment2d& segment, uint32_t seed, RgbdLineStats* st,
+                                                     std::vector<DepthSample>* samples_out) const
 {
   double t = threadCpuMs();
-  const std::vector<DepthSample> samples = sampleDepthAlongSegment(depth_m, segment, options_.sampler);
+  std::vector<DepthSample>& samples = *samples_out;
+  samples = sampleDepthAlongSegment(depth_m, segment, options_.sampler);
   st->depth_ms += cpuMsSince(t);
   Line3dFitOptions fit = options_.fit;
   if (samples.size() < static_cast<size_t>(std::max(2, fit.min_inliers)))
@@ -80,7 +82,8 @@ std::optional<Line3d> RgbdLineExtractor::liftSegment(const RgbdFrame& frame, con
   return *line;
 }
 
-Expected<std::vector<Line3d>> RgbdLineExtractor::extract(const RgbdFrame& frame, RgbdLineStats* stats)
+Expected<std::vector<Line3d>> RgbdLineExtractor::extract(const RgbdFrame& frame, RgbdLineStats* stats,
+                                                         std::vector<UnliftedSegment>* unlifted)
 {
   RgbdLineStats local;
   RgbdLineStats& st = stats ? *stats : local;
@@ -110,9 +113,17 @@ Expected<std::vector<Line3d>> RgbdLineExtractor::extract(const RgbdFrame& frame,
   }
 
   std::vector<Line3d> lines;
+  if (unlifted)
+    unlifted->clear();
   for (size_t i = 0; i < segments->size(); ++i)
-    if (auto line = liftSegment(frame, *depth, (*segments)[i], options_.fit.seed + static_cast<uint32_t>(i), &st))
+  {
+    std::vector<DepthSample> samples;
+    if (auto line =
+            liftSegment(frame, *depth, (*segments)[i], options_.fit.seed + static_cast<uint32_t>(i), &st, &samples))
       lines.push_back(*line);
+    else if (unlifted)
+      unlifted->push_back({(*segments)[i], std::move(samples)});
+  }
   st.lines = static_cast<int>(lines.size());
   if (lines.empty())
     st.note = noLineNote(st, options_.detector.min_length_px);

@@ -10,7 +10,7 @@ namespace insitu_calibration
 namespace
 {
 // What the adjustment needs of a keyframe: its tf pose and its lines in the camera frame with their 2D segments.
-Keyframe toKeyframe(const RgbdFrame& frame, const std::vector<Line3d>& lines)
+Keyframe toKeyframe(const RgbdFrame& frame, const std::vector<Line3d>& lines, std::vector<FloorObservation> floor)
 {
   Keyframe kf;
   kf.stamp = frame.stamp;
@@ -28,6 +28,7 @@ Keyframe toKeyframe(const RgbdFrame& frame, const std::vector<Line3d>& lines)
     k.image_b = frame.camera.normalize(l.image.b);
     kf.lines.push_back(k);
   }
+  kf.floor = std::move(floor);
   return kf;
 }
 
@@ -42,7 +43,8 @@ Survey::Survey(const std::vector<FixedCameraConfig>& cameras, const SurveyOption
       extractor_(options.rgbd),
       map_(options.map),
       keyframes_(options.keyframes),
-      adjusted_map_(options.map)
+      adjusted_map_(options.map),
+      unadjusted_map_(options.map)
 {
   options_.adjustment.localization_sigma_m = options.localization_sigma_m;
   options_.adjustment.localization_sigma_deg = options.localization_sigma_deg;
@@ -60,14 +62,15 @@ Expected<bool> Survey::addRgbdFrame(const RgbdFrame& frame, const std::optional<
   }
   if (!keyframes_.accept(frame.T_map_camera, frame.stamp))
     return false;
-  const auto lines = extractor_.extract(frame);
+  std::vector<UnliftedSegment> unlifted;
+  const auto lines = extractor_.extract(frame, nullptr, options_.floor.enabled ? &unlifted : nullptr);
   if (!lines)
   {
     ++stats_.skipped;
     return lines.error();
   }
   map_.insert(*lines);
-  keyframe_data_.push_back(toKeyframe(frame, *lines));
+  keyframe_data_.push_back(toKeyframe(frame, *lines, floorObservations(frame, unlifted)));
   keyframe_data_.back().has_odometry = T_odom_camera.has_value();
   if (T_odom_camera)
     keyframe_data_.back().T_odom_camera = *T_odom_camera;
@@ -92,6 +95,41 @@ Expected<bool> Survey::addFixedImage(const std::string& camera, const cv::Mat& i
   return true;
 }
 
+std::vector<FloorObservation> Survey::floorObservations(const RgbdFrame& frame,
+                                                        const std::vector<UnliftedSegment>& unlifted)
+{
+  std::vector<FloorObservation> out;
+  for (const auto& u : unlifted)
+  {
+    const FloorObservation obs{frame.camera.normalize(u.segment.a), frame.camera.normalize(u.segment.b)};
+    FloorCandidate candidate;
+    if (!intersectFloor(obs, frame.T_map_camera, frame.camera.intrinsics.fx, options_.floor, &candidate))
+      continue;
+    if (!depthAgreesWithFloor(u.samples, frame.camera, frame.T_map_camera, options_.floor))
+    {
+      ++stats_.floor_refused;
+      continue;
+    }
+    out.push_back(obs);
+  }
+  stats_.floor_candidates += out.size();
+  return out;
+}
+
+const LineMap& Survey::unadjustedMap() const
+{
+  if (!options_.floor.enabled)
+    return map_;
+  if (unadjusted_generation_ != keyframe_generation_)
+  {
+    unadjusted_map_ = map_;
+    for (const auto& line : confirmFloorLines(keyframe_data_, {}, map_.lines(), options_.floor))
+      unadjusted_map_.add(line);
+    unadjusted_generation_ = keyframe_generation_;
+  }
+  return unadjusted_map_;
+}
+
 bool Survey::adjusting() const
 {
   return insitu_calibration::adjusting(options_) && !keyframe_data_.empty();
@@ -100,7 +138,7 @@ bool Survey::adjusting() const
 const LineMap& Survey::lineMap() const
 {
   if (!adjusting())
-    return map_;
+    return unadjustedMap();
   if (!adjusted_)
     adjustMap();
   return adjusted_map_;
@@ -108,7 +146,9 @@ const LineMap& Survey::lineMap() const
 
 const LineMap& Survey::latestLineMap() const
 {
-  return adjusting() && has_adjustment_ ? adjusted_map_ : map_;
+  if (!adjusting())
+    return unadjustedMap();
+  return has_adjustment_ ? adjusted_map_ : map_;
 }
 
 namespace
@@ -191,6 +231,8 @@ MapAdjustment Survey::computeAdjustment(const std::vector<Keyframe>& keyframes, 
     dropped = result->dropped;
   }
   MapAdjustment out{rebuildLineMap(keyframes, corrections, options.map), corrections, used, dropped, 0.0, generation};
+  for (const auto& line : confirmFloorLines(keyframes, corrections, out.map.lines(), options.floor))
+    out.map.add(line);
   out.cpu_ms = cpuMsSince(start);
   return out;
 }

@@ -30,6 +30,16 @@ void readMapParameters(ParameterSource& read, SurveyOptions& options)
   a.odometry_sigma_per_deg = read.number("odometry/sigma_per_deg", a.odometry_sigma_per_deg, Range::closed(0.0, 10.0));
 }
 
+// Lines on the floor beyond the depth range (map/floor_lines.h).
+void readFloorParameters(ParameterSource& read, FloorLineOptions& floor)
+{
+  floor.enabled = read.flag("floor_lines", floor.enabled);
+  floor.floor_height_m = read.number("floor/height", floor.floor_height_m, Range::closed(-100.0, 100.0, "m"));
+  floor.max_range_m = read.number("floor/max_range", floor.max_range_m, Range::positive(100.0, "m"));
+  floor.tilt_sigma_deg = read.number("floor/tilt_sigma_deg", floor.tilt_sigma_deg, Range::closed(0.0, 10.0, "deg"));
+  floor.height_sigma_m = read.number("floor/height_sigma", floor.height_sigma_m, Range::closed(0.0, 1.0, "m"));
+}
+
 // A fixed camera's calibration options set once at start-up (its median image, the prior search, the robust
 // estimation's switches); its thresholds are the table's (readFieldThresholds).
 void readCameraParameters(ParameterSource& read, FixedCameraOptions& camera)
@@ -46,6 +56,7 @@ void readCameraParameters(ParameterSource& read, FixedCameraOptions& camera)
 SurveyOptions readSurveyParameters(ParameterSource& source, SurveyOptions options, FieldThresholds* thresholds)
 {
   readMapParameters(source, options);
+  readFloorParameters(source, options.floor);
   readCameraParameters(source, options.cameras);
   FieldThresholds field = thresholds ? *thresholds : FieldThresholds{};
   field.cameras = options.cameras;

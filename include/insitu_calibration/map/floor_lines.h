@@ -1,0 +1,87 @@
+// Map lines on the floor beyond the depth range: a 2D line of the Xtion's RGB image that has no depth-based 3D line,
+// lies below the horizon and whose end-point rays meet the floor plane (z = floor_height_m in the map) within
+// max_range_m becomes a candidate by ray-plane intersection. Its predicted error grows with the square of the range
+// over the camera's height (the grazing angle): the 2D edge's pixel noise and the mount's tilt and height errors
+// propagated along the ray, the pixel noise also across it.
+//
+// A candidate becomes a map line only when candidates from at least min_keyframes keyframes agree within their
+// predicted errors and their offsets across the line do not follow their cameras' offsets: an edge at height e
+// seen from height h lands on the floor shifted by e / (h - e) times the camera's move across it, so the slope of
+// that regression tells an edge min_edge_height_m above the floor (a table's edge, a skirting board's top) from the
+// floor at confirm_sigmas. Candidates whose segment has depth that disagrees with the floor are refused at
+// extraction, and a floor line that a depth map line already holds (over half its extent) is left out.
+#ifndef INSITU_CALIBRATION_MAP_FLOOR_LINES_H
+#define INSITU_CALIBRATION_MAP_FLOOR_LINES_H
+
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "insitu_calibration/lines/depth_sampler.h"
+#include "insitu_calibration/lines/line_map.h"
+#include "insitu_calibration/lines/rgbd_frame.h"
+#include "insitu_calibration/map/line_map_adjustment.h"
+
+namespace insitu_calibration
+{
+struct FloorLineOptions
+{
+  // Off by default: on the default world (seeds 1-2) the cameras moved by small amounts both ways (cam_desk's
+  // lambda 1.18 -> 1.77 %, cam_east's focal -0.009 -> +0.030 % on seed 1 while its rotation went 0.036 -> 0.008 deg).
+  bool enabled = false;
+  double floor_height_m = 0.0;    // the floor plane's z in the map frame
+  double max_range_m = 12.0;      // end points farther from the camera (horizontally) are not used
+  double min_length_m = 0.2;      // on the floor
+  double pixel_sigma_px = 0.3;    // the RGB segments' end points across the line
+  double tilt_sigma_deg = 0.05;   // the mount's pitch and roll (a floor not quite level, the robot rocking)
+  double height_sigma_m = 0.003;  // the camera's height above the floor
+  // Depth along the segment that disagrees with the floor by more than depth_tolerance_m + depth_tolerance_per_m2
+  // z^2 on more than half of the samples refuses the candidate (at least min_depth_samples samples: else no depth).
+  double depth_tolerance_m = 0.02;
+  double depth_tolerance_per_m2 = 0.006;
+  int min_depth_samples = 5;
+  // Confirmation: candidates within merge_sigmas of each other (their random errors, plus merge_floor_m) and
+  // max_angle_deg join one line; it is kept when seen from min_keyframes keyframes and the slope test (above) puts
+  // it nearer the floor than min_edge_height_m / 2, resolved at confirm_sigmas.
+  double merge_sigmas = 3.0;
+  double merge_floor_m = 0.01;
+  double max_angle_deg = 2.0;
+  double max_gap_m = 0.3;
+  int min_keyframes = 2;
+  double min_edge_height_m = 0.1;
+  double confirm_sigmas = 3.0;
+  double max_sigma_m = 0.1;  // confirmed lines predicted to be worse are dropped
+};
+
+// A candidate on the floor plane (map frame).
+struct FloorCandidate
+{
+  Eigen::Vector3d a = Eigen::Vector3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  Eigen::Vector3d sensor = Eigen::Vector3d::Zero();
+  double sigma_random_m = 0.0;      // pixel noise, across the line (differs between keyframes)
+  double sigma_systematic_m = 0.0;  // tilt and height, across the line (shared by nearby keyframes)
+  int keyframe = 0;
+};
+
+// Whether a segment's depth (samples along it, in the camera's optical frame) agrees with the floor, or has too few
+// samples to tell.
+bool depthAgreesWithFloor(const std::vector<DepthSample>& samples, const RgbdCamera& camera,
+                          const Eigen::Isometry3d& T_map_camera, const FloorLineOptions& options);
+
+// The candidate of one observation under a camera pose; false when a ray misses the floor within max_range_m or the
+// segment is shorter than min_length_m on the floor.
+bool intersectFloor(const FloorObservation& observation, const Eigen::Isometry3d& T_map_camera, double focal_px,
+                    const FloorLineOptions& options, FloorCandidate* candidate);
+
+// The confirmed floor lines of the keyframes (their floor observations under the corrected poses; corrections empty
+// or one per keyframe) that no depth map line of `depth_lines` already holds. MapLine::source is kFloor,
+// MapLine::sigma() their predicted error, MapLine::support the number of candidates.
+std::vector<MapLine> confirmFloorLines(const std::vector<Keyframe>& keyframes,
+                                       const std::vector<PoseCorrection>& corrections,
+                                       const std::vector<MapLine>& depth_lines, const FloorLineOptions& options);
+
+}  // namespace insitu_calibration
+
+#endif  // INSITU_CALIBRATION_MAP_FLOOR_LINES_H

@@ -1,0 +1,354 @@
+#include "insitu_calibration/map/floor_lines.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <set>
+
+#include <Eigen/Dense>
+
+namespace insitu_calibration
+{
+namespace
+{
+// Where the ray through normalised point p from the camera meets the floor; false when it does not (at or above
+// the horizon) or beyond max_range_m horizontally.
+bool floorPoint(const Eigen::Vector2d& p, const Eigen::Isometry3d& T_map_camera, const FloorLineOptions& o,
+                Eigen::Vector3d* point)
+{
+  const Eigen::Vector3d c = T_map_camera.translation();
+  const Eigen::Vector3d r = T_map_camera.linear() * Eigen::Vector3d(p.x(), p.y(), 1.0);
+  const double height = c.z() - o.floor_height_m;
+  if (!(height > 0.0) || !(r.z() < 0.0))
+    return false;
+  const double t = -height / r.z();
+  *point = c + t * r;
+  return (point->head<2>() - c.head<2>()).norm() <= o.max_range_m;
+}
+
+// The candidate's error across its line in the floor plane, per end point the larger: pixel noise normal to the 2D
+// segment (random), and the mount's tilt about two horizontal axes and its height (systematic), each propagated by a
+// numerical derivative of the ray-plane intersection.
+void predictSigmas(const FloorObservation& obs, const Eigen::Isometry3d& T, double focal_px, const FloorLineOptions& o,
+                   FloorCandidate* c)
+{
+  const Eigen::Vector3d along = (c->b - c->a).normalized();
+  const Eigen::Vector3d normal = Eigen::Vector3d::UnitZ().cross(along).normalized();
+  const Eigen::Vector2d d2 = obs.image_b - obs.image_a;
+  const Eigen::Vector2d n2 = Eigen::Vector2d(-d2.y(), d2.x()).normalized();
+  const double eps = 1e-6;
+  const double tilt = o.tilt_sigma_deg * M_PI / 180.0;
+  double random = 0.0, systematic = 0.0;
+  FloorLineOptions unlimited = o;
+  unlimited.max_range_m = std::numeric_limits<double>::infinity();
+  for (int end = 0; end < 2; ++end)
+  {
+    const Eigen::Vector2d p = end == 0 ? obs.image_a : obs.image_b;
+    const Eigen::Vector3d base = end == 0 ? c->a : c->b;
+    auto offset = [&](const Eigen::Vector2d& q, const Eigen::Isometry3d& pose) {
+      Eigen::Vector3d moved;
+      // A ray that leaves the floor under the perturbation: beyond any use, counted as very uncertain.
+      if (!floorPoint(q, pose, unlimited, &moved))
+        return 1.0 / eps;
+      return std::abs((moved - base).dot(normal)) / eps;
+    };
+    const double pixel = offset(p + eps * n2, T) * o.pixel_sigma_px / focal_px;
+    const Eigen::Vector3d h1 = along, h2 = normal;  // horizontal axes through the camera
+    Eigen::Isometry3d tilted1 = T, tilted2 = T, raised = T;
+    tilted1.linear() = Eigen::AngleAxisd(eps, h1).toRotationMatrix() * T.linear();
+    tilted2.linear() = Eigen::AngleAxisd(eps, h2).toRotationMatrix() * T.linear();
+    raised.translation().z() += eps;
+    const double t1 = offset(p, tilted1) * tilt, t2 = offset(p, tilted2) * tilt;
+    const double hs = offset(p, raised) * o.height_sigma_m;
+    random = std::max(random, pixel);
+    systematic = std::max(systematic, std::sqrt(t1 * t1 + t2 * t2 + hs * hs));
+  }
+  c->sigma_random_m = random;
+  c->sigma_systematic_m = systematic;
+}
+
+// A cluster of candidates of one floor line: the weighted (1 / sigma_random^2) line through them in the floor plane.
+struct Cluster
+{
+  std::vector<int> members;
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  Eigen::Vector3d direction = Eigen::Vector3d::UnitX();
+  double s_min = 0.0, s_max = 0.0;
+  double information = 0.0;
+};
+
+Eigen::Vector3d normalOf(const Eigen::Vector3d& direction)
+{
+  return Eigen::Vector3d::UnitZ().cross(direction).normalized();
+}
+
+// The weighted total least squares line of the members' segments (each a uniform distribution) and its extent.
+void refitCluster(const std::vector<FloorCandidate>& candidates, Cluster* k)
+{
+  const Eigen::Vector3d reference = candidates[k->members.front()].a;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d sum_xx = Eigen::Matrix3d::Zero();
+  double weight = 0.0;
+  for (const int m : k->members)
+  {
+    const auto& c = candidates[m];
+    const double w = 1.0 / (c.sigma_random_m * c.sigma_random_m);
+    const Eigen::Vector3d mid = 0.5 * (c.a + c.b) - reference, d = c.b - c.a;
+    sum += w * mid;
+    sum_xx += w * (mid * mid.transpose() + d * d.transpose() / 12.0);
+    weight += w;
+  }
+  const Eigen::Vector3d mean = sum / weight;
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(sum_xx / weight - mean * mean.transpose());
+  Eigen::Vector3d dir = eig.eigenvectors().col(2);
+  dir.z() = 0.0;
+  dir.normalize();
+  if (dir.dot(k->direction) < 0.0)
+    dir = -dir;
+  k->point = reference + mean;
+  k->direction = dir;
+  k->information = weight;
+  k->s_min = std::numeric_limits<double>::infinity();
+  k->s_max = -k->s_min;
+  for (const int m : k->members)
+    for (const Eigen::Vector3d& p : {candidates[m].a, candidates[m].b})
+    {
+      const double s = (p - k->point).dot(dir);
+      k->s_min = std::min(k->s_min, s);
+      k->s_max = std::max(k->s_max, s);
+    }
+}
+
+// How far the candidate's end points lie from the cluster's line (the larger), or infinity when its direction or
+// extent does not fit.
+double clusterDistance(const Cluster& k, const FloorCandidate& c, const FloorLineOptions& o)
+{
+  const double inf = std::numeric_limits<double>::infinity();
+  const Eigen::Vector3d d = (c.b - c.a).normalized();
+  if (std::abs(d.dot(k.direction)) < std::cos(o.max_angle_deg * M_PI / 180.0))
+    return inf;
+  const Eigen::Vector3d n = normalOf(k.direction);
+  const double da = std::abs((c.a - k.point).dot(n)), db = std::abs((c.b - k.point).dot(n));
+  const double sa = (c.a - k.point).dot(k.direction), sb = (c.b - k.point).dot(k.direction);
+  if (std::max({0.0, std::min(sa, sb) - k.s_max, k.s_min - std::max(sa, sb)}) > o.max_gap_m)
+    return inf;
+  return std::max(da, db);
+}
+
+double mergeLimit(const Cluster& k, const FloorCandidate& c, const FloorLineOptions& o)
+{
+  const double cluster_sigma = k.information > 0.0 ? 1.0 / std::sqrt(k.information) : 0.0;
+  return o.merge_sigmas * std::hypot(c.sigma_random_m, cluster_sigma) + o.merge_floor_m;
+}
+
+// Greedy clustering, the most precise candidates first; then members that the final line leaves beyond their limit
+// are dropped (a slowly drifting chain of an edge off the floor).
+std::vector<Cluster> clusterCandidates(const std::vector<FloorCandidate>& candidates, const FloorLineOptions& o)
+{
+  std::vector<int> order(candidates.size());
+  for (size_t i = 0; i < order.size(); ++i)
+    order[i] = static_cast<int>(i);
+  std::sort(order.begin(), order.end(),
+            [&](int x, int y) { return candidates[x].sigma_random_m < candidates[y].sigma_random_m; });
+  std::vector<Cluster> clusters;
+  for (const int i : order)
+  {
+    int best = -1;
+    double best_distance = std::numeric_limits<double>::infinity();
+    for (size_t j = 0; j < clusters.size(); ++j)
+    {
+      const double distance = clusterDistance(clusters[j], candidates[i], o);
+      if (distance <= mergeLimit(clusters[j], candidates[i], o) && distance < best_distance)
+      {
+        best = static_cast<int>(j);
+        best_distance = distance;
+      }
+    }
+    if (best < 0)
+    {
+      clusters.emplace_back();
+      best = static_cast<int>(clusters.size()) - 1;
+      clusters[best].direction = (candidates[i].b - candidates[i].a).normalized();
+    }
+    clusters[best].members.push_back(i);
+    refitCluster(candidates, &clusters[best]);
+  }
+  for (auto& k : clusters)
+  {
+    std::vector<int> kept;
+    for (const int m : k.members)
+      if (clusterDistance(k, candidates[m], o) <= mergeLimit(k, candidates[m], o))
+        kept.push_back(m);
+    if (!kept.empty() && kept.size() < k.members.size())
+    {
+      k.members = kept;
+      refitCluster(candidates, &k);
+    }
+  }
+  return clusters;
+}
+
+// An edge at height e seen by a camera at height h lands on the floor at p' = k p + (1 - k) s across the line (p its
+// true offset, s the camera's, k = h / (h - e)): the candidates' offsets regressed on their cameras' offsets have
+// the slope beta = -e / (h - e), 0 on the floor. Confirmed: seen from min_keyframes keyframes, the slope resolved
+// well enough to tell the floor from an edge min_edge_height_m above it (beta_min) at confirm_sigmas, and nearer
+// the floor's 0 than beta_min (|beta| <= beta_min / 2 and its standard error at most beta_min / (2 confirm_sigmas):
+// both mistakes are confirm_sigmas deviations).
+bool confirmed(const Cluster& k, const std::vector<FloorCandidate>& candidates, const FloorLineOptions& o)
+{
+  std::set<int> keyframes;
+  const Eigen::Vector3d n = normalOf(k.direction);
+  double sw = 0.0, sx = 0.0, sy = 0.0, height = 0.0;
+  for (const int m : k.members)
+  {
+    const auto& c = candidates[m];
+    keyframes.insert(c.keyframe);
+    const double w = 1.0 / (c.sigma_random_m * c.sigma_random_m);
+    sw += w;
+    sx += w * c.sensor.dot(n);
+    sy += w * (0.5 * (c.a + c.b)).dot(n);
+    height += (c.sensor.z() - o.floor_height_m) / static_cast<double>(k.members.size());
+  }
+  if (static_cast<int>(keyframes.size()) < std::max(2, o.min_keyframes) || !(height > o.min_edge_height_m))
+    return false;
+  const double mx = sx / sw, my = sy / sw;
+  double sxx = 0.0, sxy = 0.0;
+  for (const int m : k.members)
+  {
+    const auto& c = candidates[m];
+    const double w = 1.0 / (c.sigma_random_m * c.sigma_random_m);
+    const double x = c.sensor.dot(n) - mx;
+    sxx += w * x * x;
+    sxy += w * x * ((0.5 * (c.a + c.b)).dot(n) - my);
+  }
+  if (!(sxx > 0.0))
+    return false;
+  const double beta = sxy / sxx, beta_sigma = 1.0 / std::sqrt(sxx);
+  const double beta_min = o.min_edge_height_m / (height - o.min_edge_height_m);
+  return std::abs(beta) <= 0.5 * beta_min && o.confirm_sigmas * beta_sigma <= 0.5 * beta_min;
+}
+
+// Whether a depth map line already holds the floor line: parallel, within its 3 sigma or 3 cm, and covering at least
+// half of its extent (a floor line that reaches well beyond the depth line's end is kept: the part depth did not
+// reach).
+bool heldByDepthLine(const MapLine& floor, const std::vector<MapLine>& depth_lines, double max_angle_deg)
+{
+  const double limit = std::max(0.03, 3.0 * floor.sigma());
+  for (const auto& d : depth_lines)
+  {
+    if (d.source != MapLineSource::kDepth ||
+        std::abs(d.direction.dot(floor.direction)) < std::cos(max_angle_deg * M_PI / 180.0))
+      continue;
+    auto across = [&](const Eigen::Vector3d& p) {
+      const Eigen::Vector3d r = p - floor.point;
+      return (r - r.dot(floor.direction) * floor.direction).norm();
+    };
+    const double sa = (d.a() - floor.point).dot(floor.direction), sb = (d.b() - floor.point).dot(floor.direction);
+    const double overlap = std::min(std::max(sa, sb), floor.s_max) - std::max(std::min(sa, sb), floor.s_min);
+    if (across(d.a()) <= limit && across(d.b()) <= limit && overlap >= 0.5 * floor.length())
+      return true;
+  }
+  return false;
+}
+
+MapLine toMapLine(const Cluster& k, const std::vector<FloorCandidate>& candidates,
+                  const std::vector<Keyframe>& keyframes)
+{
+  MapLine line;
+  line.source = MapLineSource::kFloor;
+  line.point = k.point;
+  line.direction = k.direction;
+  line.s_min = k.s_min;
+  line.s_max = k.s_max;
+  line.support = static_cast<int>(k.members.size());
+  line.reference = k.point;
+  line.extreme_lo = line.a();
+  line.extreme_hi = line.b();
+  // The random part averages over the candidates; the systematic part (tilt, height) does not.
+  double systematic = 0.0;
+  line.first_stamp = std::numeric_limits<double>::infinity();
+  line.last_stamp = -line.first_stamp;
+  for (const int m : k.members)
+  {
+    systematic += candidates[m].sigma_systematic_m / static_cast<double>(k.members.size());
+    const double stamp = keyframes[candidates[m].keyframe].stamp;
+    line.first_stamp = std::min(line.first_stamp, stamp);
+    line.last_stamp = std::max(line.last_stamp, stamp);
+  }
+  const double sigma = std::hypot(1.0 / std::sqrt(k.information), systematic);
+  line.information = 1.0 / (sigma * sigma);
+  return line;
+}
+}  // namespace
+
+bool depthAgreesWithFloor(const std::vector<DepthSample>& samples, const RgbdCamera& camera,
+                          const Eigen::Isometry3d& T_map_camera, const FloorLineOptions& o)
+{
+  if (static_cast<int>(samples.size()) < std::max(1, o.min_depth_samples))
+    return true;
+  int agree = 0;
+  for (const auto& s : samples)
+  {
+    Eigen::Vector3d on_floor;
+    const Eigen::Vector2d p = camera.normalize(s.pixel);
+    FloorLineOptions unlimited = o;
+    unlimited.max_range_m = std::numeric_limits<double>::infinity();
+    if (!floorPoint(p, T_map_camera, unlimited, &on_floor))
+      continue;
+    const double z = (T_map_camera.inverse() * on_floor).z();
+    if (std::abs(s.depth_m - z) <= o.depth_tolerance_m + o.depth_tolerance_per_m2 * z * z)
+      ++agree;
+  }
+  return 2 * agree >= static_cast<int>(samples.size());
+}
+
+bool intersectFloor(const FloorObservation& observation, const Eigen::Isometry3d& T_map_camera, double focal_px,
+                    const FloorLineOptions& options, FloorCandidate* candidate)
+{
+  FloorCandidate c;
+  if (!floorPoint(observation.image_a, T_map_camera, options, &c.a) ||
+      !floorPoint(observation.image_b, T_map_camera, options, &c.b) || (c.b - c.a).norm() < options.min_length_m)
+    return false;
+  c.sensor = T_map_camera.translation();
+  predictSigmas(observation, T_map_camera, focal_px, options, &c);
+  if (!std::isfinite(c.sigma_random_m) || !(c.sigma_random_m > 0.0))
+    return false;
+  *candidate = c;
+  return true;
+}
+
+std::vector<MapLine> confirmFloorLines(const std::vector<Keyframe>& keyframes,
+                                       const std::vector<PoseCorrection>& corrections,
+                                       const std::vector<MapLine>& depth_lines, const FloorLineOptions& options)
+{
+  std::vector<MapLine> out;
+  if (!options.enabled)
+    return out;
+  std::vector<FloorCandidate> candidates;
+  for (size_t k = 0; k < keyframes.size(); ++k)
+  {
+    const Eigen::Isometry3d pose = corrections.size() == keyframes.size()
+                                       ? corrections[k].apply(keyframes[k].T_map_camera)
+                                       : keyframes[k].T_map_camera;
+    for (const auto& obs : keyframes[k].floor)
+    {
+      FloorCandidate c;
+      if (!intersectFloor(obs, pose, keyframes[k].focal_px, options, &c))
+        continue;
+      c.keyframe = static_cast<int>(k);
+      candidates.push_back(c);
+    }
+  }
+  for (const auto& k : clusterCandidates(candidates, options))
+  {
+    if (!confirmed(k, candidates, options))
+      continue;
+    const MapLine line = toMapLine(k, candidates, keyframes);
+    if (line.sigma() <= options.max_sigma_m && line.length() >= options.min_length_m &&
+        !heldByDepthLine(line, depth_lines, options.max_angle_deg))
+      out.push_back(line);
+  }
+  return out;
+}
+
+}  // namespace insitu_calibration
