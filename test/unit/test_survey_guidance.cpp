@@ -7,10 +7,15 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <string>
+
+#include <unistd.h>
 
 #include <opencv2/imgproc.hpp>
 
+#include "insitu_calibration/io/calibration_store.h"
 #include "insitu_calibration/matching/line_matcher.h"
 #include "insitu_calibration/simulation/renderer.h"
 #include "insitu_calibration/simulation/true_edges.h"
@@ -273,4 +278,32 @@ TEST_F(SurveyGuidanceTest, FixedCameraFromItsPriorAndTheRefusalMessage)
   EXPECT_NE(message.find("drive the robot to about ("), std::string::npos);
   EXPECT_EQ(ic::describeRefusal(ic::Error(ic::ErrorCode::kNotEnoughData, "x"), ic::SurveyGuidance{}),
             ic::Error(ic::ErrorCode::kNotEnoughData, "x").describe());
+}
+
+// The hint beside the overlay: written atomically (what a killed write left is removed at start-up), and removed by
+// the calibration that supersedes the refusal.
+TEST_F(SurveyGuidanceTest, TheStoreKeepsTheHintBesideTheOverlayUntilACalibration)
+{
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("test_survey_guidance_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const ic::CalibrationStore store(dir.string());
+  const RenderedCamera& r = cameras_->front();
+  const auto g = ic::computeSurveyGuidance(r.camera->camera, r.camera->width, r.camera->height, r.lines, {}, 12.0);
+  EXPECT_FALSE(store.saveSurveyHint("cam", cv::Mat()));
+  ASSERT_TRUE(store.saveSurveyHint("cam", ic::drawSurveyHint(r.grey, g)));
+  EXPECT_EQ(store.surveyHintPath("cam"), (dir / "cam_survey_hint.png").string());
+  EXPECT_GT(fs::file_size(store.surveyHintPath("cam")), 1000u);
+  std::ofstream(dir / "cam_survey_hint.png.tmp.Ab3xYz") << "killed";
+  EXPECT_EQ(store.removeStaleTemporaries({"cam"}).size(), 1u);
+  ic::CalibrationFile file;
+  file.camera_name = "cam";
+  file.image_width = r.camera->width;
+  file.image_height = r.camera->height;
+  file.camera = r.camera->camera;
+  const ic::Status saved = store.save("cam", file, cv::Mat());
+  ASSERT_TRUE(saved) << saved.error().describe();
+  EXPECT_FALSE(fs::exists(store.surveyHintPath("cam")));
+  fs::remove_all(dir);
 }

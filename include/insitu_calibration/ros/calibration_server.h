@@ -29,6 +29,7 @@
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
+#include <visualization_msgs/MarkerArray.h>
 
 #include "insitu_calibration/Calibrate.h"
 #include "insitu_calibration/CalibrateAction.h"
@@ -38,6 +39,7 @@
 #include "insitu_calibration/Verify.h"
 #include "insitu_calibration/ros/parameter_reader.h"
 #include "insitu_calibration/survey/survey.h"
+#include "insitu_calibration/survey/survey_guidance.h"
 
 namespace insitu_calibration
 {
@@ -56,6 +58,7 @@ private:
     image_transport::Subscriber subscriber;
     ros::Publisher info_publisher;  // latched, once per calibration (calibrated_info_topic)
     image_transport::Publisher overlay_publisher;
+    image_transport::Publisher survey_hint_publisher;  // latched: the last refusal's guidance
     std::string link_frame;
     std::string optical_frame;
     // The camera info that image_proc pairs with each image (same header), on camera_info_topic; with relay_image
@@ -132,6 +135,14 @@ private:
   // mutex_ itself (only for a snapshot): the caller must not hold it.
   void publishCalibrations();
   void publishMarkers();
+  // Survey guidance after a refusal (calibration_server_guidance.cpp): computed on the refused copy of the camera
+  // (without mutex_, which the caller must not hold), saved and published; returns the refusal's message with it.
+  std::string publishSurveyGuidance(const std::string& name, const FixedCamera& camera,
+                                    const std::vector<Segment3d>& map, const Error& error);
+  void forgetSurveyGuidance(const std::string& name);  // after a calibration: its markers go
+  // The camera's survey_hint markers (a floor polygon and a standpoint arrow per region; DELETE for the unused
+  // ids). The caller holds mutex_.
+  void addSurveyHintMarkers(const std::string& name, int camera_id, visualization_msgs::MarkerArray* markers) const;
   void loadSavedCalibrations();
   // kept_as: where the calibration it replaced was kept (CalibrationStore::save).
   Status saveCalibration(const std::string& name, std::string* kept_as = nullptr);
@@ -199,6 +210,7 @@ private:
   mutable std::mutex mutex_;
   std::unique_ptr<Survey> survey_;
   std::map<std::string, Camera> cameras_;
+  std::map<std::string, SurveyGuidance> survey_guidance_;  // per refused camera, its last guidance
   // Each calibrated camera's CameraInfo (header filled per image), written under both locks, read under info_mutex_.
   std::mutex info_mutex_;
   std::map<std::string, sensor_msgs::CameraInfo> calibrated_info_;

@@ -101,6 +101,9 @@ Expected<SurveyGuidance> guideSurvey(const FixedCamera& camera, const std::vecto
                                      const ImageLineOptions& image_line_options,
                                      const SurveyGuidanceOptions& options = {});
 
+// The region's floor polygon as triangles (a fan: the polygon is convex) at a height, for a triangle-list marker.
+std::vector<Eigen::Vector3d> floorTriangles(const UnmappedRegion& region, double height_m = 0.02);
+
 // The refusal's text with the guidance's sentence appended ("<error>. To fix: <sentence>"), or the error alone.
 std::string describeRefusal(const Error& error, const SurveyGuidance& guidance);
 

@@ -391,6 +391,16 @@ Expected<SurveyGuidance> guideSurvey(const FixedCamera& camera, const std::vecto
                                options);
 }
 
+std::vector<Eigen::Vector3d> floorTriangles(const UnmappedRegion& region, double height_m)
+{
+  std::vector<Eigen::Vector3d> out;
+  const auto& p = region.floor_polygon;
+  for (size_t k = 2; k < p.size(); ++k)
+    for (const Eigen::Vector2d& v : {p[0], p[k - 1], p[k]})
+      out.emplace_back(v.x(), v.y(), height_m);
+  return out;
+}
+
 std::string describeRefusal(const Error& error, const SurveyGuidance& guidance)
 {
   const std::string sentence = guidance.sentence();
