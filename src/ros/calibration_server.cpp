@@ -188,7 +188,7 @@ CalibrationServer::CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private
         survey_->camera(name).config().image_topic, 2,
         [this, camera_name](const sensor_msgs::ImageConstPtr& image) { fixedImageCallback(camera_name, image); });
     camera.overlay_publisher = private_it.advertise(name + "/overlay", 1, true);
-    camera.survey_hint_publisher = private_it.advertise(name + "/survey_hint", 1, true);
+    camera.survey_hint_publisher = private_nh_.advertise<sensor_msgs::Image>(name + "/survey_hint", 1, true);
     if (camera.camera_info_topic.empty())
       continue;
     if (camera.relay_image)

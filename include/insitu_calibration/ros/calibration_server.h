@@ -58,7 +58,9 @@ private:
     image_transport::Subscriber subscriber;
     ros::Publisher info_publisher;  // latched, once per calibration (calibrated_info_topic)
     image_transport::Publisher overlay_publisher;
-    image_transport::Publisher survey_hint_publisher;  // latched: the last refusal's guidance
+    // Latched: the last refusal's guidance. A plain publisher: image_transport's publish() drops a message while
+    // nobody subscribes (image_common #209), so its latching delivers nothing to a later subscriber.
+    ros::Publisher survey_hint_publisher;
     std::string link_frame;
     std::string optical_frame;
     // The camera info that image_proc pairs with each image (same header), on camera_info_topic; with relay_image
