@@ -14,6 +14,7 @@
 
 #include "insitu_calibration/ros/conversions.h"
 #include "insitu_calibration/ros/parameter_reader.h"
+#include "insitu_calibration/survey/calibration_report.h"
 #include "insitu_calibration/survey/survey_parameters.h"
 #include "insitu_calibration/survey/camera_config.h"
 #include "insitu_calibration/survey/overlay.h"
@@ -158,6 +159,17 @@ std::string notePreviousCalibration(const std::optional<CalibrationFile>& previo
   msg->message += note;
   return note;
 }
+
+// The calibration report beside the YAML (calibration_report.h), for people: a failure loses no calibration and is
+// only logged.
+void writeReport(const std::string& directory, const FixedCameraConfig& camera, const FixedCameraResult& result,
+                 const cv::Mat& image, const std::vector<Segment3d>& map, size_t keyframes)
+{
+  const auto files = writeCalibrationReport(
+      directory, fixedCameraReport(camera, result, image, map, ReportSurveySummary{keyframes, map.size()}));
+  if (!files)
+    ROS_WARN_STREAM("calibration_node: " << camera.name << ": " << files.error().message());
+}
 }  // namespace
 
 CalibrationServer::CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private_nh)
@@ -267,6 +279,7 @@ SurveyOptions CalibrationServer::readParameters(ParameterReader& read)
   w.min_matched_lines = static_cast<size_t>(
       read.integer("watchdog/min_matched_lines", static_cast<int>(w.min_matched_lines), Range::integers(4, 100000)));
   verify_period_s_ = read.number("verify_period_s", verify_period_s_, Range::closed(0.0, 86400.0, "s"));
+  write_report_ = read.flag("write_report", write_report_);
   return options;
 }
 
@@ -509,10 +522,12 @@ void CalibrationServer::calibrateOne(const std::string& name, const std::functio
   std::vector<Segment3d> map;
   std::vector<double> sigmas;
   uint64_t generation = 0;
+  size_t keyframes = 0;
   refreshMapAdjustment();
   {
     std::lock_guard<std::mutex> lock(mutex_);
     camera.emplace(survey_->camera(name));
+    keyframes = survey_->stats().keyframes;
     map = survey_->latestMapSegments();
     sigmas = survey_->latestMapLineSigmas();
     generation = reset_generation_;
@@ -544,7 +559,10 @@ void CalibrationServer::calibrateOne(const std::string& name, const std::functio
   msg.message = result->summary;
   const std::string change_note = notePreviousCalibration(previous, result->file, map, &msg);
   stage("saving");
+  const cv::Mat image = camera->medianImage();  // for the report, drawn after the lock
+  const FixedCameraConfig config = camera->config();
   std::string saved_note = "saved to " + calibrationPath(name);
+  bool saved_ok = true;
   std::string kept_as;
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -560,11 +578,14 @@ void CalibrationServer::calibrateOne(const std::string& name, const std::functio
     survey_->camera(name) = std::move(*camera);
     if (const Status saved = saveCalibration(name, &kept_as); !saved)
     {
+      saved_ok = false;
       saved_note = "NOT saved: " + saved.error().message();
       ROS_ERROR_STREAM("calibration_node: " << name << ": " << saved.error().message());
     }
   }
   forgetMotion(name);  // the watchdog's last check was of the calibration replaced
+  if (write_report_ && saved_ok)
+    writeReport(output_directory_, config, *result, image, map, keyframes);
   msg.previous_kept_as = kept_as;
   if (!kept_as.empty())
     saved_note += " (the previous calibration kept as " + kept_as + ")";

@@ -8,6 +8,7 @@
 #include "insitu_calibration/calibration.h"
 #include "insitu_calibration/io/calibration_file.h"
 #include "insitu_calibration/io/correspondence_file.h"
+#include "insitu_calibration/survey/calibration_report.h"
 
 namespace ic = insitu_calibration;
 
@@ -21,6 +22,9 @@ INPUT.yaml is a correspondence file (see README, "Correspondence file").
 
 Options:
   --output FILE           calibration YAML to write (atomically; nothing is written on failure)
+  --report DIR            also write the calibration report there: DIR/<camera>_report.html with its PNG figures
+                          (overlay, residuals, per-line RMS, coverage; README, "Calibration report"). <camera> is
+                          the file's camera_name, else the name of --output without .yaml
   --distortion MODE       auto (default): estimate lambda when the data identify it (curved lines or points);
                           on: always estimate it; off: pin-hole model only
   --method METHOD         combined (default): lines and points stacked; lines: lines only; points: points only
@@ -52,7 +56,8 @@ Options:
   --quiet                 print only errors
   -h, --help              this text
 
-Exit status: 0 success, 1 calibration failed, 2 bad command line or unreadable input.
+Exit status: 0 success, 1 calibration failed (or the --report could not be written; the YAML is), 2 bad command
+line or unreadable input.
 )";
 
 void printComparison(const ic::CameraModel& truth, const ic::CameraModel& estimate)
@@ -152,15 +157,45 @@ void printResult(const ic::CommandLine& cli, const ic::CorrespondenceSet& data, 
     printComparison(truth->camera, result.camera);
   std::cout << "written to " << output << "\n";
 }
+
+// The report of a successful calibration into --report DIR; false (after saying why) when it could not be written.
+bool writeReport(const ic::CommandLine& cli, const ic::CorrespondenceSet& data, const ic::CameraCalibration& result)
+{
+  ic::CalibrationReport report;
+  report.camera_name =
+      data.camera_name.empty() ? std::filesystem::path(cli.value("output")).stem().string() : data.camera_name;
+  report.image_width = data.image_width;
+  report.image_height = data.image_height;
+  report.source = "the correspondence file " + cli.positional()[0] + " (calibrate_lines)";
+  report.verdict = "calibrate_lines applies no acceptance checks; the result is written to " + cli.value("output");
+  report.calibration = result;
+  report.correspondences = data;
+  for (size_t i = 0; i < data.lines.size(); ++i)
+  {
+    const bool inlier = i < result.inlier_lines.size() && result.inlier_lines[i];
+    (inlier ? report.matched_image_lines : report.unmatched_image_lines).push_back(data.lines[i].image);
+    report.map_lines.push_back({data.lines[i].world.front(), data.lines[i].world.back()});  // the 3D lines
+  }
+  const auto files = ic::writeCalibrationReport(cli.value("report"), report);
+  if (!files)
+  {
+    std::cerr << "calibrate_lines: " << files.error().describe() << "\n";
+    return false;
+  }
+  if (!cli.flag("quiet"))
+    std::cout << "report written to " << files->html << "\n";
+  return true;
+}
 }  // namespace
 
 int main(int argc, char** argv)
 {
   ic::quietSolverLogging();
-  ic::CommandLine cli(argc, argv,
-                      {"output", "distortion", "method", "world-frame", "truth", "inlier-threshold", "seed", "loss",
-                       "loss-scale", "line-residual", "image-sigma", "world-sigma", "linear-stage", "mirror-world"},
-                      {"quiet", "no-ransac", "no-refine", "single-focal", "estimate-skew", "paper"});
+  ic::CommandLine cli(
+      argc, argv,
+      {"output", "report", "distortion", "method", "world-frame", "truth", "inlier-threshold", "seed", "loss",
+       "loss-scale", "line-residual", "image-sigma", "world-sigma", "linear-stage", "mirror-world"},
+      {"quiet", "no-ransac", "no-refine", "single-focal", "estimate-skew", "paper"});
   if (cli.help())
   {
     std::cout << kUsage;
@@ -207,5 +242,7 @@ int main(int argc, char** argv)
   }
   if (!cli.flag("quiet"))
     printResult(cli, *data, *result, truth, output);
+  if (cli.has("report") && !writeReport(cli, *data, *result))
+    return 1;
   return 0;
 }

@@ -18,6 +18,7 @@
 #include "insitu_calibration/simulation/survey.h"
 #include "insitu_calibration/simulation/true_edges.h"
 #include "insitu_calibration/survey/camera_config.h"
+#include "insitu_calibration/survey/calibration_report.h"
 #include "insitu_calibration/survey/overlay.h"
 #include "insitu_calibration/io/calibration_store.h"
 #include "insitu_calibration/survey/survey.h"
@@ -35,9 +36,10 @@ Runs the calibration node's pipeline offline on a survey bag (no ROS master need
 (/camera/rgb/image_raw, /camera/depth_registered/image_raw, /camera/rgb/camera_info, posed with /tf and /tf_static
 in the world frame) build the 3D line map; each configured fixed camera's images (its image_topic) build its temporal
 median; then every camera is calibrated (prior matching or correspondence file) and DIR/<camera>.yaml and
-DIR/<camera>_overlay.png are written, as the node writes them. A refused camera gets DIR/<camera>_survey_hint.png
-(the parts of its view without map lines) and its message says where to drive the robot (README "When a camera is
-refused").
+DIR/<camera>_overlay.png are written, as the node writes them, with the calibration report DIR/<camera>_report.html
+and its PNG figures (README, "Calibration report"; also for a result the checks refused, saying why). A refused
+camera also gets DIR/<camera>_survey_hint.png (the parts of its view without map lines) and its message says where
+to drive the robot (README "When a camera is refused").
 
 Options:
   --cameras FILE        fixed-camera configuration (config/cameras.yaml format)
@@ -81,6 +83,7 @@ Options:
   --trace               print the matcher's steps (starts, matching rounds, local moves) to stderr
   --no-refine           the paper's linear DLT after matching (no Ceres refinement)
   --no-ransac           no RANSAC over the matched lines
+  --no-report           do not write the calibration reports
   --quiet               print only errors and the result table
 
 Exit status: 0 when every camera calibrated, 1 when one failed, 2 on bad arguments or an unreadable bag.
@@ -639,7 +642,29 @@ void reportRefusal(const ic::CommandLine& cli, const ic::Survey& survey, const s
                 store.surveyHintPath(name).c_str());
 }
 
-// Calibrates one camera and writes its calibration and overlay; false when either failed.
+// The camera's report beside its calibration (a refused result's too, saying why); a failure is only printed.
+void writeReport(const ic::CommandLine& cli, ic::Survey& survey, const std::string& name,
+                 const std::vector<ic::Segment3d>& map, const ic::FixedCameraResult& result, const std::string& refusal)
+{
+  if (cli.flag("no-report"))
+    return;
+  ic::CalibrationReport report =
+      ic::fixedCameraReport(survey.camera(name).config(), result, survey.camera(name).medianImage(), map,
+                            ic::ReportSurveySummary{survey.stats().keyframes, map.size()});
+  if (!refusal.empty())
+  {
+    report.accepted = false;
+    report.verdict = refusal;
+  }
+  const auto files = ic::writeCalibrationReport(cli.value("out-dir"), report);
+  if (!files)
+    std::printf("%s: %s\n", name.c_str(), files.error().describe().c_str());
+  else if (!cli.flag("quiet"))
+    std::printf("%s: report %s\n", name.c_str(), files->html.c_str());
+}
+
+// Calibrates one camera and writes its calibration, overlay and report; false when the calibration failed or was not
+// saved.
 bool calibrateAndSave(const ic::CommandLine& cli, ic::Survey& survey, const std::string& name,
                       const std::vector<ic::Segment3d>& map)
 {
@@ -649,6 +674,8 @@ bool calibrateAndSave(const ic::CommandLine& cli, ic::Survey& survey, const std:
   if (!result)
   {
     reportRefusal(cli, survey, name, map, result.error());
+    if (camera.lastRefused())
+      writeReport(cli, survey, name, map, *camera.lastRefused(), result.error().describe());
     if (cli.has("truth-dir") && camera.lastRefused())
       reportRefusedAgainstTruth(cli.value("truth-dir"), name, *camera.lastRefused());
     return false;
@@ -663,6 +690,7 @@ bool calibrateAndSave(const ic::CommandLine& cli, ic::Survey& survey, const std:
   }
   std::printf("%s: %s (%.1f s) -> %s\n", name.c_str(), result->summary.c_str(), seconds(calibration_start),
               store.calibrationPath(name).c_str());
+  writeReport(cli, survey, name, map, *result, "");
   if (cli.has("truth-dir"))
     reportAgainstTruth(cli.value("truth-dir"), name, *result);
   return true;
@@ -698,7 +726,7 @@ int main(int argc, char** argv)
       argc, argv,
       {"cameras", "params", "out-dir", "world-frame", "min-support", "camera", "search-starts", "truth-dir",
        "prior-from-truth", "prior-sigmas", "max-spread", "localization-sigma", "odom-frame", "odometry-sigma"},
-      {"no-refine", "no-ransac", "quiet", "oracle", "oracle-details", "trace", "no-odometry"});
+      {"no-refine", "no-ransac", "no-report", "quiet", "oracle", "oracle-details", "trace", "no-odometry"});
   if (cli.help())
   {
     std::cout << kUsage;

@@ -1,11 +1,15 @@
 // calibration_node on a simulated survey bag (calibration_node.test): error cases, calibration of every camera
-// against the simulator's truth, tf, latched CameraInfo, YAML files and their reload by a restarted node.
+// against the simulator's truth, tf, latched CameraInfo, YAML files, calibration reports and their reload by a
+// restarted node.
 #include <gtest/gtest.h>
 
 #include <csignal>
 #include <filesystem>
 #include <mutex>
 #include <random>
+#include <regex>
+
+#include <opencv2/imgcodecs.hpp>
 
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
@@ -16,11 +20,13 @@
 
 #include "insitu_calibration/Calibrate.h"
 #include "insitu_calibration/CalibrationStatus.h"
+#include "insitu_calibration/io/atomic_file.h"
 #include "insitu_calibration/io/calibration_file.h"
 #include "insitu_calibration/io/correspondence_file.h"
 #include "insitu_calibration/matching/line_matcher.h"
 #include "insitu_calibration/metrics.h"
 #include "insitu_calibration/simulation/true_edges.h"
+#include "insitu_calibration/survey/calibration_report.h"
 #include "insitu_calibration/test_support/synthetic_lines.h"
 
 namespace ic = insitu_calibration;
@@ -186,6 +192,18 @@ TEST(CalibrationNode, CalibratesEveryCameraFromTheSurvey)
     const ic::CalibrationFile t = truth(camera);
     expectClose(t.camera, file->camera, camera);
     EXPECT_TRUE(fs::exists(g_work_dir + "/calibrations/" + camera + "_overlay.png"));
+    // The calibration report beside it (write_report defaults to true): accepted, the YAML's focal length, its
+    // figures readable.
+    const ic::ReportFiles report = ic::reportFiles(g_work_dir + "/calibrations", camera);
+    const auto html = ic::readFile(report.html);
+    ASSERT_TRUE(html) << html.error().describe();
+    EXPECT_NE(html->find("Accepted: "), std::string::npos) << camera;
+    std::smatch fx;
+    ASSERT_TRUE(
+        std::regex_search(*html, fx, std::regex("<tr id=\"param-fx\"><td>fx</td><td class=\"value\">([^<]*)<")));
+    EXPECT_NEAR(std::stod(fx[1].str()), file->camera.intrinsics().fx, 1e-6 * file->camera.intrinsics().fx) << camera;
+    for (const std::string& figure : {report.overlay, report.residuals, report.lines, report.coverage})
+      EXPECT_FALSE(cv::imread(figure).empty()) << figure;
 
     // tf: map -> <camera>_link -> <camera>_optical_frame is the calibrated pose.
     geometry_msgs::TransformStamped pose;

@@ -274,13 +274,18 @@ TEST(CalibrationStore, StaleTemporariesGoAndOverlaysStay)
 {
   const fs::path dir = freshDir("store_temp");
   const ic::CalibrationStore store(dir.string());
-  for (const char* name : {"cam.yaml.tmp.Ab3xYz", "cam_overlay.png.tmp.Q1w2E3", ".cam_overlay.tmp.png"})
+  for (const char* name : {"cam.yaml.tmp.Ab3xYz", "cam_overlay.png.tmp.Q1w2E3", ".cam_overlay.tmp.png",
+                           "cam_report.html.tmp.Zz9Yy8", "cam_report_coverage.png.tmp.Aa1Bb2"})
     writeText(dir / name, "");
   writeText(dir / "other.yaml.tmp.Ab3xYz", "not ours");
   writeText(dir / "cam.yaml.tmp.notes", "not a mkstemp name");
-  EXPECT_EQ(store.removeStaleTemporaries({"cam"}).size(), 3u);
+  writeText(dir / "cam_report.html", "a report");
+  writeText(dir / "other_report.html.tmp.Zz9Yy8", "not ours");
+  EXPECT_EQ(store.removeStaleTemporaries({"cam"}).size(), 5u);
   EXPECT_TRUE(fs::exists(dir / "other.yaml.tmp.Ab3xYz"));
   EXPECT_TRUE(fs::exists(dir / "cam.yaml.tmp.notes"));
+  EXPECT_TRUE(fs::exists(dir / "cam_report.html"));
+  EXPECT_TRUE(fs::exists(dir / "other_report.html.tmp.Zz9Yy8"));
 
   const auto calibration = ic::parseCalibration(exampleCalibrationText());
   ASSERT_TRUE(calibration);
@@ -299,7 +304,7 @@ TEST(CalibrationStore, StaleTemporariesGoAndOverlaysStay)
   size_t temporaries = 0;
   for (const auto& entry : fs::directory_iterator(dir))
     temporaries += entry.path().filename().string().find(".tmp.") != std::string::npos;
-  EXPECT_EQ(temporaries, 2u);  // only the two that are not ours
+  EXPECT_EQ(temporaries, 3u);  // only the three that are not ours
 }
 
 TEST(CalibrationStore, ARecalibrationKeepsThePreviousOneBesideIt)

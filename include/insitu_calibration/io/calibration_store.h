@@ -32,8 +32,9 @@ public:
   Status saveSurveyHint(const std::string& camera, const cv::Mat& hint) const;
 
   // Removes the temporary files of a write that was killed before its rename: <camera>.yaml.tmp.XXXXXX,
-  // <camera>_overlay.png.tmp.XXXXXX, <camera>_survey_hint.png.tmp.XXXXXX and the older .<camera>_overlay.tmp.png. Only
-  // these names of the cameras given are touched. Returns the paths removed.
+  // <camera>_overlay.png.tmp.XXXXXX, <camera>_survey_hint.png.tmp.XXXXXX, the older .<camera>_overlay.tmp.png and
+  // the calibration report's <camera>_report*.tmp.XXXXXX (survey/calibration_report.h). Only these names of the
+  // cameras given are touched. Returns the paths removed.
   std::vector<std::string> removeStaleTemporaries(const std::vector<std::string>& cameras) const;
 
   struct Loaded

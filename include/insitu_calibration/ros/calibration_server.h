@@ -207,6 +207,7 @@ private:
   double tf_timeout_s_ = 0.2;
   double map_adjustment_period_s_ = 10.0;  // 0: only before a calibration
   double verify_period_s_ = 60.0;          // the watchdog's period; 0: only on ~verify
+  bool write_report_ = true;               // <name>_report.html beside the YAML on every calibration
 
   // State, guarded by mutex_ (callbacks run on an AsyncSpinner's threads).
   mutable std::mutex mutex_;

@@ -80,6 +80,9 @@ struct FixedCameraResult
   CalibrationFile file;
   std::vector<std::vector<Eigen::Vector2d>> matched_image_lines;
   std::vector<Segment3d> matched_map_lines;
+  // The image lines the final calibration did not use (not matched, or outliers of a correspondence file).
+  std::vector<std::vector<Eigen::Vector2d>> unmatched_image_lines;
+  CorrespondenceSet correspondences;  // the lines calibrated on (calibration.inlier_lines indexes them)
   int loops = 0;
   ImageExplanation explanation;  // the final check's measurements (map-based calibrations)
   std::string summary;           // how good the result is, in words
@@ -150,7 +153,11 @@ private:
   std::optional<VerificationReference> verification_reference_;
 };
 
-// Share of the image (a 4 x 4 grid of cells) that the lines' points touch, in percent.
+// The coverage grid: kCoverageCells x kCoverageCells cells of the image, row-major, true where the lines' points
+// touch the cell.
+constexpr int kCoverageCells = 4;
+std::vector<bool> imageCoverageCells(const std::vector<std::vector<Eigen::Vector2d>>& lines, int width, int height);
+// Share of the image (the coverage grid's cells) that the lines' points touch, in percent.
 double imageCoverage(const std::vector<std::vector<Eigen::Vector2d>>& lines, int width, int height);
 
 }  // namespace insitu_calibration

@@ -63,6 +63,18 @@ ImageExplanation explainImage(const cv::Mat& image, const CameraModel& camera, i
                               const std::vector<Segment3d>& map_lines, const RefinementResult* refinement,
                               const ImageExplanationOptions& options = {});
 
+// Each visible map line's projection sampled as the overlay agreement samples it, with whether an image edge lies
+// under each sample: a run without one is a map edge hidden behind something in front (a foreground object), outside
+// the view's structure, or too faint to see. Lines too short to assess are left out; empty without an image.
+struct EdgeSamples
+{
+  std::vector<Eigen::Vector2d> points;  // distorted pixels, in order along the line
+  std::vector<bool> on_edge;
+};
+std::vector<EdgeSamples> sampleEdgeSupport(const cv::Mat& image, const CameraModel& camera, int width, int height,
+                                           const std::vector<Segment3d>& map_lines,
+                                           const ImageExplanationOptions& options = {});
+
 // Refuses (kNoSolution, with the numbers and what to do) a camera that fails a test of the options.
 Status acceptExplanation(const ImageExplanation& explanation, const ImageExplanationOptions& options);
 

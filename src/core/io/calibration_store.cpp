@@ -113,9 +113,13 @@ std::vector<std::string> CalibrationStore::removeStaleTemporaries(const std::vec
     const std::string name = it->path().filename().string();
     for (const std::string& camera : cameras)
     {
-      const bool stale =
-          isTemporaryOf(name, camera + ".yaml.tmp.") || isTemporaryOf(name, camera + "_overlay.png.tmp.") ||
-          isTemporaryOf(name, camera + "_survey_hint.png.tmp.") || name == "." + camera + "_overlay.tmp.png";
+      const size_t tmp = name.rfind(".tmp.");
+      const bool report_temporary = name.rfind(camera + "_report", 0) == 0 && tmp != std::string::npos &&
+                                    isTemporaryOf(name, name.substr(0, tmp + 5));
+      const bool stale = isTemporaryOf(name, camera + ".yaml.tmp.") ||
+                         isTemporaryOf(name, camera + "_overlay.png.tmp.") ||
+                         isTemporaryOf(name, camera + "_survey_hint.png.tmp.") ||
+                         name == "." + camera + "_overlay.tmp.png" || report_temporary;
       std::error_code ignored;
       if (stale && it->is_regular_file(ignored) && fs::remove(it->path(), ignored))
         removed.push_back(it->path().string());

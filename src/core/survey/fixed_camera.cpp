@@ -1,5 +1,6 @@
 #include "insitu_calibration/survey/fixed_camera.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -49,26 +50,28 @@ Status FixedCameraConfig::validate() const
   return Success{};
 }
 
-double imageCoverage(const std::vector<std::vector<Eigen::Vector2d>>& lines, int width, int height)
+std::vector<bool> imageCoverageCells(const std::vector<std::vector<Eigen::Vector2d>>& lines, int width, int height)
 {
+  std::vector<bool> cells(kCoverageCells * kCoverageCells, false);
   if (width <= 0 || height <= 0)
-    return 0.0;
-  bool cells[4][4] = {};
+    return cells;
   for (const auto& line : lines)
     for (size_t j = 1; j < line.size(); ++j)
       for (int k = 0; k <= 8; ++k)
       {
         const Eigen::Vector2d m = line[j - 1] + (line[j] - line[j - 1]) * (k / 8.0);
-        const int cx = static_cast<int>(4.0 * m.x() / width);
-        const int cy = static_cast<int>(4.0 * m.y() / height);
-        if (cx >= 0 && cx < 4 && cy >= 0 && cy < 4)
-          cells[cy][cx] = true;
+        const int cx = static_cast<int>(kCoverageCells * m.x() / width);
+        const int cy = static_cast<int>(kCoverageCells * m.y() / height);
+        if (cx >= 0 && cx < kCoverageCells && cy >= 0 && cy < kCoverageCells)
+          cells[cy * kCoverageCells + cx] = true;
       }
-  int n = 0;
-  for (auto& row : cells)
-    for (bool c : row)
-      n += c ? 1 : 0;
-  return 100.0 * n / 16.0;
+  return cells;
+}
+
+double imageCoverage(const std::vector<std::vector<Eigen::Vector2d>>& lines, int width, int height)
+{
+  const std::vector<bool> cells = imageCoverageCells(lines, width, height);
+  return 100.0 * std::count(cells.begin(), cells.end(), true) / cells.size();
 }
 
 FixedCamera::FixedCamera(const FixedCameraConfig& config, const FixedCameraOptions& options)
@@ -183,6 +186,9 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromFile(const std::string& wo
       result.matched_image_lines.push_back(data->lines[i].image);
       result.matched_map_lines.push_back({data->lines[i].world.front(), data->lines[i].world.back()});
     }
+    else
+      result.unmatched_image_lines.push_back(data->lines[i].image);
+  result.correspondences = *data;
   result.file = toCalibrationFile(*data, *calibration, world_frame);
   result.loops = 1;
   return result;
@@ -226,14 +232,19 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
     FixedCameraResult result;
     result.calibration = matched->calibration;
     result.loops = loop + 1;
+    std::vector<bool> matched_image(polylines.size(), false);
     for (const auto& m : matched->matches)
     {
       result.matched_image_lines.push_back(polylines[m.image_line]);
       result.matched_map_lines.push_back(map_lines[m.map_line]);
+      matched_image[m.image_line] = true;
     }
-    CorrespondenceSet named = matched->correspondences;
-    named.camera_name = config_.name;
-    result.file = toCalibrationFile(named, matched->calibration, world_frame);
+    for (size_t i = 0; i < polylines.size(); ++i)
+      if (!matched_image[i])
+        result.unmatched_image_lines.push_back(polylines[i]);
+    result.correspondences = std::move(matched->correspondences);
+    result.correspondences.camera_name = config_.name;
+    result.file = toCalibrationFile(result.correspondences, matched->calibration, world_frame);
     const DivisionModel next = matched->calibration.camera.distortion();
     const double moved = std::max((next.center - distortion.center).norm(),
                                   std::abs(cornerDisplacement(next) - cornerDisplacement(distortion)));

@@ -63,18 +63,18 @@ bool onEdge(const Gradients& g, const Eigen::Vector2d& p, const Eigen::Vector2d&
   return false;
 }
 
-// Samples of one map line's projection: on-edge counts at the line and beside it.
-void assessLine(const Gradients& g, const CameraModel& camera, const Segment3d& line,
-                const std::pair<double, double>& interval, int width, int height, const ImageExplanationOptions& o,
-                ImageExplanation& out, size_t& on, size_t& beside)
+// Calls visit(pixel, unit normal) for each sample of one map line's projection (sample_step_px apart, 3 px inside
+// the image); false when the projection is too short to assess.
+template <typename Visit>
+bool forEachSample(const CameraModel& camera, const Segment3d& line, const std::pair<double, double>& interval,
+                   int width, int height, const ImageExplanationOptions& o, Visit visit)
 {
   const Eigen::Vector3d a = line.a + interval.first * (line.b - line.a);
   const Eigen::Vector3d b = line.a + interval.second * (line.b - line.a);
   const auto pa = camera.project(a), pb = camera.project(b);
   if (!pa || !pb || (*pb - *pa).norm() < o.min_line_length_px)
-    return;
+    return false;
   const int n = std::min(600, static_cast<int>((*pb - *pa).norm() / o.sample_step_px) + 1);
-  ++out.map_lines;
   for (int k = 0; k < n; ++k)
   {
     const double t = (k + 0.5) / n;
@@ -86,11 +86,24 @@ void assessLine(const Gradients& g, const CameraModel& camera, const Segment3d& 
     const Eigen::Vector2d d = (*q - *r).normalized(), normal(-d.y(), d.x());
     if (p->x() < 3 || p->y() < 3 || p->x() > width - 4 || p->y() > height - 4)
       continue;
-    ++out.samples;
-    on += onEdge(g, *p, normal, o) ? 1 : 0;
-    beside += onEdge(g, *p + o.chance_offset_px * normal, normal, o) ? 1 : 0;
-    beside += onEdge(g, *p - o.chance_offset_px * normal, normal, o) ? 1 : 0;
+    visit(*p, normal);
   }
+  return true;
+}
+
+// Samples of one map line's projection: on-edge counts at the line and beside it.
+void assessLine(const Gradients& g, const CameraModel& camera, const Segment3d& line,
+                const std::pair<double, double>& interval, int width, int height, const ImageExplanationOptions& o,
+                ImageExplanation& out, size_t& on, size_t& beside)
+{
+  const bool assessed = forEachSample(camera, line, interval, width, height, o,
+                                      [&](const Eigen::Vector2d& p, const Eigen::Vector2d& normal) {
+                                        ++out.samples;
+                                        on += onEdge(g, p, normal, o) ? 1 : 0;
+                                        beside += onEdge(g, p + o.chance_offset_px * normal, normal, o) ? 1 : 0;
+                                        beside += onEdge(g, p - o.chance_offset_px * normal, normal, o) ? 1 : 0;
+                                      });
+  out.map_lines += assessed ? 1 : 0;
 }
 }  // namespace
 
@@ -137,6 +150,29 @@ ImageExplanation explainImage(const cv::Mat& image, const CameraModel& camera, i
     out.median_rms_px = median(rms);
     out.median_heldout_px = median(heldout);
   }
+  return out;
+}
+
+std::vector<EdgeSamples> sampleEdgeSupport(const cv::Mat& image, const CameraModel& camera, int width, int height,
+                                           const std::vector<Segment3d>& map_lines,
+                                           const ImageExplanationOptions& options)
+{
+  std::vector<EdgeSamples> out;
+  if (image.empty())
+    return out;
+  const Gradients g = gradients(image);
+  for (const auto& line : map_lines)
+    if (const auto interval = visibleInterval(camera, line, width, height))
+    {
+      EdgeSamples samples;
+      forEachSample(camera, line, *interval, width, height, options,
+                    [&](const Eigen::Vector2d& p, const Eigen::Vector2d& normal) {
+                      samples.points.push_back(p);
+                      samples.on_edge.push_back(onEdge(g, p, normal, options));
+                    });
+      if (samples.points.size() >= 2)
+        out.push_back(std::move(samples));
+    }
   return out;
 }
 
