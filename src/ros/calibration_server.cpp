@@ -199,6 +199,7 @@ CalibrationServer::CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private
         survey_->camera(name).config().image_topic, 2,
         [this, camera_name](const sensor_msgs::ImageConstPtr& image) { fixedImageCallback(camera_name, image); });
     camera.overlay_publisher = private_nh_.advertise<sensor_msgs::Image>(name + "/overlay", 1, true);
+    camera.survey_hint_publisher = private_nh_.advertise<sensor_msgs::Image>(name + "/survey_hint", 1, true);
     if (camera.camera_info_topic.empty())
       continue;
     if (camera.relay_image)
@@ -525,16 +526,18 @@ void CalibrationServer::calibrateOne(const std::string& name, const std::functio
   auto result = camera->calibrate(map, world_frame_, sigmas);  // the long part, without mutex_
   if (!result)
   {
+    stage("survey guidance");
     insitu_calibration::CalibrationResult failed;
     failed.camera_name = name;
     failed.success = false;
-    failed.message = result.error().describe();
+    failed.message = publishSurveyGuidance(name, *camera, map, result.error());
     outcome->results.push_back(failed);
     outcome->success = false;
-    outcome->message += name + ": FAILED: " + result.error().describe() + "\n";
-    ROS_WARN_STREAM("calibration_node: " << name << ": calibration failed: " << result.error().describe());
+    outcome->message += name + ": FAILED: " + failed.message + "\n";
+    ROS_WARN_STREAM("calibration_node: " << name << ": calibration failed: " << failed.message);
     return;
   }
+  forgetSurveyGuidance(name);
   {
     // The map's placement in world_frame_ (the localiser's error over the survey) widens the pose's sigmas.
     std::lock_guard<std::mutex> lock(mutex_);
@@ -804,6 +807,7 @@ void CalibrationServer::publishMarkers()
     label.color.r = label.color.g = label.color.b = label.color.a = 1.0;
     label.text = name;
     markers.markers.push_back(label);
+    addSurveyHintMarkers(name, id, &markers);
   }
   marker_publisher_.publish(markers);
 }

@@ -22,6 +22,7 @@
 #include "insitu_calibration/survey/overlay.h"
 #include "insitu_calibration/io/calibration_store.h"
 #include "insitu_calibration/survey/survey.h"
+#include "insitu_calibration/survey/survey_guidance.h"
 #include "insitu_calibration/survey/survey_parameters.h"
 #include "insitu_calibration/geometry/optical_frame.h"
 
@@ -36,7 +37,9 @@ Runs the calibration node's pipeline offline on a survey bag (no ROS master need
 in the world frame) build the 3D line map; each configured fixed camera's images (its image_topic) build its temporal
 median; then every camera is calibrated (prior matching or correspondence file) and DIR/<camera>.yaml and
 DIR/<camera>_overlay.png are written, as the node writes them, with the calibration report DIR/<camera>_report.html
-and its PNG figures (README, "Calibration report"; also for a result the checks refused, saying why).
+and its PNG figures (README, "Calibration report"; also for a result the checks refused, saying why). A refused
+camera also gets DIR/<camera>_survey_hint.png (the parts of its view without map lines) and its message says where
+to drive the robot (README "When a camera is refused").
 
 Options:
   --cameras FILE        fixed-camera configuration (config/cameras.yaml format)
@@ -632,6 +635,28 @@ void printSurveySummary(const ic::Survey& survey, size_t frames_without_pose, do
   }
 }
 
+// A refusal with what to survey next (survey_guidance.h), and its picture beside the overlay.
+void reportRefusal(const ic::CommandLine& cli, const ic::Survey& survey, const std::string& name,
+                   const std::vector<ic::Segment3d>& map, const ic::Error& error)
+{
+  const auto guidance = ic::guideSurvey(survey.camera(name), map, survey.options().cameras.image_lines);
+  if (!guidance)
+  {
+    std::printf("%s: FAILED: %s (no survey guidance: %s)\n", name.c_str(), error.describe().c_str(),
+                guidance.error().message().c_str());
+    return;
+  }
+  std::printf("%s: FAILED: %s\n", name.c_str(), ic::describeRefusal(error, *guidance).c_str());
+  const ic::CalibrationStore store(cli.value("out-dir"));
+  const cv::Mat hint = ic::drawSurveyHint(survey.camera(name).medianImage(), *guidance);
+  if (const ic::Status saved = store.saveSurveyHint(name, hint); !saved)
+    std::printf("%s: %s\n", name.c_str(), saved.error().describe().c_str());
+  else
+    std::printf("%s: survey hint (%zu of %zu cells without map lines) -> %s\n", name.c_str(),
+                guidance->count(ic::GuidanceCell::kUnmapped), guidance->cells.size(),
+                store.surveyHintPath(name).c_str());
+}
+
 // The camera's report beside its calibration (a refused result's too, saying why); a failure is only printed.
 void writeReport(const ic::CommandLine& cli, ic::Survey& survey, const std::string& name,
                  const std::vector<ic::Segment3d>& map, const ic::FixedCameraResult& result, const std::string& refusal)
@@ -663,7 +688,7 @@ bool calibrateAndSave(const ic::CommandLine& cli, ic::Survey& survey, const std:
   const auto result = survey.calibrate(name, cli.value("world-frame", "map"));
   if (!result)
   {
-    std::printf("%s: FAILED: %s\n", name.c_str(), result.error().describe().c_str());
+    reportRefusal(cli, survey, name, map, result.error());
     if (camera.lastRefused())
       writeReport(cli, survey, name, map, *camera.lastRefused(), result.error().describe());
     if (cli.has("truth-dir") && camera.lastRefused())

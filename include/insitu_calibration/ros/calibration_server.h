@@ -31,6 +31,7 @@
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
+#include <visualization_msgs/MarkerArray.h>
 
 #include "insitu_calibration/Calibrate.h"
 #include "insitu_calibration/CalibrateAction.h"
@@ -41,6 +42,7 @@
 #include "insitu_calibration/ros/parameter_reader.h"
 #include "insitu_calibration/survey/field_thresholds.h"
 #include "insitu_calibration/survey/survey.h"
+#include "insitu_calibration/survey/survey_guidance.h"
 
 namespace insitu_calibration
 {
@@ -58,9 +60,10 @@ private:
   {
     image_transport::Subscriber subscriber;
     ros::Publisher info_publisher;  // latched, once per calibration (calibrated_info_topic)
-    // Latched, so a plain ros::Publisher: image_transport's publishes only to transports with a subscriber at the
-    // time, so the overlay of a calibration made before rviz started was never seen ("No Image").
+    // Latched, so plain ros::Publishers: image_transport's publishes only to transports with a subscriber at the
+    // time (image_common #209), so the overlay of a calibration made before rviz started was never seen ("No Image").
     ros::Publisher overlay_publisher;
+    ros::Publisher survey_hint_publisher;  // the last refusal's guidance
     std::string link_frame;
     std::string optical_frame;
     // The camera info that image_proc pairs with each image (same header), on camera_info_topic; with relay_image
@@ -150,6 +153,14 @@ private:
   // mutex_ itself (only for a snapshot): the caller must not hold it.
   void publishCalibrations();
   void publishMarkers();
+  // Survey guidance after a refusal (calibration_server_guidance.cpp): computed on the refused copy of the camera
+  // (without mutex_, which the caller must not hold), saved and published; returns the refusal's message with it.
+  std::string publishSurveyGuidance(const std::string& name, const FixedCamera& camera,
+                                    const std::vector<Segment3d>& map, const Error& error);
+  void forgetSurveyGuidance(const std::string& name);  // after a calibration: its markers go
+  // The camera's survey_hint markers (a floor polygon and a standpoint arrow per region; DELETE for the unused
+  // ids). The caller holds mutex_.
+  void addSurveyHintMarkers(const std::string& name, int camera_id, visualization_msgs::MarkerArray* markers) const;
   void loadSavedCalibrations();
   // kept_as: where the calibration it replaced was kept (CalibrationStore::save).
   Status saveCalibration(const std::string& name, std::string* kept_as = nullptr);
@@ -219,6 +230,7 @@ private:
   // the survey's camera options, kept in step by applyThresholds).
   FieldThresholds thresholds_;
   std::map<std::string, Camera> cameras_;
+  std::map<std::string, SurveyGuidance> survey_guidance_;  // per refused camera, its last guidance
   // Each calibrated camera's CameraInfo (header filled per image), written under both locks, read under info_mutex_.
   std::mutex info_mutex_;
   std::map<std::string, sensor_msgs::CameraInfo> calibrated_info_;

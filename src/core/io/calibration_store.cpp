@@ -78,6 +78,20 @@ std::string utcWriteTime(const std::string& path)
   std::strftime(text, sizeof(text), "%Y%m%dT%H%M%SZ", &utc);
   return text;
 }
+Status writePngAtomically(const std::string& path, const cv::Mat& image, const std::string& what)
+{
+  std::vector<unsigned char> png;
+  try
+  {
+    if (!cv::imencode(".png", image, png))
+      return Error(ErrorCode::kIoError, "cannot encode " + what + " as PNG");
+  }
+  catch (const cv::Exception& e)
+  {
+    return Error(ErrorCode::kIoError, "cannot encode " + what + " as PNG: " + e.what());
+  }
+  return writeFileAtomically(path, std::string(png.begin(), png.end()));
+}
 }  // namespace
 
 std::string CalibrationStore::calibrationPath(const std::string& camera) const
@@ -104,6 +118,7 @@ std::vector<std::string> CalibrationStore::removeStaleTemporaries(const std::vec
                                     isTemporaryOf(name, name.substr(0, tmp + 5));
       const bool stale = isTemporaryOf(name, camera + ".yaml.tmp.") ||
                          isTemporaryOf(name, camera + "_overlay.png.tmp.") ||
+                         isTemporaryOf(name, camera + "_survey_hint.png.tmp.") ||
                          name == "." + camera + "_overlay.tmp.png" || report_temporary;
       std::error_code ignored;
       if (stale && it->is_regular_file(ignored) && fs::remove(it->path(), ignored))
@@ -206,19 +221,24 @@ Status CalibrationStore::save(const std::string& camera, const CalibrationFile& 
     *kept_as = *kept;
   if (const Status saved = saveCalibrationFile(calibrationPath(camera), calibration); !saved)
     return saved;
+  // A survey hint describes a refusal this calibration supersedes.
+  std::error_code ignored;
+  fs::remove(surveyHintPath(camera), ignored);
   if (overlay.empty())
     return Success{};
-  std::vector<unsigned char> png;
-  try
-  {
-    if (!cv::imencode(".png", overlay, png))
-      return Error(ErrorCode::kIoError, "cannot encode the overlay of '" + camera + "' as PNG");
-  }
-  catch (const cv::Exception& e)
-  {
-    return Error(ErrorCode::kIoError, "cannot encode the overlay of '" + camera + "' as PNG: " + e.what());
-  }
-  return writeFileAtomically(overlayPath(camera), std::string(png.begin(), png.end()));
+  return writePngAtomically(overlayPath(camera), overlay, "the overlay of '" + camera + "'");
+}
+
+std::string CalibrationStore::surveyHintPath(const std::string& camera) const
+{
+  return directory_ + "/" + camera + "_survey_hint.png";
+}
+
+Status CalibrationStore::saveSurveyHint(const std::string& camera, const cv::Mat& hint) const
+{
+  if (hint.empty())
+    return Error(ErrorCode::kInvalidInput, "no survey hint of '" + camera + "' to save");
+  return writePngAtomically(surveyHintPath(camera), hint, "the survey hint of '" + camera + "'");
 }
 
 }  // namespace insitu_calibration

@@ -1,0 +1,457 @@
+#include "insitu_calibration/survey/survey_guidance.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+
+#include <opencv2/imgproc.hpp>
+
+#include "insitu_calibration/matching/line_matcher.h"
+#include "insitu_calibration/survey/fixed_camera.h"
+
+namespace insitu_calibration
+{
+namespace
+{
+// The projected map lines drawn `half_width_px` wide: a non-zero pixel is within that distance of a map line.
+cv::Mat projectedMapMask(const CameraModel& camera, int width, int height, const std::vector<Segment3d>& map_lines,
+                         double half_width_px)
+{
+  cv::Mat mask(height, width, CV_8U, cv::Scalar(0));
+  const int thickness = std::max(1, static_cast<int>(std::lround(2.0 * half_width_px)) + 1);
+  for (const auto& segment : map_lines)
+  {
+    const auto interval = visibleInterval(camera, segment, width, height);
+    if (!interval)
+      continue;
+    std::vector<cv::Point> curve;
+    for (int k = 0; k <= 24; ++k)
+      if (const auto m =
+              camera.project(segment.pointAt(interval->first + (interval->second - interval->first) * k / 24.0)))
+        curve.emplace_back(cvRound(m->x()), cvRound(m->y()));
+    if (curve.size() >= 2)
+      cv::polylines(mask, curve, false, cv::Scalar(255), thickness);
+  }
+  return mask;
+}
+
+// Per cell: the image lines' samples and the unexplained ones; per line, its unexplained samples per cell.
+struct CellSamples
+{
+  std::vector<int> total;
+  std::vector<int> unexplained;
+  std::vector<std::map<int, int>> line_unexplained;  // per image line: cell -> unexplained samples
+  std::vector<int> line_total;
+};
+
+CellSamples sampleImageLines(const std::vector<std::vector<Eigen::Vector2d>>& lines, const cv::Mat& explained,
+                             const SurveyGuidance& g, double step_px)
+{
+  CellSamples s;
+  s.total.assign(g.cells.size(), 0);
+  s.unexplained.assign(g.cells.size(), 0);
+  s.line_unexplained.resize(lines.size());
+  s.line_total.assign(lines.size(), 0);
+  auto sample = [&](size_t line, const Eigen::Vector2d& p) {
+    const int x = cvRound(p.x()), y = cvRound(p.y());
+    if (x < 0 || y < 0 || x >= g.width || y >= g.height)
+      return;
+    const int cell =
+        std::min(g.rows - 1, y * g.rows / g.height) * g.columns + std::min(g.columns - 1, x * g.columns / g.width);
+    ++s.total[cell];
+    ++s.line_total[line];
+    if (explained.at<uint8_t>(y, x) == 0)
+    {
+      ++s.unexplained[cell];
+      ++s.line_unexplained[line][cell];
+    }
+  };
+  for (size_t l = 0; l < lines.size(); ++l)
+    for (size_t j = 1; j < lines[l].size(); ++j)
+    {
+      const Eigen::Vector2d a = lines[l][j - 1], b = lines[l][j];
+      const int n = std::max(1, static_cast<int>(std::ceil((b - a).norm() / step_px)));
+      for (int k = (j == 1 ? 0 : 1); k <= n; ++k)
+        sample(l, a + (b - a) * (static_cast<double>(k) / n));
+    }
+  return s;
+}
+
+// Neighbouring (4-connected) unmapped cells.
+std::vector<std::vector<int>> unmappedComponents(const SurveyGuidance& g)
+{
+  std::vector<std::vector<int>> components;
+  std::vector<bool> seen(g.cells.size(), false);
+  for (size_t start = 0; start < g.cells.size(); ++start)
+  {
+    if (seen[start] || g.cells[start] != GuidanceCell::kUnmapped)
+      continue;
+    std::vector<int> component, stack{static_cast<int>(start)};
+    seen[start] = true;
+    while (!stack.empty())
+    {
+      const int c = stack.back();
+      stack.pop_back();
+      component.push_back(c);
+      const int row = c / g.columns, col = c % g.columns;
+      const int neighbours[4][2] = {{row - 1, col}, {row + 1, col}, {row, col - 1}, {row, col + 1}};
+      for (const auto& n : neighbours)
+      {
+        if (n[0] < 0 || n[1] < 0 || n[0] >= g.rows || n[1] >= g.columns)
+          continue;
+        const int k = n[0] * g.columns + n[1];
+        if (!seen[k] && g.cells[k] == GuidanceCell::kUnmapped)
+        {
+          seen[k] = true;
+          stack.push_back(k);
+        }
+      }
+    }
+    std::sort(component.begin(), component.end());
+    components.push_back(component);
+  }
+  return components;
+}
+
+// "top left", "right", "centre", ...: where the cells' mean lies in thirds of the view; "whole" for most of it.
+std::string describePlace(const SurveyGuidance& g, const std::vector<int>& cells)
+{
+  if (cells.size() * 3 >= g.cells.size() * 2)
+    return "whole";
+  double x = 0.0, y = 0.0;
+  for (int c : cells)
+  {
+    x += (c % g.columns + 0.5) / g.columns;
+    y += (c / g.columns + 0.5) / g.rows;
+  }
+  x /= cells.size();
+  y /= cells.size();
+  const std::string vertical = y < 1.0 / 3.0 ? "top" : (y > 2.0 / 3.0 ? "bottom" : "");
+  const std::string horizontal = x < 1.0 / 3.0 ? "left" : (x > 2.0 / 3.0 ? "right" : "");
+  if (vertical.empty() && horizontal.empty())
+    return "centre";
+  return vertical.empty() ? horizontal : (horizontal.empty() ? vertical : vertical + " " + horizontal);
+}
+
+struct FloorBox
+{
+  Eigen::Vector2d min = Eigen::Vector2d::Constant(-std::numeric_limits<double>::infinity());
+  Eigen::Vector2d max = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  // The point moved into the box shrunk by `inset` (its centre when the box is narrower than twice that).
+  Eigen::Vector2d clamp(const Eigen::Vector2d& p, double inset) const
+  {
+    Eigen::Vector2d out;
+    for (int i = 0; i < 2; ++i)
+      out[i] =
+          max[i] - min[i] > 2.0 * inset ? std::clamp(p[i], min[i] + inset, max[i] - inset) : 0.5 * (min[i] + max[i]);
+    return out;
+  }
+};
+
+FloorBox mapExtent(const std::vector<Segment3d>& map_lines, double margin_m)
+{
+  FloorBox box;
+  if (map_lines.empty())
+    return box;
+  box.min = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  box.max = -box.min;
+  for (const auto& s : map_lines)
+    for (const Eigen::Vector3d& p : {s.a, s.b})
+    {
+      box.min = box.min.cwiseMin(p.head<2>());
+      box.max = box.max.cwiseMax(p.head<2>());
+    }
+  box.min.array() -= margin_m;
+  box.max.array() += margin_m;
+  return box;
+}
+
+// Where a world ray from `centre` meets the floor z = 0, stopped at max_range_m (horizontally) and at the map's
+// extent when the camera is inside it.
+Eigen::Vector2d floorPoint(const Eigen::Vector3d& centre, const Eigen::Vector3d& direction, const FloorBox& box,
+                           double max_range_m)
+{
+  const Eigen::Vector2d horizontal = direction.head<2>();
+  const double h = horizontal.norm();
+  if (h < 1e-9)
+    return centre.head<2>();
+  const Eigen::Vector2d u = horizontal / h;
+  double reach = max_range_m;
+  if (direction.z() < 0.0 && centre.z() > 0.0)
+    reach = std::min(reach, centre.z() / -direction.z() * h);
+  // Where the horizontal ray leaves the map's extent (slabs), when it crosses it at all.
+  double enter = 0.0, leave = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < 2; ++i)
+  {
+    if (std::abs(u[i]) < 1e-12)
+    {
+      if (centre[i] < box.min[i] || centre[i] > box.max[i])
+        return centre.head<2>() + reach * u;
+      continue;
+    }
+    const double t0 = (box.min[i] - centre[i]) / u[i], t1 = (box.max[i] - centre[i]) / u[i];
+    enter = std::max(enter, std::min(t0, t1));
+    leave = std::min(leave, std::max(t0, t1));
+  }
+  if (leave >= enter)
+    reach = std::min(reach, leave);
+  return centre.head<2>() + std::max(0.0, reach) * u;
+}
+
+// The polygon's area centroid (its vertices' mean when degenerate).
+Eigen::Vector2d centroidOf(const std::vector<Eigen::Vector2d>& polygon)
+{
+  double area = 0.0;
+  Eigen::Vector2d c = Eigen::Vector2d::Zero(), mean = Eigen::Vector2d::Zero();
+  for (size_t i = 0; i < polygon.size(); ++i)
+  {
+    const Eigen::Vector2d& p = polygon[i];
+    const Eigen::Vector2d& q = polygon[(i + 1) % polygon.size()];
+    const double cross = p.x() * q.y() - q.x() * p.y();
+    area += cross;
+    c += (p + q) * cross;
+    mean += p;
+  }
+  if (std::abs(area) < 1e-9)
+    return mean / std::max<size_t>(1, polygon.size());
+  return c / (3.0 * area);
+}
+
+// The floor polygon of a region, and where the robot should stand and look.
+void placeOnFloor(const CameraModel& camera, const SurveyGuidance& g, const FloorBox& box,
+                  const SurveyGuidanceOptions& options, UnmappedRegion* region)
+{
+  const Eigen::Vector3d centre = camera.pose().center();
+  const Eigen::Matrix3d world_from_camera = camera.pose().rotation.transpose();
+  std::vector<cv::Point2f> points;
+  for (int c : region->cells)
+  {
+    const cv::Rect r = g.cellRect(c);
+    for (int i = 0; i <= 2; ++i)
+      for (int j = 0; j <= 2; ++j)
+        if (const auto ray = camera.backProject({r.x + 0.5 * i * (r.width - 1), r.y + 0.5 * j * (r.height - 1)}))
+        {
+          const Eigen::Vector2d p = floorPoint(centre, world_from_camera * *ray, box, options.max_range_m);
+          points.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
+        }
+  }
+  if (points.empty())
+    return;
+  std::vector<cv::Point2f> hull;
+  cv::convexHull(points, hull, false);
+  for (const auto& p : hull)
+    region->floor_polygon.emplace_back(p.x, p.y);
+  const Eigen::Vector2d target = centroidOf(region->floor_polygon);
+  Eigen::Vector2d d = target - centre.head<2>();
+  if (d.norm() < 1e-6)
+    d = (world_from_camera * Eigen::Vector3d::UnitZ()).head<2>();
+  const double distance = d.norm();
+  region->look_direction = distance > 1e-9 ? Eigen::Vector2d(d / distance) : Eigen::Vector2d::UnitX();
+  const Eigen::Vector2d stand = distance > options.robot_standoff_m
+                                    ? Eigen::Vector2d(target - options.robot_standoff_m * region->look_direction)
+                                    : Eigen::Vector2d(centre.head<2>());
+  // Inside the map's extent (a camera hangs on a wall; a far region's standpoint may lie beyond it).
+  region->robot_position = box.clamp(stand, options.map_margin_m + options.robot_clearance_m);
+  const Eigen::Vector2d look = target - region->robot_position;
+  if (look.norm() > 1e-6)
+    region->look_direction = look.normalized();
+}
+
+void classifyCells(const CellSamples& s, const cv::Mat& map_presence, const SurveyGuidanceOptions& options,
+                   SurveyGuidance* g)
+{
+  for (size_t c = 0; c < g->cells.size(); ++c)
+  {
+    const bool has_lines = s.total[c] >= options.min_samples;
+    if (has_lines && s.unexplained[c] >= options.min_unexplained_share * s.total[c])
+      g->cells[c] = GuidanceCell::kUnmapped;
+    else if (!has_lines && cv::countNonZero(map_presence(g->cellRect(static_cast<int>(c)))) == 0)
+      g->cells[c] = GuidanceCell::kEmpty;
+    else
+      g->cells[c] = GuidanceCell::kCovered;
+  }
+}
+
+// Each image line mostly unexplained counts once, in the cell that holds most of its unexplained samples.
+std::vector<size_t> unexplainedLinesPerCell(const CellSamples& s, const SurveyGuidanceOptions& options, size_t cells)
+{
+  std::vector<size_t> per_cell(cells, 0);
+  for (size_t l = 0; l < s.line_total.size(); ++l)
+  {
+    int unexplained = 0, best_cell = -1, best = 0;
+    for (const auto& [cell, n] : s.line_unexplained[l])
+    {
+      unexplained += n;
+      if (n > best)
+        best = n, best_cell = cell;
+    }
+    if (best_cell >= 0 && unexplained >= options.min_unexplained_share * s.line_total[l])
+      ++per_cell[best_cell];
+  }
+  return per_cell;
+}
+}  // namespace
+
+cv::Rect SurveyGuidance::cellRect(int cell) const
+{
+  const int row = cell / columns, col = cell % columns;
+  const int x0 = col * width / columns, x1 = (col + 1) * width / columns;
+  const int y0 = row * height / rows, y1 = (row + 1) * height / rows;
+  return {x0, y0, x1 - x0, y1 - y0};
+}
+
+size_t SurveyGuidance::count(GuidanceCell kind) const
+{
+  return static_cast<size_t>(std::count(cells.begin(), cells.end(), kind));
+}
+
+std::string SurveyGuidance::sentence() const
+{
+  std::string out;
+  for (const auto& r : regions)
+  {
+    char buffer[256];
+    std::snprintf(buffer, sizeof(buffer),
+                  "survey the %s view: %zu image line%s there ha%s no map line; drive the robot to about "
+                  "(%.1f, %.1f) in the map and look towards (%.2f, %.2f)",
+                  (r.where == "whole" ? std::string("whole") : r.where + " part of the").c_str(), r.image_lines,
+                  r.image_lines == 1 ? "" : "s", r.image_lines == 1 ? "s" : "ve", r.robot_position.x(),
+                  r.robot_position.y(), r.look_direction.x(), r.look_direction.y());
+    out += (out.empty() ? "" : "; also ") + std::string(buffer);
+  }
+  return out;
+}
+
+SurveyGuidance computeSurveyGuidance(const CameraModel& camera, int width, int height,
+                                     const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                                     const std::vector<Segment3d>& map_lines, double tolerance_px,
+                                     const SurveyGuidanceOptions& options)
+{
+  SurveyGuidance g;
+  g.width = width;
+  g.height = height;
+  g.columns = std::max(1, options.columns);
+  g.rows = std::max(1, options.rows);
+  g.cells.assign(static_cast<size_t>(g.columns * g.rows), GuidanceCell::kEmpty);
+  if (width <= 0 || height <= 0)
+    return g;
+  const cv::Mat explained = projectedMapMask(camera, width, height, map_lines, tolerance_px);
+  const cv::Mat map_presence = projectedMapMask(camera, width, height, map_lines, 0.0);
+  const CellSamples samples = sampleImageLines(image_lines, explained, g, std::max(0.5, options.sample_step_px));
+  classifyCells(samples, map_presence, options, &g);
+  const std::vector<size_t> lines_per_cell = unexplainedLinesPerCell(samples, options, g.cells.size());
+  const FloorBox box = mapExtent(map_lines, options.map_margin_m);
+  for (auto& cells : unmappedComponents(g))
+  {
+    UnmappedRegion region;
+    region.cells = std::move(cells);
+    for (int c : region.cells)
+      region.image_lines += lines_per_cell[c];
+    if (region.image_lines == 0)
+      continue;  // a few unexplained pieces of lines that count elsewhere: nothing to survey for
+    region.where = describePlace(g, region.cells);
+    placeOnFloor(camera, g, box, options, &region);
+    g.regions.push_back(std::move(region));
+  }
+  std::stable_sort(g.regions.begin(), g.regions.end(),
+                   [](const UnmappedRegion& a, const UnmappedRegion& b) { return a.image_lines > b.image_lines; });
+  if (g.regions.size() > options.max_regions)
+    g.regions.resize(options.max_regions);
+  return g;
+}
+
+Expected<SurveyGuidance> guideSurvey(const FixedCamera& camera, const std::vector<Segment3d>& map_lines,
+                                     const ImageLineOptions& image_line_options, const SurveyGuidanceOptions& options)
+{
+  const FixedCameraConfig& config = camera.config();
+  if (camera.imageCount() == 0)
+    return Error(ErrorCode::kNotEnoughData, "no image has arrived from " + config.image_topic + " yet");
+  std::optional<CameraModel> model;
+  double tolerance_px = options.tolerance_px;
+  if (camera.lastRefused())
+    model = camera.lastRefused()->calibration.camera;
+  else if (camera.calibration())
+    model = camera.calibration()->camera;
+  else if (config.prior)
+  {
+    model = cameraFromPrior(*config.prior, config.image_width, config.image_height);
+    tolerance_px = options.prior_tolerance_width_fraction * config.image_width;
+  }
+  if (!model)
+    return Error(ErrorCode::kInvalidInput, "camera '" + config.name + "' has neither a prior nor a calibration");
+  const auto lines = extractImageLines(camera.medianImage(), *model, image_line_options);
+  if (!lines)
+    return lines.error();
+  std::vector<std::vector<Eigen::Vector2d>> polylines;
+  for (const auto& l : *lines)
+    polylines.push_back(l.points);
+  return computeSurveyGuidance(*model, config.image_width, config.image_height, polylines, map_lines, tolerance_px,
+                               options);
+}
+
+std::vector<Eigen::Vector3d> floorTriangles(const UnmappedRegion& region, double height_m)
+{
+  std::vector<Eigen::Vector3d> out;
+  const auto& p = region.floor_polygon;
+  for (size_t k = 2; k < p.size(); ++k)
+    for (const Eigen::Vector2d& v : {p[0], p[k - 1], p[k]})
+      out.emplace_back(v.x(), v.y(), height_m);
+  return out;
+}
+
+std::string describeRefusal(const Error& error, const SurveyGuidance& guidance)
+{
+  const std::string sentence = guidance.sentence();
+  return sentence.empty() ? error.describe() : error.describe() + ". What to do: " + sentence;
+}
+
+cv::Mat drawSurveyHint(const cv::Mat& image, const SurveyGuidance& g)
+{
+  cv::Mat canvas;
+  if (image.empty())
+    canvas = cv::Mat(std::max(1, g.height), std::max(1, g.width), CV_8UC3, cv::Scalar(0, 0, 0));
+  else if (image.channels() == 1)
+    cv::cvtColor(image, canvas, cv::COLOR_GRAY2BGR);
+  else
+    canvas = image.clone();
+  const cv::Scalar orange(0, 140, 255);  // BGR
+  const int thickness = std::max(1, g.width / 640);
+  for (size_t c = 0; c < g.cells.size(); ++c)
+  {
+    const cv::Rect r = g.cellRect(static_cast<int>(c)) & cv::Rect(0, 0, canvas.cols, canvas.rows);
+    cv::Mat roi = canvas(r);
+    if (g.cells[c] == GuidanceCell::kUnmapped)
+    {
+      cv::addWeighted(roi, 0.55, cv::Mat(roi.size(), roi.type(), orange), 0.45, 0.0, roi);
+      cv::rectangle(canvas, r, orange, thickness);
+    }
+    else if (g.cells[c] == GuidanceCell::kEmpty)
+      roi *= 0.5;
+  }
+  const double scale = std::max(0.4, g.width / 1600.0);
+  const int line_height = static_cast<int>(28 * scale);
+  std::vector<std::string> legend{"orange: image lines without map lines (survey there); dark: no lines"};
+  for (size_t k = 0; k < g.regions.size(); ++k)
+  {
+    const UnmappedRegion& region = g.regions[k];
+    const cv::Rect first = g.cellRect(region.cells.front());
+    cv::putText(canvas, std::to_string(k + 1), {first.x + first.width / 3, first.y + 2 * first.height / 3},
+                cv::FONT_HERSHEY_SIMPLEX, 2.0 * scale, cv::Scalar(255, 255, 255), 2 * thickness, cv::LINE_AA);
+    char buffer[160];
+    std::snprintf(buffer, sizeof(buffer), "%zu: %s, %zu lines: robot to (%.1f, %.1f), look (%.2f, %.2f)", k + 1,
+                  region.where.c_str(), region.image_lines, region.robot_position.x(), region.robot_position.y(),
+                  region.look_direction.x(), region.look_direction.y());
+    legend.emplace_back(buffer);
+  }
+  const int band = line_height * static_cast<int>(legend.size()) + line_height / 2;
+  cv::Mat bottom = canvas(cv::Rect(0, std::max(0, canvas.rows - band), canvas.cols, std::min(band, canvas.rows)));
+  bottom *= 0.3;
+  for (size_t k = 0; k < legend.size(); ++k)
+    cv::putText(canvas, legend[k], {line_height / 2, canvas.rows - band + line_height * static_cast<int>(k + 1)},
+                cv::FONT_HERSHEY_SIMPLEX, 0.7 * scale, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+  return canvas;
+}
+
+}  // namespace insitu_calibration

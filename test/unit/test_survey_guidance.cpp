@@ -1,0 +1,309 @@
+// What a refused camera tells the operator (survey_guidance.h), against the simulator's truth: each fixed camera of
+// the default world rendered, its image lines extracted, and the map a survey would give (the true edges it sees)
+// projected through the true camera. With the whole map little or nothing is unmapped; with the map lines of the
+// left half of the view dropped (a survey that covered only the right half), the left cells are marked, the sentence
+// names the left part, and the floor polygon it sends the robot to holds the feet of the dropped edges' surfaces.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <unistd.h>
+
+#include <opencv2/imgproc.hpp>
+
+#include "insitu_calibration/io/calibration_store.h"
+#include "insitu_calibration/matching/line_matcher.h"
+#include "insitu_calibration/simulation/renderer.h"
+#include "insitu_calibration/simulation/true_edges.h"
+#include "insitu_calibration/simulation/world.h"
+#include "insitu_calibration/survey/fixed_camera.h"
+#include "insitu_calibration/survey/survey_guidance.h"
+
+namespace ic = insitu_calibration;
+namespace sim = insitu_calibration::simulation;
+
+namespace
+{
+const std::string kWorld = std::string(INSITU_SOURCE_DIR) + "/config/worlds/waiting_room.yaml";
+
+struct SeenEdge
+{
+  ic::Segment3d segment;
+  Eigen::Vector2d image_middle;  // the projection of its middle (distorted px)
+  Eigen::Vector3d middle;        // in the map
+};
+
+// The map a survey would give: the true edges whose middle the camera sees (not hidden behind a surface).
+std::vector<SeenEdge> seenEdges(const sim::World& world, const ic::CameraModel& camera, const sim::RenderedView& view)
+{
+  std::vector<SeenEdge> out;
+  for (const auto& e : sim::computeTrueEdges(world))
+  {
+    const Eigen::Vector3d m = 0.5 * (e.start + e.end);
+    const auto p = camera.project(m);
+    if (!p || p->x() < 0 || p->y() < 0 || p->x() > view.depth.cols - 1 || p->y() > view.depth.rows - 1)
+      continue;
+    const float depth = view.depth.at<float>(static_cast<int>(p->y() + 0.5), static_cast<int>(p->x() + 0.5));
+    if (camera.toCamera(m).z() < depth + 0.05)
+      out.push_back({{e.start, e.end}, *p, m});
+  }
+  return out;
+}
+
+// The true edges no part of which the camera sees (in front of it and inside its image).
+std::vector<ic::Segment3d> outOfView(const sim::World& world, const ic::CameraModel& camera, int width, int height)
+{
+  std::vector<ic::Segment3d> out;
+  for (const auto& e : sim::computeTrueEdges(world))
+    if (!ic::visibleInterval(camera, {e.start, e.end}, width, height))
+      out.push_back({e.start, e.end});
+  return out;
+}
+
+std::vector<ic::Segment3d> segmentsOf(const std::vector<SeenEdge>& edges)
+{
+  std::vector<ic::Segment3d> out;
+  for (const auto& e : edges)
+    out.push_back(e.segment);
+  return out;
+}
+
+// Distance from a point to a convex polygon (0 inside).
+double distanceToPolygon(const Eigen::Vector2d& p, const std::vector<Eigen::Vector2d>& polygon)
+{
+  std::vector<cv::Point2f> contour;
+  for (const auto& v : polygon)
+    contour.emplace_back(static_cast<float>(v.x()), static_cast<float>(v.y()));
+  const double signed_distance =
+      cv::pointPolygonTest(contour, cv::Point2f(static_cast<float>(p.x()), static_cast<float>(p.y())), true);
+  return std::max(0.0, -signed_distance);
+}
+
+struct RenderedCamera
+{
+  const sim::SimulatedFixedCamera* camera = nullptr;
+  cv::Mat grey;
+  std::vector<std::vector<Eigen::Vector2d>> lines;
+  std::vector<SeenEdge> edges;
+};
+
+RenderedCamera renderCamera(const sim::World& world, const sim::Renderer& renderer,
+                            const sim::SimulatedFixedCamera& cam)
+{
+  RenderedCamera r;
+  r.camera = &cam;
+  const auto view = renderer.render(sim::ViewCamera::fromModel(cam.camera, cam.width, cam.height));
+  cv::cvtColor(view.rgb, r.grey, cv::COLOR_RGB2GRAY);
+  const auto lines = ic::extractImageLines(r.grey, cam.camera);
+  if (lines)
+    for (const auto& l : *lines)
+      r.lines.push_back(l.points);
+  r.edges = seenEdges(world, cam.camera, view);
+  return r;
+}
+
+class SurveyGuidanceTest : public ::testing::Test
+{
+protected:
+  static void SetUpTestSuite()
+  {
+    auto world = sim::loadWorldFile(kWorld);
+    ASSERT_TRUE(world) << world.error().describe();
+    world_ = new sim::World(std::move(*world));
+    const sim::Renderer renderer(*world_);
+    cameras_ = new std::vector<RenderedCamera>();
+    for (const auto& cam : world_->fixed_cameras)
+      cameras_->push_back(renderCamera(*world_, renderer, cam));
+  }
+  static void TearDownTestSuite()
+  {
+    delete cameras_;
+    delete world_;
+  }
+  static sim::World* world_;
+  static std::vector<RenderedCamera>* cameras_;
+};
+sim::World* SurveyGuidanceTest::world_ = nullptr;
+std::vector<RenderedCamera>* SurveyGuidanceTest::cameras_ = nullptr;
+}  // namespace
+
+TEST_F(SurveyGuidanceTest, FullySurveyedCameraGetsLittleGuidance)
+{
+  const ic::SurveyGuidanceOptions options;
+  for (const RenderedCamera& r : *cameras_)
+  {
+    ASSERT_GT(r.lines.size(), 20u) << r.camera->name;
+    const auto g = ic::computeSurveyGuidance(r.camera->camera, r.camera->width, r.camera->height, r.lines,
+                                             segmentsOf(r.edges), options.tolerance_px, options);
+    size_t unexplained_lines = 0;
+    for (const auto& region : g.regions)
+      unexplained_lines += region.image_lines;
+    std::printf("%s full map: %zu unmapped, %zu covered, %zu empty cells; %zu regions, %zu lines: %s\n",
+                r.camera->name.c_str(), g.count(ic::GuidanceCell::kUnmapped), g.count(ic::GuidanceCell::kCovered),
+                g.count(ic::GuidanceCell::kEmpty), g.regions.size(), unexplained_lines, g.sentence().c_str());
+    EXPECT_LE(g.count(ic::GuidanceCell::kUnmapped), 3u) << r.camera->name;  // of 48
+    EXPECT_LE(unexplained_lines * 10, r.lines.size()) << r.camera->name;
+  }
+}
+
+TEST_F(SurveyGuidanceTest, HalfSurveyedViewMarksTheMissingHalfAndWhereItsSurfacesStand)
+{
+  const ic::SurveyGuidanceOptions options;
+  for (const RenderedCamera& r : *cameras_)
+  {
+    const int width = r.camera->width, height = r.camera->height;
+    // The survey mapped the building except the left half of this camera's view: every edge out of its view, and
+    // of the edges it sees those in the right half.
+    std::vector<ic::Segment3d> kept = outOfView(*world_, r.camera->camera, width, height);
+    std::vector<SeenEdge> dropped, seen_kept;
+    for (const auto& e : r.edges)
+      if (e.image_middle.x() < 0.5 * width)
+        dropped.push_back(e);
+      else
+        kept.push_back(e.segment), seen_kept.push_back(e);
+    const auto g =
+        ic::computeSurveyGuidance(r.camera->camera, width, height, r.lines, kept, options.tolerance_px, options);
+    std::printf("%s right half mapped (%zu of %zu edges): %s\n", r.camera->name.c_str(), kept.size(), r.edges.size(),
+                g.sentence().c_str());
+    // The cells of the outer left and right quarters (columns 0-1 and 6-7) that hold lines.
+    size_t left_lines = 0, left_unmapped = 0, right_lines = 0, right_unmapped = 0;
+    for (size_t c = 0; c < g.cells.size(); ++c)
+    {
+      const int column = static_cast<int>(c) % g.columns;
+      const bool unmapped = g.cells[c] == ic::GuidanceCell::kUnmapped;
+      if (g.cells[c] == ic::GuidanceCell::kEmpty)
+        continue;
+      if (column < 2)
+        ++left_lines, left_unmapped += unmapped ? 1 : 0;
+      if (column >= g.columns - 2)
+        ++right_lines, right_unmapped += unmapped ? 1 : 0;
+    }
+    std::printf("  left quarter: %zu of %zu cells unmapped; right quarter: %zu of %zu\n", left_unmapped, left_lines,
+                right_unmapped, right_lines);
+    EXPECT_GE(left_unmapped * 10, left_lines * 8) << r.camera->name;
+    EXPECT_LE(right_unmapped * 10, right_lines * 1) << r.camera->name;
+    ASSERT_FALSE(g.regions.empty()) << r.camera->name;
+    const ic::UnmappedRegion& main = g.regions.front();
+    EXPECT_NE(main.where.find("left"), std::string::npos) << r.camera->name << ": " << main.where;
+    EXPECT_NE(g.sentence().find("survey the " + main.where + " part of the view"), std::string::npos);
+
+    // The feet of the dropped edges' surfaces (their middles on the floor) lie in or near the regions' polygons.
+    std::vector<double> distances;
+    for (const auto& e : dropped)
+    {
+      double d = 1e9;
+      for (const auto& region : g.regions)
+        d = std::min(d, distanceToPolygon(e.middle.head<2>(), region.floor_polygon));
+      distances.push_back(d);
+    }
+    std::sort(distances.begin(), distances.end());
+    const double median = distances[distances.size() / 2];
+    const double p80 = distances[distances.size() * 8 / 10];
+    std::printf(
+        "  %zu dropped edges' feet to the floor polygons: median %.2f m, 80th percentile %.2f m; robot at "
+        "(%.2f, %.2f) looking (%.2f, %.2f)\n",
+        dropped.size(), median, p80, main.robot_position.x(), main.robot_position.y(), main.look_direction.x(),
+        main.look_direction.y());
+    EXPECT_LT(median, 0.5) << r.camera->name;
+    EXPECT_LT(p80, 1.0) << r.camera->name;
+    const size_t dropped_near = std::count_if(distances.begin(), distances.end(), [](double d) { return d < 0.5; });
+    EXPECT_GE(dropped_near * 10, dropped.size() * 6) << r.camera->name;
+    // ... and the polygons are not the whole view's floor: most feet of the right half's surfaces lie outside.
+    auto inside = [&](const SeenEdge& e) {
+      for (const auto& region : g.regions)
+        if (distanceToPolygon(e.middle.head<2>(), region.floor_polygon) == 0.0)
+          return true;
+      return false;
+    };
+    const size_t kept_inside = std::count_if(seen_kept.begin(), seen_kept.end(), inside);
+    const size_t dropped_inside = std::count_if(dropped.begin(), dropped.end(), inside);
+    for (int row = 0; row < g.rows; ++row)
+    {
+      std::string line = "  ";
+      for (int col = 0; col < g.columns; ++col)
+        line += "CUE"[static_cast<int>(g.cells[row * g.columns + col])];
+      std::printf("%s\n", line.c_str());
+    }
+    std::printf(
+        "  in the regions' polygons: %zu of %zu dropped edges' feet (%zu within 0.5 m), %zu of %zu kept ones'\n",
+        dropped_inside, dropped.size(), dropped_near, kept_inside, seen_kept.size());
+    EXPECT_LE(kept_inside * 10, seen_kept.size() * 3) << r.camera->name;
+    // The robot stands in the room, and the main region's polygon lies ahead of it.
+    EXPECT_TRUE(main.robot_position.x() > 0.0 && main.robot_position.x() < 8.0 && main.robot_position.y() > 0.0 &&
+                main.robot_position.y() < 6.0)
+        << r.camera->name;
+    Eigen::Vector2d polygon_mean = Eigen::Vector2d::Zero();
+    for (const auto& v : main.floor_polygon)
+      polygon_mean += v / static_cast<double>(main.floor_polygon.size());
+    EXPECT_GT((polygon_mean - main.robot_position).dot(main.look_direction), 0.5) << r.camera->name;
+
+    const cv::Mat hint = ic::drawSurveyHint(r.grey, g);
+    EXPECT_EQ(hint.cols, width);
+    EXPECT_EQ(hint.rows, height);
+    EXPECT_EQ(hint.type(), CV_8UC3);
+  }
+}
+
+TEST_F(SurveyGuidanceTest, FixedCameraFromItsPriorAndTheRefusalMessage)
+{
+  const RenderedCamera& r = cameras_->front();
+  ic::FixedCameraConfig config;
+  config.name = r.camera->name;
+  config.image_topic = "/" + r.camera->name + "/image_raw";
+  config.image_width = r.camera->width;
+  config.image_height = r.camera->height;
+  ic::CameraPrior prior;
+  prior.position = r.camera->camera.pose().center();
+  prior.direction = r.camera->camera.pose().rotation.row(2).transpose();
+  prior.horizontal_fov_deg = 2.0 * std::atan(0.5 * r.camera->width / r.camera->camera.intrinsics().fx) * 180.0 / M_PI;
+  config.prior = prior;
+  ic::FixedCamera camera(config, {});
+  EXPECT_FALSE(ic::guideSurvey(camera, segmentsOf(r.edges), {}));  // no image yet
+  ASSERT_TRUE(camera.addImage(r.grey));
+  const auto full = ic::guideSurvey(camera, segmentsOf(r.edges), {});
+  ASSERT_TRUE(full) << full.error().describe();
+  EXPECT_LE(full->count(ic::GuidanceCell::kUnmapped), 3u);
+  const auto empty_map = ic::guideSurvey(camera, {}, {});
+  ASSERT_TRUE(empty_map) << empty_map.error().describe();
+  ASSERT_FALSE(empty_map->regions.empty());
+  EXPECT_GE(empty_map->count(ic::GuidanceCell::kUnmapped), 24u);  // half of the view at least
+  const std::string message =
+      ic::describeRefusal(ic::Error(ic::ErrorCode::kNotEnoughData, "only 3 lines matched"), *empty_map);
+  std::printf("%s\n", message.c_str());
+  EXPECT_NE(message.find("only 3 lines matched. What to do: survey the "), std::string::npos);
+  EXPECT_NE(message.find("drive the robot to about ("), std::string::npos);
+  EXPECT_EQ(ic::describeRefusal(ic::Error(ic::ErrorCode::kNotEnoughData, "x"), ic::SurveyGuidance{}),
+            ic::Error(ic::ErrorCode::kNotEnoughData, "x").describe());
+}
+
+// The hint beside the overlay: written atomically (what a killed write left is removed at start-up), and removed by
+// the calibration that supersedes the refusal.
+TEST_F(SurveyGuidanceTest, TheStoreKeepsTheHintBesideTheOverlayUntilACalibration)
+{
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("test_survey_guidance_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const ic::CalibrationStore store(dir.string());
+  const RenderedCamera& r = cameras_->front();
+  const auto g = ic::computeSurveyGuidance(r.camera->camera, r.camera->width, r.camera->height, r.lines, {}, 12.0);
+  EXPECT_FALSE(store.saveSurveyHint("cam", cv::Mat()));
+  ASSERT_TRUE(store.saveSurveyHint("cam", ic::drawSurveyHint(r.grey, g)));
+  EXPECT_EQ(store.surveyHintPath("cam"), (dir / "cam_survey_hint.png").string());
+  EXPECT_GT(fs::file_size(store.surveyHintPath("cam")), 1000u);
+  std::ofstream(dir / "cam_survey_hint.png.tmp.Ab3xYz") << "killed";
+  EXPECT_EQ(store.removeStaleTemporaries({"cam"}).size(), 1u);
+  ic::CalibrationFile file;
+  file.camera_name = "cam";
+  file.image_width = r.camera->width;
+  file.image_height = r.camera->height;
+  file.camera = r.camera->camera;
+  const ic::Status saved = store.save("cam", file, cv::Mat());
+  ASSERT_TRUE(saved) << saved.error().describe();
+  EXPECT_FALSE(fs::exists(store.surveyHintPath("cam")));
+  fs::remove_all(dir);
+}
