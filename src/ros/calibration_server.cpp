@@ -111,15 +111,6 @@ bool boolMember(XmlRpc::XmlRpcValue& entry, const char* key, bool fallback)
   return fallback;
 }
 
-geometry_msgs::Point toPoint(const Eigen::Vector3d& p)
-{
-  geometry_msgs::Point out;
-  out.x = p.x();
-  out.y = p.y();
-  out.z = p.z();
-  return out;
-}
-
 visualization_msgs::Marker lineList(const std::string& frame, const std::string& ns, int id,
                                     const std::vector<Segment3d>& segments, float r, float g, float b, double width)
 {
@@ -137,8 +128,8 @@ visualization_msgs::Marker lineList(const std::string& frame, const std::string&
   m.color.a = 1.0;
   for (const auto& s : segments)
   {
-    m.points.push_back(toPoint(s.a));
-    m.points.push_back(toPoint(s.b));
+    m.points.push_back(toPointMsg(s.a));
+    m.points.push_back(toPointMsg(s.b));
   }
   return m;
 }
@@ -802,7 +793,7 @@ void CalibrationServer::publishMarkers()
     label.action = calibration ? visualization_msgs::Marker::ADD : visualization_msgs::Marker::DELETE;
     label.pose.orientation.w = 1.0;
     if (calibration)
-      label.pose.position = toPoint(calibration->camera.pose().center() + Eigen::Vector3d(0, 0, 0.3));
+      label.pose.position = toPointMsg(calibration->camera.pose().center() + Eigen::Vector3d(0, 0, 0.3));
     label.scale.z = 0.3;  // m: readable from rviz's default view of a room (0.15 was a few pixels high)
     label.color.r = label.color.g = label.color.b = label.color.a = 1.0;
     label.text = name;

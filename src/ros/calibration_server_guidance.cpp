@@ -6,6 +6,7 @@
 
 #include "insitu_calibration/io/calibration_store.h"
 #include "insitu_calibration/ros/calibration_server.h"
+#include "insitu_calibration/ros/conversions.h"
 
 namespace insitu_calibration
 {
@@ -28,15 +29,6 @@ visualization_msgs::Marker hintMarker(const std::string& frame, int id, int type
   m.color.b = 0.0f;
   m.color.a = 0.35f;
   return m;
-}
-
-geometry_msgs::Point pointOf(const Eigen::Vector3d& p)
-{
-  geometry_msgs::Point out;
-  out.x = p.x();
-  out.y = p.y();
-  out.z = p.z();
-  return out;
 }
 }  // namespace
 
@@ -92,11 +84,11 @@ void CalibrationServer::addSurveyHintMarkers(const std::string& name, int camera
     {
       const UnmappedRegion& region = found->second.regions[k];
       for (const Eigen::Vector3d& p : floorTriangles(region))
-        floor.points.push_back(pointOf(p));
+        floor.points.push_back(toPointMsg(p));
       // Where the robot should stand, pointing where it should look (0.8 m long, 0.3 m above the floor).
       const Eigen::Vector3d from(region.robot_position.x(), region.robot_position.y(), 0.3);
       const Eigen::Vector3d to = from + 0.8 * Eigen::Vector3d(region.look_direction.x(), region.look_direction.y(), 0);
-      arrow.points = {pointOf(from), pointOf(to)};
+      arrow.points = {toPointMsg(from), toPointMsg(to)};
       arrow.scale.x = 0.08;
       arrow.scale.y = 0.16;
       arrow.scale.z = 0.2;

@@ -206,4 +206,13 @@ Expected<cv::Mat> toGrey(const sensor_msgs::Image& image)
   }
 }
 
+geometry_msgs::Point toPointMsg(const Eigen::Vector3d& point)
+{
+  geometry_msgs::Point out;
+  out.x = point.x();
+  out.y = point.y();
+  out.z = point.z();
+  return out;
+}
+
 }  // namespace insitu_calibration

@@ -129,17 +129,17 @@ bool waitForTransform(const tf2_ros::Buffer& tf, const std::string& target, cons
   return false;
 }
 
-// ros::topic::waitForMessage's timeout runs on ROS time too.
-sensor_msgs::CameraInfoConstPtr waitForLatchedCameraInfo(const std::string& topic, double seconds)
+// The latest message on a (latched) topic within `seconds` of wall time (the bag's /clock may have stopped).
+template <typename Message>
+boost::shared_ptr<const Message> waitForLatched(const std::string& topic, double seconds)
 {
-  sensor_msgs::CameraInfoConstPtr received;
+  boost::shared_ptr<const Message> received;
   std::mutex mutex;
   ros::NodeHandle nh;
-  const ros::Subscriber sub =
-      nh.subscribe<sensor_msgs::CameraInfo>(topic, 1, [&](const sensor_msgs::CameraInfoConstPtr& msg) {
-        std::lock_guard<std::mutex> lock(mutex);
-        received = msg;
-      });
+  const ros::Subscriber sub = nh.subscribe<Message>(topic, 1, [&](const boost::shared_ptr<const Message>& msg) {
+    std::lock_guard<std::mutex> lock(mutex);
+    received = msg;
+  });
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(seconds);
   while (ros::ok() && ros::WallTime::now() < deadline)
   {
@@ -218,37 +218,13 @@ TEST(CalibrationNode, CalibratesEveryCameraFromTheSurvey)
         << camera;
 
     // The latched CameraInfo.
-    const auto info = waitForLatchedCameraInfo("/fixed/" + camera + "/camera_info_calibrated", 20.0);
+    const auto info = waitForLatched<sensor_msgs::CameraInfo>("/fixed/" + camera + "/camera_info_calibrated", 20.0);
     ASSERT_TRUE(info) << camera;
     EXPECT_EQ(info->header.frame_id, camera + "_optical_frame");
     EXPECT_EQ(info->width, static_cast<uint32_t>(t.image_width));
     EXPECT_NEAR(info->K[0], file->camera.intrinsics().fx, 1e-6);
     EXPECT_EQ(info->distortion_model, "plumb_bob");
   }
-}
-
-// The latest message on a (latched) topic within `seconds` of wall time (the bag's /clock may have stopped).
-template <typename Message>
-boost::shared_ptr<const Message> waitForLatched(const std::string& topic, double seconds)
-{
-  boost::shared_ptr<const Message> received;
-  std::mutex mutex;
-  ros::NodeHandle nh;
-  const ros::Subscriber sub = nh.subscribe<Message>(topic, 1, [&](const boost::shared_ptr<const Message>& msg) {
-    std::lock_guard<std::mutex> lock(mutex);
-    received = msg;
-  });
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(seconds);
-  while (ros::ok() && ros::WallTime::now() < deadline)
-  {
-    {
-      std::lock_guard<std::mutex> lock(mutex);
-      if (received)
-        return received;
-    }
-    ros::WallDuration(0.05).sleep();
-  }
-  return nullptr;
 }
 
 // What rviz shows after the calibrations (issue 14: rviz aborted once under Xvfb): the markers and every overlay

@@ -9,6 +9,7 @@
 #include "insitu_calibration/simulation/world.h"
 #include "insitu_calibration/survey/fixed_camera.h"
 #include "insitu_calibration/survey/image_explanation.h"
+#include "insitu_calibration/test_support/edges_in_view.h"
 
 namespace ic = insitu_calibration;
 namespace sim = insitu_calibration::simulation;
@@ -16,24 +17,6 @@ namespace sim = insitu_calibration::simulation;
 namespace
 {
 const std::string kWorld = std::string(INSITU_SOURCE_DIR) + "/config/worlds/waiting_room.yaml";
-
-// The map a survey would give: the true edges whose middle the camera sees (not hidden behind a surface).
-std::vector<ic::Segment3d> visibleEdges(const sim::World& world, const ic::CameraModel& camera,
-                                        const sim::RenderedView& view)
-{
-  std::vector<ic::Segment3d> out;
-  for (const auto& e : sim::computeTrueEdges(world))
-  {
-    const Eigen::Vector3d m = 0.5 * (e.start + e.end);
-    const auto p = camera.project(m);
-    if (!p || p->x() < 0 || p->y() < 0 || p->x() > view.depth.cols - 1 || p->y() > view.depth.rows - 1)
-      continue;
-    const float depth = view.depth.at<float>(static_cast<int>(p->y() + 0.5), static_cast<int>(p->x() + 0.5));
-    if (camera.toCamera(m).z() < depth + 0.05)
-      out.push_back({e.start, e.end});
-  }
-  return out;
-}
 
 ic::CameraModel moved(ic::CameraModel c, const Eigen::Vector3d& shift_world)
 {
@@ -52,7 +35,7 @@ TEST(ImageExplanation, TrueCameraAcceptedWrongCamerasRefused)
   for (const auto& cam : world->fixed_cameras)
   {
     const auto view = renderer.render(sim::ViewCamera::fromModel(cam.camera, cam.width, cam.height));
-    const auto map = visibleEdges(*world, cam.camera, view);
+    const auto map = ic::edgesSeenInView(*world, cam.camera, view);
     const auto truth = ic::explainImage(view.rgb, cam.camera, cam.width, cam.height, map, nullptr, options);
     std::printf("%s true camera: %s\n", cam.name.c_str(), truth.describe().c_str());
     EXPECT_TRUE(ic::acceptExplanation(truth, options)) << cam.name;

@@ -22,6 +22,7 @@
 #include "insitu_calibration/simulation/world.h"
 #include "insitu_calibration/survey/fixed_camera.h"
 #include "insitu_calibration/survey/survey_guidance.h"
+#include "insitu_calibration/test_support/edges_in_view.h"
 
 namespace ic = insitu_calibration;
 namespace sim = insitu_calibration::simulation;
@@ -41,15 +42,10 @@ struct SeenEdge
 std::vector<SeenEdge> seenEdges(const sim::World& world, const ic::CameraModel& camera, const sim::RenderedView& view)
 {
   std::vector<SeenEdge> out;
-  for (const auto& e : sim::computeTrueEdges(world))
+  for (const ic::Segment3d& e : ic::edgesSeenInView(world, camera, view))
   {
-    const Eigen::Vector3d m = 0.5 * (e.start + e.end);
-    const auto p = camera.project(m);
-    if (!p || p->x() < 0 || p->y() < 0 || p->x() > view.depth.cols - 1 || p->y() > view.depth.rows - 1)
-      continue;
-    const float depth = view.depth.at<float>(static_cast<int>(p->y() + 0.5), static_cast<int>(p->x() + 0.5));
-    if (camera.toCamera(m).z() < depth + 0.05)
-      out.push_back({{e.start, e.end}, *p, m});
+    const Eigen::Vector3d m = 0.5 * (e.a + e.b);
+    out.push_back({e, *camera.project(m), m});
   }
   return out;
 }

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include <geometry_msgs/Point.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
@@ -33,6 +34,8 @@ insitu_calibration::CalibrationResult toResultMsg(const CalibrationFile& file, c
                                                   const std::string& world_frame);
 
 Eigen::Isometry3d toEigen(const geometry_msgs::Transform& transform);
+// A point of a marker.
+geometry_msgs::Point toPointMsg(const Eigen::Vector3d& point);
 
 // An RGB-D frame of the core from the Xtion's messages and the optical frame's pose in the map. Errors: images that
 // cv_bridge cannot convert (kInvalidInput); the frame's content is checked by the core (validateFrame).
