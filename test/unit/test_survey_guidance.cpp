@@ -79,6 +79,56 @@ double distanceToPolygon(const Eigen::Vector2d& p, const std::vector<Eigen::Vect
   return std::max(0.0, -signed_distance);
 }
 
+// Of the outer left and right quarters of the view (columns 0-1 and 6-7), the cells that hold lines and how many of
+// those are unmapped.
+struct QuarterCells
+{
+  size_t left_lines = 0, left_unmapped = 0, right_lines = 0, right_unmapped = 0;
+};
+QuarterCells countQuarterCells(const ic::SurveyGuidance& g)
+{
+  QuarterCells q;
+  for (size_t c = 0; c < g.cells.size(); ++c)
+  {
+    const int column = static_cast<int>(c) % g.columns;
+    const bool unmapped = g.cells[c] == ic::GuidanceCell::kUnmapped;
+    if (g.cells[c] == ic::GuidanceCell::kEmpty)
+      continue;
+    if (column < 2)
+      ++q.left_lines, q.left_unmapped += unmapped ? 1 : 0;
+    if (column >= g.columns - 2)
+      ++q.right_lines, q.right_unmapped += unmapped ? 1 : 0;
+  }
+  return q;
+}
+
+// Each edge's foot (its middle on the floor) to the nearest region's floor polygon, sorted.
+std::vector<double> distancesToRegions(const std::vector<SeenEdge>& edges, const ic::SurveyGuidance& g)
+{
+  std::vector<double> distances;
+  for (const auto& e : edges)
+  {
+    double d = 1e9;
+    for (const auto& region : g.regions)
+      d = std::min(d, distanceToPolygon(e.middle.head<2>(), region.floor_polygon));
+    distances.push_back(d);
+  }
+  std::sort(distances.begin(), distances.end());
+  return distances;
+}
+
+// The cells as rows of C (covered), U (unmapped) and E (empty).
+void printCells(const ic::SurveyGuidance& g)
+{
+  for (int row = 0; row < g.rows; ++row)
+  {
+    std::string line = "  ";
+    for (int col = 0; col < g.columns; ++col)
+      line += "CUE"[static_cast<int>(g.cells[row * g.columns + col])];
+    std::printf("%s\n", line.c_str());
+  }
+}
+
 struct RenderedCamera
 {
   const sim::SimulatedFixedCamera* camera = nullptr;
@@ -165,38 +215,18 @@ TEST_F(SurveyGuidanceTest, HalfSurveyedViewMarksTheMissingHalfAndWhereItsSurface
         ic::computeSurveyGuidance(r.camera->camera, width, height, r.lines, kept, options.tolerance_px, options);
     std::printf("%s right half mapped (%zu of %zu edges): %s\n", r.camera->name.c_str(), kept.size(), r.edges.size(),
                 g.sentence().c_str());
-    // The cells of the outer left and right quarters (columns 0-1 and 6-7) that hold lines.
-    size_t left_lines = 0, left_unmapped = 0, right_lines = 0, right_unmapped = 0;
-    for (size_t c = 0; c < g.cells.size(); ++c)
-    {
-      const int column = static_cast<int>(c) % g.columns;
-      const bool unmapped = g.cells[c] == ic::GuidanceCell::kUnmapped;
-      if (g.cells[c] == ic::GuidanceCell::kEmpty)
-        continue;
-      if (column < 2)
-        ++left_lines, left_unmapped += unmapped ? 1 : 0;
-      if (column >= g.columns - 2)
-        ++right_lines, right_unmapped += unmapped ? 1 : 0;
-    }
-    std::printf("  left quarter: %zu of %zu cells unmapped; right quarter: %zu of %zu\n", left_unmapped, left_lines,
-                right_unmapped, right_lines);
-    EXPECT_GE(left_unmapped * 10, left_lines * 8) << r.camera->name;
-    EXPECT_LE(right_unmapped * 10, right_lines * 1) << r.camera->name;
+    const QuarterCells q = countQuarterCells(g);
+    std::printf("  left quarter: %zu of %zu cells unmapped; right quarter: %zu of %zu\n", q.left_unmapped, q.left_lines,
+                q.right_unmapped, q.right_lines);
+    EXPECT_GE(q.left_unmapped * 10, q.left_lines * 8) << r.camera->name;
+    EXPECT_LE(q.right_unmapped * 10, q.right_lines * 1) << r.camera->name;
     ASSERT_FALSE(g.regions.empty()) << r.camera->name;
     const ic::UnmappedRegion& main = g.regions.front();
     EXPECT_NE(main.where.find("left"), std::string::npos) << r.camera->name << ": " << main.where;
     EXPECT_NE(g.sentence().find("survey the " + main.where + " part of the view"), std::string::npos);
 
     // The feet of the dropped edges' surfaces (their middles on the floor) lie in or near the regions' polygons.
-    std::vector<double> distances;
-    for (const auto& e : dropped)
-    {
-      double d = 1e9;
-      for (const auto& region : g.regions)
-        d = std::min(d, distanceToPolygon(e.middle.head<2>(), region.floor_polygon));
-      distances.push_back(d);
-    }
-    std::sort(distances.begin(), distances.end());
+    const std::vector<double> distances = distancesToRegions(dropped, g);
     const double median = distances[distances.size() / 2];
     const double p80 = distances[distances.size() * 8 / 10];
     std::printf(
@@ -217,13 +247,7 @@ TEST_F(SurveyGuidanceTest, HalfSurveyedViewMarksTheMissingHalfAndWhereItsSurface
     };
     const size_t kept_inside = std::count_if(seen_kept.begin(), seen_kept.end(), inside);
     const size_t dropped_inside = std::count_if(dropped.begin(), dropped.end(), inside);
-    for (int row = 0; row < g.rows; ++row)
-    {
-      std::string line = "  ";
-      for (int col = 0; col < g.columns; ++col)
-        line += "CUE"[static_cast<int>(g.cells[row * g.columns + col])];
-      std::printf("%s\n", line.c_str());
-    }
+    printCells(g);
     std::printf(
         "  in the regions' polygons: %zu of %zu dropped edges' feet (%zu within 0.5 m), %zu of %zu kept ones'\n",
         dropped_inside, dropped.size(), dropped_near, kept_inside, seen_kept.size());
