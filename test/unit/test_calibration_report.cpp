@@ -265,6 +265,26 @@ TEST_F(CalibrationReportTest, ADirectoryThatCannotBeWrittenGivesAnErrorAndNoFile
   EXPECT_EQ(std::distance(fs::directory_iterator(directory_), fs::directory_iterator()), 2);  // a_file and out
 }
 
+// A refused result's camera may see some world points behind it: their residuals are infinite (calibrate_survey
+// crashed in the residual histogram on generated building 409366). The report is written with them counted beyond
+// the axis, and the figures load.
+TEST_F(CalibrationReportTest, PointsBehindTheCameraAreCountedNotCrashedOn)
+{
+  const Calibrated c = calibrateSynthetic();
+  ic::CalibrationReport report = makeReport(c);
+  const ic::CameraModel& camera = report.calibration.camera;
+  const Eigen::Vector3d behind = camera.pose().worldFromCamera() * Eigen::Vector3d(0.0, 0.0, -2.0);
+  for (size_t i : {0, 3})
+    for (Eigen::Vector3d& x : report.correspondences.lines[i].world)
+      x = behind + 0.1 * (x - camera.pose().center()).normalized();
+  ASSERT_FALSE(camera.project(report.correspondences.lines[0].world[0]));
+  const auto written = ic::writeCalibrationReport(directory_.string(), report);
+  ASSERT_TRUE(written) << written.error().message();
+  const cv::Mat histogram = cv::imread((directory_ / "cam_a&b_report_residuals.png").string());
+  EXPECT_FALSE(histogram.empty());
+  EXPECT_NE(readText((directory_ / "cam_a&b_report.html").string()).find("residuals"), std::string::npos);
+}
+
 // A map edge along image row 480: seen as a black/white edge left of column 640, hidden behind a uniform grey
 // foreground object right of it. The report's overlay draws the map line wide only where it is seen.
 TEST(CalibrationReportOverlay, AMapEdgeHiddenBehindAForegroundObjectIsNotDrawnThroughIt)

@@ -200,14 +200,17 @@ cv::Mat overlayFigure(const CalibrationReport& report)
 
 cv::Mat residualHistogram(const std::vector<LineRow>& rows, double inlier_threshold_px)
 {
+  // A refused result's camera may put points anywhere: a residual that is not finite (a point behind the camera)
+  // is counted with those beyond the axis, and no residual picks a bin outside the chart.
   std::vector<double> all, inliers;
   for (const LineRow& row : rows)
     for (const double r : row.residuals_px)
-    {
-      all.push_back(r);
-      if (row.inlier)
-        inliers.push_back(r);
-    }
+      if (std::isfinite(r))
+      {
+        all.push_back(r);
+        if (row.inlier)
+          inliers.push_back(r);
+      }
   const double x_max = std::max({1.05 * percentile(all, 0.99), 1.2 * inlier_threshold_px, 0.1});
   constexpr int kBins = 30;
   std::vector<int> in(kBins, 0), out(kBins, 0);
@@ -215,8 +218,9 @@ cv::Mat residualHistogram(const std::vector<LineRow>& rows, double inlier_thresh
   for (const LineRow& row : rows)
     for (const double r : row.residuals_px)
     {
-      clipped += r >= x_max ? 1 : 0;
-      const int bin = std::min(kBins - 1, static_cast<int>(r / x_max * kBins));
+      const double position = std::isfinite(r) ? std::max(0.0, r) / x_max * kBins : kBins;
+      clipped += position >= kBins ? 1 : 0;
+      const int bin = position >= kBins ? kBins - 1 : static_cast<int>(position);
       (row.inlier ? in : out)[bin] += 1;
     }
   int y_max = 1;
@@ -249,9 +253,10 @@ cv::Mat residualHistogram(const std::vector<LineRow>& rows, double inlier_thresh
 
 cv::Mat lineResidualChart(const std::vector<LineRow>& rows, double inlier_threshold_px)
 {
-  std::vector<double> values;
+  std::vector<double> values;  // the finite ones: a NaN would break the percentile's ordering
   for (const LineRow& row : rows)
-    values.push_back(row.rms_px);
+    if (std::isfinite(row.rms_px))
+      values.push_back(row.rms_px);
   const double y_max = std::max({1.1 * percentile(values, 0.95), 1.3 * inlier_threshold_px, 0.1});
   Chart c = makeChart(format("RMS point-to-line residual of each of the %.0f lines", static_cast<double>(rows.size())),
                       "line id (row of the table)", "RMS residual (px)", -0.5,
