@@ -47,32 +47,29 @@ Outcome runNode(const std::string& name)
   outcome.output = text.str();
   return outcome;
 }
+
+// The node started under `name` exits with status 1 and its output says `message`.
+void expectFatal(const std::string& name, const std::string& message)
+{
+  const Outcome outcome = runNode(name);
+  EXPECT_EQ(outcome.exit_status, 1) << outcome.output;
+  EXPECT_NE(outcome.output.find(message), std::string::npos) << message << "\n" << outcome.output;
+}
 }  // namespace
 
 TEST(CalibrationNodeParameters, NegativeRateIsFatal)
 {
-  const Outcome outcome = runNode("negative_rate");
-  EXPECT_EQ(outcome.exit_status, 1) << outcome.output;
-  EXPECT_NE(outcome.output.find("parameter ~status_period is -1, allowed: a number in [0, 86400] s"), std::string::npos)
-      << outcome.output;
+  expectFatal("negative_rate", "parameter ~status_period is -1, allowed: a number in [0, 86400] s");
 }
 
 TEST(CalibrationNodeParameters, NanSigmaIsFatal)
 {
-  const Outcome outcome = runNode("nan_sigma");
-  EXPECT_EQ(outcome.exit_status, 1) << outcome.output;
-  EXPECT_NE(outcome.output.find("parameter ~localization_sigma_m is nan, allowed: a number in [0, 10] m"),
-            std::string::npos)
-      << outcome.output;
+  expectFatal("nan_sigma", "parameter ~localization_sigma_m is nan, allowed: a number in [0, 10] m");
 }
 
 TEST(CalibrationNodeParameters, StringForNumberIsFatal)
 {
-  const Outcome outcome = runNode("string_number");
-  EXPECT_EQ(outcome.exit_status, 1) << outcome.output;
-  EXPECT_NE(outcome.output.find("parameter ~tf_timeout is the string 'fast', allowed: a number in [0, 60] s"),
-            std::string::npos)
-      << outcome.output;
+  expectFatal("string_number", "parameter ~tf_timeout is the string 'fast', allowed: a number in [0, 60] s");
 }
 
 TEST(CalibrationNodeParameters, EveryBadParameterIsReported)
