@@ -65,6 +65,8 @@ Options:
                         keyframes become map lines (default 0: off)
   --floor-height M      the floor plane's z in the world frame (default 0)
   --floor-max-range M   floor lines farther from the camera are not used (default 12)
+  --occlusion-test 0|1  the final check leaves out map lines that surfaces the survey's depth measured hide from
+                        the camera (default 1)
   --camera NAME         calibrate only this camera
   --search-starts N     distinct results of the prior search refined per camera (default 4)
   --truth-dir DIR       the simulator's truth folder (<bag>_truth): also report, per camera, how many matches pair
@@ -548,6 +550,7 @@ bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options)
   options->floor.enabled = cli.number("floor-lines", options->floor.enabled ? 1.0 : 0.0) != 0.0;
   options->floor.floor_height_m = cli.number("floor-height", options->floor.floor_height_m);
   options->floor.max_range_m = cli.number("floor-max-range", options->floor.max_range_m);
+  options->occlusion.enabled = cli.number("occlusion-test", options->occlusion.enabled ? 1.0 : 0.0) != 0.0;
   if (cli.flag("no-refine"))
     options->cameras.matcher.calibration.refine = false;
   if (cli.flag("no-ransac"))
@@ -741,7 +744,8 @@ int main(int argc, char** argv)
   ic::CommandLine cli(
       argc, argv,
       {"cameras", "params", "out-dir", "world-frame", "min-support", "camera", "search-starts", "truth-dir",
-       "prior-from-truth", "prior-sigmas", "max-spread", "localization-sigma", "odom-frame", "odometry-sigma"},
+       "prior-from-truth", "prior-sigmas", "max-spread", "localization-sigma", "odom-frame", "odometry-sigma",
+       "floor-lines", "floor-height", "floor-max-range", "occlusion-test"},
       {"no-refine", "no-ransac", "no-report", "quiet", "oracle", "oracle-details", "trace", "no-odometry"});
   if (cli.help())
   {

@@ -4,6 +4,7 @@
 #ifndef INSITU_CALIBRATION_SURVEY_FIXED_CAMERA_H
 #define INSITU_CALIBRATION_SURVEY_FIXED_CAMERA_H
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -14,6 +15,7 @@
 #include "insitu_calibration/geometry/segment.h"
 #include "insitu_calibration/io/calibration_file.h"
 #include "insitu_calibration/lines/image_lines.h"
+#include "insitu_calibration/map/surface_voxels.h"
 #include "insitu_calibration/matching/line_matcher.h"
 #include "insitu_calibration/survey/camera_verification.h"
 #include "insitu_calibration/survey/image_explanation.h"
@@ -122,6 +124,9 @@ public:
   void setOptions(const FixedCameraOptions& options);
   // Forgets images, matches and calibration.
   void reset();
+  // The surfaces the survey measured: the final check leaves out the map lines (or their parts) they hide from the
+  // camera. None: every map line in view counts.
+  void setOccluders(std::shared_ptr<const SurfaceVoxels> occluders) { occluders_ = std::move(occluders); }
 
   // The camera used to look at the map: the calibration when there is one, else the prior's.
   std::optional<CameraModel> currentCamera() const;
@@ -133,6 +138,8 @@ private:
   Status check(const CameraCalibration& calibration, size_t matched_lines) const;
   // The final check of a map-based result: measures how well it explains the median image, refuses it if badly.
   Status checkExplanation(FixedCameraResult& result, const std::vector<Segment3d>& map_lines) const;
+  // The map lines in the camera's view, clipped to it, less the parts the occluders hide from it.
+  std::vector<Segment3d> unhiddenLines(const CameraModel& camera, const std::vector<Segment3d>& map_lines) const;
   // The image lines of the median image under a distortion (the polylines only).
   Expected<std::vector<std::vector<Eigen::Vector2d>>> medianLines(const DivisionModel& distortion) const;
   void measureVerificationReference(const std::vector<Segment3d>& map_lines);
@@ -144,6 +151,7 @@ private:
   std::optional<FixedCameraResult> last_result_;
   std::optional<FixedCameraResult> last_refused_;
   size_t last_matched_ = 0;
+  std::shared_ptr<const SurfaceVoxels> occluders_;
   // The watchdog's zero (verify): the pose its own fit finds on the images of the calibration, kept with the
   // calibrated pose it belongs to. Its line-end fit and the calibration's adjustment weigh the lines differently:
   // their optima lie a few millimetres apart, which would otherwise read as a motion. None after a restart (the

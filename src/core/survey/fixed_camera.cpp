@@ -163,10 +163,23 @@ Status FixedCamera::check(const CameraCalibration& c, size_t matched_lines) cons
   return Success{};
 }
 
+std::vector<Segment3d> FixedCamera::unhiddenLines(const CameraModel& camera,
+                                                  const std::vector<Segment3d>& map_lines) const
+{
+  if (!occluders_)
+    return map_lines;
+  std::vector<Segment3d> in_view;
+  for (const Segment3d& line : map_lines)
+    if (const auto interval = visibleInterval(camera, line, config_.image_width, config_.image_height))
+      in_view.push_back({line.pointAt(interval->first), line.pointAt(interval->second)});
+  return occluders_->unoccludedParts(camera.pose().center(), in_view);
+}
+
 Status FixedCamera::checkExplanation(FixedCameraResult& result, const std::vector<Segment3d>& map_lines) const
 {
   const CameraCalibration& c = result.calibration;
-  result.explanation = explainImage(median_.median(), c.camera, config_.image_width, config_.image_height, map_lines,
+  const std::vector<Segment3d> seen = unhiddenLines(c.camera, map_lines);
+  result.explanation = explainImage(median_.median(), c.camera, config_.image_width, config_.image_height, seen,
                                     c.refinement ? &*c.refinement : nullptr, options_.explanation);
   return acceptExplanation(result.explanation, options_.explanation);
 }

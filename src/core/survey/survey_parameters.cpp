@@ -57,6 +57,7 @@ SurveyOptions readSurveyParameters(ParameterSource& source, SurveyOptions option
 {
   readMapParameters(source, options);
   readFloorParameters(source, options.floor);
+  options.occlusion.enabled = source.flag("occlusion_test", options.occlusion.enabled);
   readCameraParameters(source, options.cameras);
   FieldThresholds field = thresholds ? *thresholds : FieldThresholds{};
   field.cameras = options.cameras;
