@@ -58,6 +58,10 @@ public:
   // hidden parts are dropped).
   std::vector<Segment3d> unoccludedParts(const Eigen::Vector3d& center, const std::vector<Segment3d>& lines) const;
 
+  // Whether no point of the segment (sampled every 2.5 sample_step_m) can be seen from any of the viewpoints: a
+  // line no camera near a prior could see.
+  bool hiddenFromAll(const std::vector<Eigen::Vector3d>& viewpoints, const Segment3d& line) const;
+
 private:
   uint64_t key(const Eigen::Vector3d& point) const;
 

@@ -135,6 +135,9 @@ private:
   Expected<FixedCameraResult> calibrateFromFile(const std::string& world_frame);
   Expected<FixedCameraResult> calibrateFromMap(const std::vector<Segment3d>& map_lines, const std::string& world_frame,
                                                const std::vector<double>& map_line_sigmas_m);
+  // The map lines not hidden from every viewpoint near the prior by the occluders (all without either), with their
+  // sigmas (when given) kept in step.
+  std::vector<Segment3d> seeableFromPrior(const std::vector<Segment3d>& map_lines, std::vector<double>* sigmas) const;
   Status check(const CameraCalibration& calibration, size_t matched_lines) const;
   // The final check of a map-based result: measures how well it explains the median image, refuses it if badly.
   Status checkExplanation(FixedCameraResult& result, const std::vector<Segment3d>& map_lines) const;

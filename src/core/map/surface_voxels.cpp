@@ -109,4 +109,14 @@ std::vector<Segment3d> SurfaceVoxels::unoccludedParts(const Eigen::Vector3d& cen
   return out;
 }
 
+bool SurfaceVoxels::hiddenFromAll(const std::vector<Eigen::Vector3d>& viewpoints, const Segment3d& line) const
+{
+  const int n = std::clamp(static_cast<int>(std::ceil(line.length() / (2.5 * options_.sample_step_m))), 1, 40);
+  for (int k = 0; k < n; ++k)
+    for (const Eigen::Vector3d& from : viewpoints)
+      if (!blocks(from, line.pointAt((k + 0.5) / n)))
+        return false;
+  return true;
+}
+
 }  // namespace insitu_calibration

@@ -214,14 +214,43 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromFile(const std::string& wo
   return result;
 }
 
-Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segment3d>& map_lines,
+std::vector<Segment3d> FixedCamera::seeableFromPrior(const std::vector<Segment3d>& map_lines,
+                                                     std::vector<double>* sigmas) const
+{
+  if (!occluders_ || !config_.prior)
+    return map_lines;
+  const CameraPrior& prior = *config_.prior;
+  std::vector<Eigen::Vector3d> viewpoints = {prior.position};
+  for (int axis = 0; axis < 3; ++axis)
+    for (const double sign : {-1.0, 1.0})
+      viewpoints.push_back(prior.position + sign * prior.position_sigma_m * Eigen::Vector3d::Unit(axis));
+  std::vector<Segment3d> seeable;
+  std::vector<double> seeable_sigmas;
+  for (size_t i = 0; i < map_lines.size(); ++i)
+    if (!occluders_->hiddenFromAll(viewpoints, map_lines[i]))
+    {
+      seeable.push_back(map_lines[i]);
+      if (i < sigmas->size())
+        seeable_sigmas.push_back((*sigmas)[i]);
+    }
+  if (!sigmas->empty())
+    *sigmas = std::move(seeable_sigmas);
+  return seeable;
+}
+
+Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segment3d>& all_map_lines,
                                                           const std::string& world_frame,
-                                                          const std::vector<double>& map_line_sigmas_m)
+                                                          const std::vector<double>& map_line_sigmas_all)
 {
   if (median_.empty())
     return Error(ErrorCode::kNotEnoughData, "no image has arrived from " + config_.image_topic + " yet");
-  if (map_lines.empty())
+  if (all_map_lines.empty())
     return Error(ErrorCode::kNotEnoughData, "the 3D line map is empty: drive the robot through the camera's view");
+  // Map lines no camera near the prior could see (behind surfaces the survey measured, from the prior's position
+  // and from a sigma off it along each axis) would only be wrong candidates for the matching.
+  std::vector<double> sigmas = map_line_sigmas_all;
+  const std::vector<Segment3d> map_lines = seeableFromPrior(all_map_lines, &sigmas);
+  const std::vector<double>& map_line_sigmas_m = sigmas;
   const cv::Mat median = median_.median();
   DivisionModel distortion{0.0, imageCenter(config_.image_width, config_.image_height)};
   std::optional<FixedCameraResult> best;
