@@ -133,6 +133,40 @@ struct ImageNoiseConfig
   double shot_gain = 0.02;  // variance grows by shot_gain per grey level: sigma^2 = read^2 + gain I
 };
 
+// A colour camera's optics and image processing (the world file's appearance block, docs/simulator.md). The defaults
+// change nothing; every effect is off at its neutral value.
+struct CameraAppearance
+{
+  double blur_sigma_px = 0.0;  // Gaussian point-spread function, pixels (0: sharp)
+  double vignetting = 0.0;  // 0..1: brightness times 1 - vignetting (1 - cos^4 theta), theta the ray's angle off axis
+  double exposure = 1.0;    // gain on all channels (values saturate at 255)
+  Eigen::Vector3d white_balance = Eigen::Vector3d::Ones();  // gains on R, G, B
+  int jpeg_quality = 0;  // 1..100: each frame compressed to JPEG at this quality and decoded; 0: none
+
+  bool neutral() const
+  {
+    return blur_sigma_px == 0.0 && vignetting == 0.0 && exposure == 1.0 && white_balance == Eigen::Vector3d::Ones() &&
+           jpeg_quality == 0;
+  }
+};
+
+// The Xtion's registered depth beyond its noise model (DepthSensorConfig). Neutral by default.
+struct DepthAppearance
+{
+  double flying_pixels = 0.0;   // 0..1: share of the pixels at a depth step that take a depth between its two sides
+  double flying_step_m = 0.05;  // a step: 4-neighbours further apart in depth than this (+ 2 % of the depth)
+  double low_frequency_coefficient = 0.0;  // 1/m: a smooth error field with sigma coefficient * z^2
+  double low_frequency_px = 60.0;          // its correlation length, pixels
+  Eigen::Vector2d misregistration_px = Eigen::Vector2d::Zero();  // depth registered this far off the RGB image
+};
+
+struct Appearance
+{
+  CameraAppearance xtion_rgb;
+  DepthAppearance depth;
+  CameraAppearance fixed_cameras;  // every fixed camera's unless it has its own appearance block
+};
+
 struct SimulatedFixedCamera
 {
   std::string name;
@@ -142,6 +176,7 @@ struct SimulatedFixedCamera
   double rate_hz = 0.2;
   double phase_s = 0.0;  // first frame at start + phase
   ImageNoiseConfig noise;
+  CameraAppearance appearance;
   int supersampling = 4;
 };
 
@@ -151,6 +186,7 @@ struct World
   std::string source;  // the file it came from
   std::vector<Surface> surfaces;
   Lighting lighting;
+  Appearance appearance;
   Route route;
   XtionConfig xtion;
   std::vector<SimulatedFixedCamera> fixed_cameras;

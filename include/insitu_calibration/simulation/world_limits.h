@@ -30,7 +30,12 @@ constexpr size_t kMaxFixedCameras = 64;
 constexpr double kMinRateHz = 1e-3;  // fixed cameras' frame rate
 constexpr double kMaxRateHz = 100.0;
 constexpr double kMaxPhaseS = 1e4;
-constexpr double kMaxNoise = 1e3;  // grey levels (sigmas, gains)
+constexpr double kMaxNoise = 1e3;         // grey levels (sigmas, gains)
+constexpr double kMaxBlurSigmaPx = 10.0;  // appearance: the blur kernel is 6 sigma wide
+constexpr double kMinGain = 0.05;         // appearance: exposure and white-balance gains
+constexpr double kMaxGain = 10.0;
+constexpr double kMaxMisregistrationPx = 10.0;  // appearance.depth.misregistration_px, each axis
+constexpr double kMinLowFrequencyPx = 2.0;      // appearance.depth.low_frequency_px (grid of width / this nodes)
 }  // namespace world_limits
 
 // Refuses a world beyond the limits above or with a non-finite number, naming the entry.

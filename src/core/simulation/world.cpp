@@ -543,14 +543,74 @@ Expected<XtionConfig> parseXtion(const yaml_util::YamlNode& node, const std::str
   return x;
 }
 
+// Keys absent from the block keep the values of base (the world's default for its kind of camera).
+Expected<CameraAppearance> parseCameraAppearance(const yaml_util::YamlNode& node, const std::string& where,
+                                                 const CameraAppearance& base)
+{
+  CameraAppearance a = base;
+  if (!node)
+    return a;
+  const MapReader m(node, where);
+  TRY(m.check({"blur_sigma_px", "vignetting", "exposure", "white_balance", "jpeg_quality"}));
+  TRY_ASSIGN(a.blur_sigma_px, m.number("blur_sigma_px", a.blur_sigma_px));
+  TRY_ASSIGN(a.vignetting, m.number("vignetting", a.vignetting));
+  TRY_ASSIGN(a.exposure, m.number("exposure", a.exposure));
+  if (m.has("white_balance"))
+    TRY_ASSIGN(a.white_balance, m.vector<3>("white_balance"));
+  TRY_ASSIGN(a.jpeg_quality, m.integer("jpeg_quality", a.jpeg_quality));
+  return a;
+}
+
+Expected<Appearance> parseAppearance(const yaml_util::YamlNode& node, const std::string& where)
+{
+  Appearance a;
+  if (!node)
+    return a;
+  const MapReader m(node, where);
+  TRY(m.check({"xtion_rgb", "fixed_cameras", "depth"}));
+  TRY_ASSIGN(a.xtion_rgb, parseCameraAppearance(m["xtion_rgb"], m.at("xtion_rgb"), a.xtion_rgb));
+  TRY_ASSIGN(a.fixed_cameras, parseCameraAppearance(m["fixed_cameras"], m.at("fixed_cameras"), a.fixed_cameras));
+  if (m.has("depth"))
+  {
+    const MapReader d(m["depth"], m.at("depth"));
+    TRY(d.check(
+        {"flying_pixels", "flying_step_m", "low_frequency_coefficient", "low_frequency_px", "misregistration_px"}));
+    DepthAppearance& z = a.depth;
+    TRY_ASSIGN(z.flying_pixels, d.number("flying_pixels", z.flying_pixels));
+    TRY_ASSIGN(z.flying_step_m, d.number("flying_step_m", z.flying_step_m));
+    TRY_ASSIGN(z.low_frequency_coefficient, d.number("low_frequency_coefficient", z.low_frequency_coefficient));
+    TRY_ASSIGN(z.low_frequency_px, d.number("low_frequency_px", z.low_frequency_px));
+    if (d.has("misregistration_px"))
+      TRY_ASSIGN(z.misregistration_px, d.vector<2>("misregistration_px"));
+  }
+  return a;
+}
+
 Expected<SimulatedFixedCamera> parseFixedCamera(const yaml_util::YamlNode& node, size_t index,
-                                                const std::string& source)
+                                                const std::string& source, const CameraAppearance& appearance)
 {
   std::string where = source + ": fixed_cameras[" + std::to_string(index) + "]";
   const MapReader m(node, where);
-  TRY(m.check({"name", "width", "height", "fx", "fy", "cx", "cy", "skew", "lambda", "corner_displacement_px",
-               "distortion_center", "position", "look_at", "roll_deg", "orientation", "rate", "phase", "noise",
-               "supersampling"}));
+  TRY(m.check({"name",
+               "width",
+               "height",
+               "fx",
+               "fy",
+               "cx",
+               "cy",
+               "skew",
+               "lambda",
+               "corner_displacement_px",
+               "distortion_center",
+               "position",
+               "look_at",
+               "roll_deg",
+               "orientation",
+               "rate",
+               "phase",
+               "noise",
+               "supersampling",
+               "appearance"}));
   SimulatedFixedCamera c;
   TRY_ASSIGN(c.name, m.text("name"));
   where += " '" + c.name + "'";
@@ -633,6 +693,7 @@ Expected<SimulatedFixedCamera> parseFixedCamera(const yaml_util::YamlNode& node,
     if (c.noise.read_sigma < 0.0 || c.noise.shot_gain < 0.0)
       return invalid(z.where(), "noise parameters must not be negative");
   }
+  TRY_ASSIGN(c.appearance, parseCameraAppearance(n["appearance"], n.at("appearance"), appearance));
   return c;
 }
 
@@ -798,13 +859,14 @@ Expected<World> parseWorldEntries(const std::string& yaml_text, const std::strin
   if (!root)
     return root.error();
   const MapReader m(root->root(), source);
-  TRY(m.check({"name", "description", "lighting", "surfaces", "route", "xtion", "fixed_cameras"}));
+  TRY(m.check({"name", "description", "lighting", "appearance", "surfaces", "route", "xtion", "fixed_cameras"}));
   World world;
   world.source = source;
   world.name = std::filesystem::path(source).stem().string();
   if (m.has("name"))
     TRY_ASSIGN(world.name, m.text("name"));
   TRY_ASSIGN(world.lighting, parseLighting(m["lighting"], source + ": lighting"));
+  TRY_ASSIGN(world.appearance, parseAppearance(m["appearance"], source + ": appearance"));
 
   TRY(m.require("surfaces"));
   if (!m["surfaces"].IsSequence() || m["surfaces"].size() == 0)
@@ -832,7 +894,7 @@ Expected<World> parseWorldEntries(const std::string& yaml_text, const std::strin
   for (size_t i = 0; i < m["fixed_cameras"].size(); ++i)
   {
     SimulatedFixedCamera c;
-    TRY_ASSIGN(c, parseFixedCamera(m["fixed_cameras"][i], i, source));
+    TRY_ASSIGN(c, parseFixedCamera(m["fixed_cameras"][i], i, source, world.appearance.fixed_cameras));
     if (!camera_names.insert(c.name).second)
       return invalid(source + ": fixed_cameras[" + std::to_string(i) + "]",
                      "the camera name '" + c.name + "' is used twice");
