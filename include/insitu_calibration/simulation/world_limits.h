@@ -20,6 +20,7 @@ constexpr size_t kMaxSurfaces = 5000;        // after boxes and walls are split 
 constexpr size_t kMaxRingVertices = 1000;    // per outline or hole
 constexpr size_t kMaxTotalVertices = 50000;  // over every surface
 constexpr double kMinTextureCellM = 1e-3;    // checker cells and stripes, metres
+constexpr double kMinJointM = 2e-3;          // planks', bricks' and tiles' joints (true edges test 1 mm either side)
 constexpr size_t kMaxWaypoints = 10000;
 constexpr double kMaxSpeedMps = 10.0;
 constexpr double kMaxTurnRateDegPerS = 3600.0;

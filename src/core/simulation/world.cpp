@@ -180,7 +180,8 @@ Expected<Texture> parseTexture(const yaml_util::YamlNode& node, const std::strin
   if (!node)
     return texture;
   const MapReader m(node, where);
-  TRY(m.check({"pattern", "color", "color2", "cell", "horizontal", "offset", "rects"}));
+  TRY(m.check({"pattern", "color", "color2", "cell", "horizontal", "offset", "rects", "joint", "variation", "grain",
+               "speckle", "gradient", "seed"}));
   std::string pattern = "solid";
   if (m.has("pattern"))
     TRY_ASSIGN(pattern, m.text("pattern"));
@@ -188,10 +189,17 @@ Expected<Texture> parseTexture(const yaml_util::YamlNode& node, const std::strin
     texture.pattern = Texture::Pattern::kSolid;
   else if (pattern == "checker")
     texture.pattern = Texture::Pattern::kChecker;
+  else if (pattern == "planks")
+    texture.pattern = Texture::Pattern::kPlanks;
+  else if (pattern == "bricks")
+    texture.pattern = Texture::Pattern::kBricks;
+  else if (pattern == "tiles")
+    texture.pattern = Texture::Pattern::kTiles;
   else if (pattern == "stripes")
     texture.pattern = Texture::Pattern::kStripes;
   else
-    return invalid(m.at("pattern"), "unknown pattern '" + pattern + "' (solid, checker or stripes)");
+    return invalid(m.at("pattern"),
+                   "unknown pattern '" + pattern + "' (solid, checker, stripes, planks, bricks or tiles)");
   if (m.has("color"))
     TRY_ASSIGN(texture.color, parseColor(m["color"], m.at("color")));
   if (m.has("color2"))
@@ -203,6 +211,16 @@ Expected<Texture> parseTexture(const yaml_util::YamlNode& node, const std::strin
       return invalid(m.at("cell"), "cell sizes must be positive");
   }
   TRY_ASSIGN(texture.stripes_along_v, m.boolean("horizontal", false));
+  TRY_ASSIGN(texture.joint, m.number("joint", texture.joint));
+  TRY_ASSIGN(texture.variation, m.number("variation", 0.0));
+  TRY_ASSIGN(texture.grain, m.number("grain", 0.0));
+  TRY_ASSIGN(texture.speckle, m.number("speckle", 0.0));
+  TRY_ASSIGN(texture.gradient, m.number("gradient", 0.0));
+  int seed = 0;
+  TRY_ASSIGN(seed, m.integer("seed", 0));
+  if (seed < 0)
+    return invalid(m.at("seed"), "must not be negative");
+  texture.seed = static_cast<uint32_t>(seed);
   if (m.has("offset"))
     TRY_ASSIGN(texture.offset, parsePair(m["offset"], m.at("offset")));
   if (m.has("rects"))
@@ -740,6 +758,13 @@ Color Texture::basePattern(double u, double v, int* region) const
       *region = m < cell.x() ? 0 : 1;
       return *region ? color2 : color;
     }
+    case Pattern::kPlanks:
+    case Pattern::kBricks:
+    case Pattern::kTiles: {
+      Eigen::Vector2i unit;
+      *region = materialRegion(u, v, &unit);
+      return *region ? color2 : color;
+    }
   }
   *region = 0;
   return color;
@@ -747,16 +772,22 @@ Color Texture::basePattern(double u, double v, int* region) const
 
 Color Texture::sample(double u, double v, int* region) const
 {
-  for (size_t i = rects.size(); i-- > 0;)
+  Color c;
+  *region = -1;
+  for (size_t i = rects.size(); i-- > 0 && *region < 0;)
   {
     const TextureRect& r = rects[i];
     if (u >= r.min.x() && u < r.max.x() && v >= r.min.y() && v < r.max.y())
     {
       *region = 2 + static_cast<int>(i);
-      return r.color;
+      c = r.color;
     }
   }
-  return basePattern(u, v, region);
+  if (*region < 0)
+    c = basePattern(u, v, region);
+  if (variation == 0.0 && grain == 0.0 && speckle == 0.0 && gradient == 0.0)
+    return c;
+  return (c * structure(u, v, *region)).cwiseMin(255.0f);
 }
 
 bool Surface::contains(const Eigen::Vector2d& p) const

@@ -216,7 +216,8 @@ std::string worldYaml(const WorldGeneratorOptions& options, BuildingKind kind, c
   const double ambient = rng.uniform(0.5, 0.7);
   out << "lighting: {ambient: " << num(ambient) << ", diffuse: " << num(1.0 - ambient)
       << ", direction: " << vec({rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(0.6, 1.2)}) << "}\nsurfaces:\n"
-      << layout.scene.surfaces() << "route:\n  waypoints: [";
+      << layout.scene.surfaces(options.realistic_appearance ? std::optional<uint64_t>(options.seed) : std::nullopt)
+      << "route:\n  waypoints: [";
   for (size_t k = 0; k < route.size(); ++k)
     out << (k ? ", " : "") << vec({route[k].x(), route[k].y()});
   out << "]\n  speed: " << num(options.speed) << "\n  turn_rate_deg: 40\n  loop: false\n";

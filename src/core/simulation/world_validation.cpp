@@ -42,6 +42,19 @@ std::string range(double low, double high)
   return "must be within " + num(low) + " .. " + num(high);
 }
 
+// Materials: joints of kMinJointM .. half a unit; the structure's amounts 0..1.
+Status checkStructure(const Texture& t, const std::string& where)
+{
+  if (t.material() && !within(t.joint, kMinJointM, 0.5 * t.cell.minCoeff()))
+    return refuse(where + ".joint", range(kMinJointM, 0.5 * t.cell.minCoeff()) + " m (half the smaller cell side)");
+  const std::pair<const char*, double> amounts[] = {
+      {"variation", t.variation}, {"grain", t.grain}, {"speckle", t.speckle}, {"gradient", t.gradient}};
+  for (const auto& [key, value] : amounts)
+    if (!within(value, 0.0, 1.0))
+      return refuse(where + "." + key, range(0.0, 1.0));
+  return Success{};
+}
+
 Status checkSurfaces(const World& world, const std::string& source)
 {
   if (world.surfaces.size() > kMaxSurfaces)
@@ -65,6 +78,8 @@ Status checkSurfaces(const World& world, const std::string& source)
     if (!(t.cell.minCoeff() >= kMinTextureCellM) || !withinBuilding(t.cell) || !withinBuilding(t.offset))
       return refuse(where + ".texture",
                     "cell sizes must be " + num(kMinTextureCellM) + " m or more and offsets within the building");
+    if (const Status st = checkStructure(t, where + ".texture"); !st)
+      return st;
     for (const auto& rect : t.rects)
       if (!withinBuilding(rect.min) || !withinBuilding(rect.max))
         return refuse(where + ".texture.rects", "a rectangle lies beyond the building");
