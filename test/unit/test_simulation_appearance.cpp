@@ -1,16 +1,20 @@
-// The simulator's realistic appearance (world file "appearance" block): each sensor effect measurably present when
-// on and absent when off, against the clean render or the true surfaces; determinism; refused values; the
-// generator's realistic default and its plain option.
+// The simulator's realistic appearance (world file "appearance" block) and materials (planks, bricks, tiles, natural
+// structure): each effect measurably present when on and absent when off, against the clean render or the true
+// surfaces; material joints as true texture edges; determinism; refused values; the generator's realistic default
+// and its plain option.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
 #include <string>
+#include <vector>
 
 #include <opencv2/imgproc.hpp>
 
 #include "insitu_calibration/simulation/renderer.h"
 #include "insitu_calibration/simulation/sensor_models.h"
 #include "insitu_calibration/simulation/survey.h"
+#include "insitu_calibration/simulation/true_edges.h"
 #include "insitu_calibration/simulation/world_generator.h"
 
 namespace sim = insitu_calibration::simulation;
@@ -355,5 +359,172 @@ TEST(Appearance, GeneratorIsRealisticByDefaultAndPlainOnRequest)
     EXPECT_NE(a.exposure, r.appearance.xtion_rgb.exposure);  // each camera its own exposure
     if (k > 0)
       EXPECT_NE(a.white_balance, r.fixed_cameras[k - 1].appearance.white_balance);
+  }
+}
+
+// ---- Materials ------------------------------------------------------------------------------------------------
+
+namespace
+{
+sim::Texture brickTexture()
+{
+  sim::Texture t;
+  t.pattern = sim::Texture::Pattern::kBricks;
+  t.color = sim::Color(160, 80, 60);
+  t.color2 = sim::Color(200, 196, 186);
+  t.cell = Eigen::Vector2d(0.225, 0.075);
+  t.joint = 0.01;
+  t.seed = 11;
+  return t;
+}
+
+// Brightness statistics of the texture over its units (away from joints) on a 2 m square.
+struct UnitStats
+{
+  double unit_spread = 0.0;    // standard deviation of the per-unit mean brightness
+  double inside_spread = 0.0;  // mean standard deviation inside a unit
+};
+
+UnitStats unitStats(const sim::Texture& t)
+{
+  std::map<std::pair<int, int>, std::vector<double>> units;
+  for (double u = 0.0005; u < 2.0; u += 0.0021)
+    for (double v = 0.0005; v < 2.0; v += 0.0033)
+    {
+      int region = 0;
+      const sim::Color c = t.sample(u, v, &region);
+      Eigen::Vector2i unit;
+      if (t.materialRegion(u, v, &unit) == 0)
+        units[{unit.x(), unit.y()}].push_back(c.mean());
+    }
+  std::vector<double> means;
+  double inside = 0.0;
+  for (const auto& [key, values] : units)
+  {
+    double s = 0.0, s2 = 0.0;
+    for (double x : values)
+      s += x, s2 += x * x;
+    const double mean = s / values.size();
+    means.push_back(mean);
+    inside += std::sqrt(std::max(0.0, s2 / values.size() - mean * mean));
+  }
+  double s = 0.0, s2 = 0.0;
+  for (double m : means)
+    s += m, s2 += m * m;
+  return {std::sqrt(std::max(0.0, s2 / means.size() - (s / means.size()) * (s / means.size()))), inside / units.size()};
+}
+}  // namespace
+
+TEST(Materials, StructureIsPresentWhenOnAndAbsentWhenOff)
+{
+  sim::Texture t = brickTexture();
+  const UnitStats plain = unitStats(t);
+  EXPECT_LT(plain.unit_spread, 1e-6);
+  EXPECT_LT(plain.inside_spread, 1e-6);
+  t.variation = 0.15;
+  const UnitStats varied = unitStats(t);
+  t.speckle = 0.5;
+  const UnitStats speckled = unitStats(t);
+  t.pattern = sim::Texture::Pattern::kPlanks;
+  t.cell = Eigen::Vector2d(1.2, 0.15);
+  t.speckle = 0.0;
+  t.variation = 0.0;
+  t.grain = 0.8;
+  const UnitStats grained = unitStats(t);
+  std::printf(
+      "brightness spread between / inside units: plain %.2f / %.2f, variation 0.15 %.2f / %.2f, speckle 0.5 "
+      "%.2f / %.2f, planks with grain 0.8 %.2f / %.2f\n",
+      plain.unit_spread, plain.inside_spread, varied.unit_spread, varied.inside_spread, speckled.unit_spread,
+      speckled.inside_spread, grained.unit_spread, grained.inside_spread);
+  EXPECT_GT(varied.unit_spread, 0.15 * 100 / 3);  // uniform in +-15 % of ~100 grey levels: sigma 8.7
+  EXPECT_LT(varied.inside_spread, 1e-4);
+  EXPECT_GT(speckled.inside_spread, 5.0);
+  EXPECT_GT(grained.inside_spread, 5.0);
+  // A lighting gradient: smooth over metres, also under the rectangles.
+  sim::Texture paint;
+  paint.gradient = 0.3;
+  paint.rects.push_back({Eigen::Vector2d(0, 0), Eigen::Vector2d(5, 5), sim::Color(100, 100, 100)});
+  int region = 0;
+  double lo = 1e9, hi = 0.0, step = 0.0;
+  for (double u = 0.0; u < 4.0; u += 0.01)
+  {
+    const double b = paint.sample(u, 1.0, &region).mean();
+    if (u > 0.0)
+      step = std::max(step, std::abs(b - paint.sample(u - 0.01, 1.0, &region).mean()));
+    lo = std::min(lo, b);
+    hi = std::max(hi, b);
+  }
+  std::printf("paint gradient 0.3 over 4 m: brightness %.1f .. %.1f, largest change per cm %.2f\n", lo, hi, step);
+  EXPECT_GT(hi - lo, 10.0);
+  EXPECT_LT(step, 1.0);
+  EXPECT_EQ(region, 2);
+}
+
+// The joints are true texture edges: each listed edge separates a brick from mortar in the rendered image, and
+// every course is listed.
+TEST(Materials, JointsAreTrueTextureEdgesAtColourBoundaries)
+{
+  const std::string text =
+      "lighting: {ambient: 1.0, diffuse: 0.0}\nsurfaces:\n  - name: wall\n    rectangle: {center: [2, 0, 0], "
+      "normal: [-1, 0, 0], size: [1.2, 0.9]}\n    texture: {pattern: bricks, cell: [0.225, 0.075], joint: 0.01, "
+      "color: [160, 80, 60], color2: [200, 196, 186], variation: 0.1, speckle: 0.3, seed: 3}\n" +
+      kRoute + "fixed_cameras: []\n";
+  const sim::World world = parse(text);
+  const sim::ViewCamera cam = lookingAlongX();
+  const sim::RenderedView view = sim::Renderer(world).render(cam);
+  const std::vector<sim::TrueEdge> edges = sim::computeTrueEdges(world);
+  size_t horizontal = 0, checked = 0, boundary = 0;
+  const Eigen::Isometry3d camera_from_world = cam.world_from_camera.inverse();
+  for (const sim::TrueEdge& e : edges)
+  {
+    if (e.kind != "texture")
+      continue;
+    horizontal += std::abs(e.start.z() - e.end.z()) < 1e-9 ? 1 : 0;
+    const Eigen::Vector3d m = camera_from_world * (0.5 * (e.start + e.end));
+    const Eigen::Vector3d d = camera_from_world.linear() * (e.end - e.start).normalized();
+    const Eigen::Vector2d p(cam.intrinsics.fx * m.x() / m.z() + cam.intrinsics.cx,
+                            cam.intrinsics.fy * m.y() / m.z() + cam.intrinsics.cy);
+    const Eigen::Vector2d n(-d.y(), d.x());  // across the edge in the image (fronto-parallel wall)
+    const Eigen::Vector2i a = (p + 1.2 * n).array().round().cast<int>(), b = (p - 1.2 * n).array().round().cast<int>();
+    ++checked;
+    boundary += view.region.at<int>(a.y(), a.x()) != view.region.at<int>(b.y(), b.x()) ? 1 : 0;
+  }
+  // 12 courses of 7.5 cm in 0.9 m, each with a joint (two lines); the wall's outline is not a texture edge.
+  std::printf("brick wall: %zu texture edges (%zu horizontal), %zu of %zu at a region boundary in the image\n", checked,
+              horizontal, boundary, checked);
+  EXPECT_GE(horizontal, 2u * 11);
+  EXPECT_GT(checked, horizontal + 2 * 11 * 4);  // head joints, about 5 per course
+  EXPECT_EQ(boundary, checked);
+}
+
+TEST(Materials, AreDeterministicFromTheirSeedAndRefuseBadValues)
+{
+  auto wall = [&](const std::string& texture) {
+    return "surfaces:\n  - name: wall\n    rectangle: {center: [2, 0, 0], normal: [-1, 0, 0], size: [4, 4]}\n"
+           "    texture: " +
+           texture + "\n" + kRoute + "fixed_cameras: []\n";
+  };
+  const std::string planks =
+      "{pattern: planks, cell: [1.2, 0.15], joint: 0.004, grain: 0.6, variation: 0.1, "
+      "gradient: 0.2, speckle: 0.1, seed: ";
+  const sim::World a = parse(wall(planks + "5}")), b = parse(wall(planks + "5}")), c = parse(wall(planks + "6}"));
+  const sim::ViewCamera cam = lookingAlongX();
+  const cv::Mat ia = sim::Renderer(a).render(cam).rgb, ib = sim::Renderer(b).render(cam).rgb;
+  EXPECT_EQ(cv::norm(ia, ib, cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::norm(ia, sim::Renderer(c).render(cam).rgb, cv::NORM_L1), 0.0);
+  const std::pair<std::string, std::string> bad[] = {
+      {"{pattern: tiles, cell: [0.3, 0.3], joint: 0.001}", "texture.joint"},
+      {"{pattern: bricks, cell: [0.2, 0.06], joint: 0.04}", "texture.joint"},
+      {"{pattern: planks, grain: 2}", "texture.grain"},
+      {"{speckle: -0.1}", "texture.speckle"},
+      {"{gradient: .inf}", "gradient"},
+      {"{pattern: tiles, seed: -3}", "texture.seed"},
+      {"{pattern: marble}", "unknown pattern 'marble'"},
+  };
+  for (const auto& [texture, key] : bad)
+  {
+    const auto refused = sim::parseWorld(wall(texture), "bad.yaml");
+    ASSERT_FALSE(refused) << texture;
+    EXPECT_NE(refused.error().message().find(key), std::string::npos) << refused.error().message();
   }
 }
