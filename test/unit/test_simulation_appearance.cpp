@@ -439,7 +439,7 @@ TEST(Materials, StructureIsPresentWhenOnAndAbsentWhenOff)
   EXPECT_GT(varied.unit_spread, 0.15 * 100 / 3);  // uniform in +-15 % of ~100 grey levels: sigma 8.7
   EXPECT_LT(varied.inside_spread, 1e-4);
   EXPECT_GT(speckled.inside_spread, 5.0);
-  EXPECT_GT(grained.inside_spread, 5.0);
+  EXPECT_GT(grained.inside_spread, 2.5);  // streaks of up to 16 % (grain 0.8), fading: sigma about 4 grey levels
   // A lighting gradient: smooth over metres, also under the rectangles.
   sim::Texture paint;
   paint.gradient = 0.3;

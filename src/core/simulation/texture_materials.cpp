@@ -84,10 +84,17 @@ float Texture::structure(double u, double v, int region) const
   }
   if (unit && grain > 0.0)
   {
-    // Streaks along u, waving slowly: the growth rings of a sawn board, 2-3 cm apart.
-    const double wave = valueNoise(seed, 0.8 * u, 5.0 * v, kGrainSalt);
-    const double s = 0.5 + 0.5 * std::sin(2.0 * M_PI * (40.0 * v + 1.5 * wave));
-    f *= 1.0 - 0.3 * grain * s * s + 0.1 * grain * valueNoise(seed, 3.0 * u, 25.0 * v, kGrainSalt + 16);
+    // The growth rings of a sawn board: streaks along u, 1.5-3 cm apart, waving and fading along the board, each
+    // board (unit) cut from elsewhere in the log (its own phase, spacing and wave), so no streak crosses a joint.
+    Eigen::Vector2i board(0, 0);
+    if (material())
+      materialRegion(u, v, &board);
+    const double h1 = hash01(seed, board.x(), board.y(), kGrainSalt);
+    const double h2 = hash01(seed, board.x(), board.y(), kGrainSalt + 8);
+    const double wave = valueNoise(seed, 1.5 * u + 97.0 * h1, 4.0 * v + 31.0 * h2, kGrainSalt);
+    const double s = 0.5 + 0.5 * std::sin(2.0 * M_PI * ((35.0 + 30.0 * h2) * v + 2.5 * wave + h1));
+    const double fade = 0.5 + 0.5 * valueNoise(seed, 2.0 * u + 53.0 * h2, 10.0 * v, kGrainSalt + 4);
+    f *= 1.0 - 0.2 * grain * s * s * fade + 0.08 * grain * valueNoise(seed, 3.0 * u, 25.0 * v, kGrainSalt + 16);
   }
   if (unit && speckle > 0.0)
     f *= 1.0 + 0.3 * speckle *
