@@ -528,3 +528,26 @@ TEST(Materials, AreDeterministicFromTheirSeedAndRefuseBadValues)
     EXPECT_NE(refused.error().message().find(key), std::string::npos) << refused.error().message();
   }
 }
+
+// A glossy highlight: brightest where the light's mirror direction meets the eye, smooth, and no new regions.
+TEST(Materials, ShineAddsASmoothHighlightWithoutEdges)
+{
+  auto world = [](const std::string& shine) {
+    return parse(
+        "lighting: {ambient: 1.0, diffuse: 0.0, direction: [-1, 0, 0]}\nsurfaces:\n  - name: wall\n"
+        "    rectangle: {center: [2, 0, 0], normal: [-1, 0, 0], size: [40, 40]}\n    texture: {color: [100, "
+        "100, 100]" +
+        shine + "}\n" + kRoute + "fixed_cameras: []\n");
+  };
+  const sim::World matte = world(""), glossy = world(", shine: 0.2");
+  const sim::ViewCamera cam = lookingAlongX();
+  const sim::RenderedView a = sim::Renderer(matte).render(cam), b = sim::Renderer(glossy).render(cam);
+  const double centre = meanGreen(b.rgb, 320, 240, 1), corner = meanGreen(b.rgb, 636, 476, 1);
+  std::printf("shine 0.2 facing the light: centre %.1f, corner %.1f (matte 100)\n", centre, corner);
+  EXPECT_NEAR(meanGreen(a.rgb, 320, 240, 1), 100.0, 0.5);
+  EXPECT_NEAR(centre, 100.0 + 0.2 * 255.0, 1.0);
+  EXPECT_GT(corner, 100.5);
+  EXPECT_LT(corner, centre - 30.0);
+  EXPECT_EQ(cv::countNonZero(a.region != b.region), 0);
+  EXPECT_EQ(a.antialiased_pixels, b.antialiased_pixels);
+}

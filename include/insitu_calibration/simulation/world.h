@@ -56,6 +56,7 @@ struct Texture
   double grain = 0.0;      // wood grain: wavy streaks along u
   double speckle = 0.0;    // fine noise on 3 mm cells (carpet, brick, fabric, concrete)
   double gradient = 0.0;   // brightness varying smoothly over metres (paint under uneven light); also on rects
+  double shine = 0.0;      // a glossy highlight of the light (Blinn-Phong, exponent 40), up to this x 255 grey levels
   uint32_t seed = 0;       // of the variation, grain, speckle and gradient
 
   bool material() const

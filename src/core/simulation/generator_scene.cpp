@@ -79,8 +79,11 @@ std::string structureYaml(const Texture& t)
   std::string s;
   if (t.material())
     s += "joint: " + num(t.joint) + ", ";
-  const std::pair<const char*, double> amounts[] = {
-      {"variation", t.variation}, {"grain", t.grain}, {"speckle", t.speckle}, {"gradient", t.gradient}};
+  const std::pair<const char*, double> amounts[] = {{"variation", t.variation},
+                                                    {"grain", t.grain},
+                                                    {"speckle", t.speckle},
+                                                    {"gradient", t.gradient},
+                                                    {"shine", t.shine}};
   for (const auto& [key, value] : amounts)
     if (value > 0.0)
       s += std::string(key) + ": " + num(value) + ", ";
@@ -231,6 +234,7 @@ Texture Scene::dress(Kind kind, Texture t, Rng& rng)
     t.color2 = rng.chance(0.5) ? Color(t.color * 0.55f) : Color(215, 212, 205);
     t.variation = 0.05;
     t.speckle = 0.12;
+    t.shine = 0.15;  // glazed
   }
   else if (kind == Kind::kFloor && checker)  // carpet tiles
   {
@@ -247,6 +251,7 @@ Texture Scene::dress(Kind kind, Texture t, Rng& rng)
     t.joint = 0.003;
     t.variation = 0.12;
     t.grain = rng.uniform(0.4, 0.8);
+    t.shine = 0.08;  // varnish
   }
   else if (kind == Kind::kCeiling && checker)
   {

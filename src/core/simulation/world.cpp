@@ -181,7 +181,7 @@ Expected<Texture> parseTexture(const yaml_util::YamlNode& node, const std::strin
     return texture;
   const MapReader m(node, where);
   TRY(m.check({"pattern", "color", "color2", "cell", "horizontal", "offset", "rects", "joint", "variation", "grain",
-               "speckle", "gradient", "seed"}));
+               "speckle", "gradient", "shine", "seed"}));
   std::string pattern = "solid";
   if (m.has("pattern"))
     TRY_ASSIGN(pattern, m.text("pattern"));
@@ -216,6 +216,7 @@ Expected<Texture> parseTexture(const yaml_util::YamlNode& node, const std::strin
   TRY_ASSIGN(texture.grain, m.number("grain", 0.0));
   TRY_ASSIGN(texture.speckle, m.number("speckle", 0.0));
   TRY_ASSIGN(texture.gradient, m.number("gradient", 0.0));
+  TRY_ASSIGN(texture.shine, m.number("shine", 0.0));
   int seed = 0;
   TRY_ASSIGN(seed, m.integer("seed", 0));
   if (seed < 0)
