@@ -5,7 +5,7 @@
 // outline and optional holes, filled by the even-odd rule, seen from both sides) with a texture frame (origin, u and
 // v axes in its plane, metres) and a procedural texture with strong edges (solid, checker, stripes, and the materials
 // planks, bricks and tiles with their joints, plus rectangles on top: poster pictures, door panels, window frames),
-// optionally with natural structure inside its regions (grain, speckle, a lighting gradient).
+// optionally with natural structure inside its regions (grain, speckle, a lighting gradient, a glossy highlight).
 #ifndef INSITU_CALIBRATION_SIMULATION_WORLD_H
 #define INSITU_CALIBRATION_SIMULATION_WORLD_H
 
