@@ -18,6 +18,7 @@
 #include "insitu_calibration/survey/camera_verification.h"
 #include "insitu_calibration/survey/image_explanation.h"
 #include "insitu_calibration/survey/temporal_median.h"
+#include "insitu_calibration/survey/view_ambiguity.h"
 
 namespace insitu_calibration
 {
@@ -58,6 +59,9 @@ struct FixedCameraOptions
   // The final check (image_explanation.h): the camera must explain the image as a whole (its projected map lines on
   // image edges, its matched lines predicted when held out).
   ImageExplanationOptions explanation;
+  // ... and no camera at a clearly different pose may explain it about as well (view_ambiguity.h: a view of a
+  // repeating structure, floor tiles or a row of identical windows, does not decide the camera).
+  ViewAmbiguityOptions ambiguity;
 };
 
 struct FixedCameraStatus
@@ -85,6 +89,7 @@ struct FixedCameraResult
   CorrespondenceSet correspondences;  // the lines calibrated on (calibration.inlier_lines indexes them)
   int loops = 0;
   ImageExplanation explanation;  // the final check's measurements (map-based calibrations)
+  ViewAmbiguity ambiguity;       // its ambiguity test (map-based calibrations that passed the other checks)
   std::string summary;           // how good the result is, in words
 };
 
@@ -133,6 +138,10 @@ private:
   Status check(const CameraCalibration& calibration, size_t matched_lines) const;
   // The final check of a map-based result: measures how well it explains the median image, refuses it if badly.
   Status checkExplanation(FixedCameraResult& result, const std::vector<Segment3d>& map_lines) const;
+  // Its ambiguity test: refuses a result when a camera at a clearly different pose explains the image about as well
+  // and would pass the checks too.
+  Status checkAmbiguity(FixedCameraResult& result, const std::vector<Segment3d>& map_lines,
+                        const std::vector<double>& map_line_sigmas_m) const;
   // The image lines of the median image under a distortion (the polylines only).
   Expected<std::vector<std::vector<Eigen::Vector2d>>> medianLines(const DivisionModel& distortion) const;
   void measureVerificationReference(const std::vector<Segment3d>& map_lines);

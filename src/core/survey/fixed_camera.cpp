@@ -171,6 +171,33 @@ Status FixedCamera::checkExplanation(FixedCameraResult& result, const std::vecto
   return acceptExplanation(result.explanation, options_.explanation);
 }
 
+Status FixedCamera::checkAmbiguity(FixedCameraResult& result, const std::vector<Segment3d>& map_lines,
+                                   const std::vector<double>& map_line_sigmas_m) const
+{
+  const ViewAmbiguityOptions& o = options_.ambiguity;
+  if (!o.enabled)
+    return Success{};
+  std::vector<std::vector<Eigen::Vector2d>> image_lines = result.matched_image_lines;
+  image_lines.insert(image_lines.end(), result.unmatched_image_lines.begin(), result.unmatched_image_lines.end());
+  const int w = config_.image_width, h = config_.image_height;
+  result.ambiguity = findAlternativeCameras(map_lines, image_lines, result.calibration, result.matched_map_lines, w, h,
+                                            options_.matcher, map_line_sigmas_m, o);
+  const cv::Mat median = median_.median();
+  for (const AlternativeCamera& alt : result.ambiguity.alternatives)
+  {
+    if (!alt.clearly_different || !explainsAsWell(alt, result.ambiguity, o) ||
+        !check(alt.calibration, alt.matched_lines))
+      continue;
+    const CameraCalibration& c = alt.calibration;
+    const ImageExplanation e =
+        explainImage(median, c.camera, w, h, map_lines, c.refinement ? &*c.refinement : nullptr, options_.explanation);
+    if (e.samples > 0 && e.overlay_agreement < result.explanation.overlay_agreement - o.overlay_margin)
+      continue;  // its map lines meet image edges less often: the accepted camera explains the view better
+    return ambiguityError(result.calibration, alt, result.ambiguity);
+  }
+  return Success{};
+}
+
 Expected<FixedCameraResult> FixedCamera::calibrateFromFile(const std::string& world_frame)
 {
   auto data = loadCorrespondenceFile(config_.correspondence_file);
@@ -277,6 +304,8 @@ Expected<FixedCameraResult> FixedCamera::calibrate(const std::vector<Segment3d>&
   Status ok = check(result->calibration, result->matched_image_lines.size());
   if (ok && config_.correspondence_file.empty())
     ok = checkExplanation(*result, map_lines);
+  if (ok && config_.correspondence_file.empty())
+    ok = checkAmbiguity(*result, map_lines, map_line_sigmas_m);
   if (!ok)
   {
     last_refused_ = *result;
@@ -284,7 +313,7 @@ Expected<FixedCameraResult> FixedCamera::calibrate(const std::vector<Segment3d>&
   }
   result->summary = describeResult(result->calibration, result->matched_image_lines.size());
   if (config_.correspondence_file.empty())
-    result->summary += "; " + result->explanation.describe();
+    result->summary += "; " + result->explanation.describe() + "; " + result->ambiguity.describe();
   calibration_ = result->file;
   if (config_.correspondence_file.empty())
     measureVerificationReference(map_lines);
