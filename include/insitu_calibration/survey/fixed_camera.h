@@ -135,11 +135,14 @@ private:
   Expected<FixedCameraResult> calibrateFromFile(const std::string& world_frame);
   Expected<FixedCameraResult> calibrateFromMap(const std::vector<Segment3d>& map_lines, const std::string& world_frame,
                                                const std::vector<double>& map_line_sigmas_m);
-  Status check(const CameraCalibration& calibration, size_t matched_lines) const;
+  // check_prior: also the distance to the prior (the ambiguity test weighs that itself).
+  Status check(const CameraCalibration& calibration, size_t matched_lines, bool check_prior = true) const;
   // The final check of a map-based result: measures how well it explains the median image, refuses it if badly.
   Status checkExplanation(FixedCameraResult& result, const std::vector<Segment3d>& map_lines) const;
   // Its ambiguity test: refuses a result when a camera at a clearly different pose explains the image about as well
   // and would pass the checks too.
+  // Whether the prior makes an alternative camera implausible (ViewAmbiguityOptions::prior_margin_sigmas).
+  bool priorRulesOut(const CameraModel& alternative, const CameraModel& accepted) const;
   Status checkAmbiguity(FixedCameraResult& result, const std::vector<Segment3d>& map_lines,
                         const std::vector<double>& map_line_sigmas_m) const;
   // The image lines of the median image under a distortion (the polylines only).

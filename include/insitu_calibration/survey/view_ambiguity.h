@@ -44,6 +44,10 @@ struct ViewAmbiguityOptions
   // ... and its map lines lie on image edges nearly as often (image_explanation.h's overlay agreement, at most this
   // share lower).
   double overlay_margin = 0.05;
+  // An alternative beyond the prior's distance limit (FixedCameraOptions::max_prior_distance_sigmas) is ruled out by
+  // the prior only when it is also this many position sigmas of the prior farther from it than the accepted camera:
+  // a result near the limit itself does not make its neighbour one period beyond it implausible.
+  double prior_margin_sigmas = 2.0;
 };
 
 // One candidate shift of the camera: a repetition of the map (the offset between parallel map lines) and how many
@@ -76,6 +80,7 @@ struct AlternativeCamera
   double rotation_difference_deg = 0.0;
   double focal_difference_relative = 0.0;
   bool clearly_different = false;
+  std::string dismissed;  // why it did not refuse the result (empty: not judged, or it refused it)
 };
 
 struct ViewAmbiguity

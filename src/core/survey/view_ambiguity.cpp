@@ -213,7 +213,7 @@ std::string ViewAmbiguity::describe() const
       std::snprintf(buffer, sizeof(buffer), "; alternative %.2f m / %.1f deg / %.1f %% away: score %.2f, %zu lines",
                     a.position_difference_m, a.rotation_difference_deg, 100.0 * a.focal_difference_relative, a.score,
                     a.matched_lines);
-      out += buffer;
+      out += buffer + (a.dismissed.empty() ? std::string() : " (" + a.dismissed + ")");
     }
   return out;
 }
