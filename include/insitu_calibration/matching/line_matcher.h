@@ -127,6 +127,13 @@ Expected<LineMatchResult> matchAndCalibrateFrom(const std::vector<Segment3d>& ma
                                                 const LineMatcherOptions& options = {},
                                                 const std::vector<double>& map_line_sigmas_m = {});
 
+// How well a camera explains the image lines, the score the matcher picks among its starts and local moves by: per
+// image line the squared mean distance to the nearest compatible projected map line, capped at
+// options.explanation_cap_px^2, summed. Lower is better; scores of one set of image lines compare.
+double explanationScore(const std::vector<Segment3d>& map_lines,
+                        const std::vector<std::vector<Eigen::Vector2d>>& image_lines, const CameraModel& camera,
+                        int image_width, int image_height, const LineMatcherOptions& options = {});
+
 // Step 2 alone: matches under a given camera.
 std::vector<LineMatch> matchLines(const std::vector<Segment3d>& map_lines,
                                   const std::vector<std::vector<Eigen::Vector2d>>& image_lines,

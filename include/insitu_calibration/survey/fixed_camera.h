@@ -20,6 +20,7 @@
 #include "insitu_calibration/survey/camera_verification.h"
 #include "insitu_calibration/survey/image_explanation.h"
 #include "insitu_calibration/survey/temporal_median.h"
+#include "insitu_calibration/survey/view_ambiguity.h"
 
 namespace insitu_calibration
 {
@@ -60,6 +61,9 @@ struct FixedCameraOptions
   // The final check (image_explanation.h): the camera must explain the image as a whole (its projected map lines on
   // image edges, its matched lines predicted when held out).
   ImageExplanationOptions explanation;
+  // ... and no camera at a clearly different pose may explain it about as well (view_ambiguity.h: a view of a
+  // repeating structure, floor tiles or a row of identical windows, does not decide the camera).
+  ViewAmbiguityOptions ambiguity;
 };
 
 struct FixedCameraStatus
@@ -87,6 +91,7 @@ struct FixedCameraResult
   CorrespondenceSet correspondences;  // the lines calibrated on (calibration.inlier_lines indexes them)
   int loops = 0;
   ImageExplanation explanation;  // the final check's measurements (map-based calibrations)
+  ViewAmbiguity ambiguity;       // its ambiguity test (map-based calibrations that passed the other checks)
   std::string summary;           // how good the result is, in words
 };
 
@@ -138,11 +143,18 @@ private:
   // The map lines not hidden from every viewpoint near the prior by the occluders (all without either), with their
   // sigmas (when given) kept in step.
   std::vector<Segment3d> seeableFromPrior(const std::vector<Segment3d>& map_lines, std::vector<double>* sigmas) const;
-  Status check(const CameraCalibration& calibration, size_t matched_lines) const;
+  // check_prior: also the distance to the prior (the ambiguity test weighs that itself).
+  Status check(const CameraCalibration& calibration, size_t matched_lines, bool check_prior = true) const;
   // The final check of a map-based result: measures how well it explains the median image, refuses it if badly.
   Status checkExplanation(FixedCameraResult& result, const std::vector<Segment3d>& map_lines) const;
   // The map lines in the camera's view, clipped to it, less the parts the occluders hide from it.
   std::vector<Segment3d> unhiddenLines(const CameraModel& camera, const std::vector<Segment3d>& map_lines) const;
+  // Its ambiguity test: refuses a result when a camera at a clearly different pose explains the image about as well
+  // and would pass the checks too.
+  // Whether the prior makes an alternative camera implausible (ViewAmbiguityOptions::prior_margin_sigmas).
+  bool priorRulesOut(const CameraModel& alternative, const CameraModel& accepted) const;
+  Status checkAmbiguity(FixedCameraResult& result, const std::vector<Segment3d>& map_lines,
+                        const std::vector<double>& map_line_sigmas_m) const;
   // The image lines of the median image under a distortion (the polylines only).
   Expected<std::vector<std::vector<Eigen::Vector2d>>> medianLines(const DivisionModel& distortion) const;
   void measureVerificationReference(const std::vector<Segment3d>& map_lines);
