@@ -144,6 +144,30 @@ TEST(VerticalLinesSolver, RecoversPoseAndFocalFromAMinimalSet)
   EXPECT_LE(most_solutions, 4u);
 }
 
+TEST(VerticalLinesSolver, RecoversPoseFromThreeLinesWithKnownFocal)
+{
+  std::mt19937 rng(13);
+  const Eigen::Vector2d pp(0.5 * (kWidth - 1), 0.5 * (kHeight - 1));
+  constexpr int kTrials = 1000;
+  int recovered = 0;
+  for (int trial = 0; trial < kTrials; ++trial)
+  {
+    const ic::CameraModel truth = randomCamera(rng);
+    const auto set = minimalSet(truth, rng, trial % 2 == 1);
+    const std::vector<ic::CameraModel> solutions =
+        ic::solveVerticalLinesPose({set[0], set[1], set[2]}, pp, kWidth, truth.intrinsics().fx);
+    EXPECT_LE(solutions.size(), 2u);
+    const Errors e = bestSolution(solutions, truth);
+    if (e.rotation_rad < 1e-6 && e.position_m < 1e-6 && e.focal_relative < 1e-12)
+      ++recovered;
+    else
+      std::printf("known focal, trial %d: %zu solutions, best rotation %.3g rad, position %.3g m\n", trial,
+                  solutions.size(), e.rotation_rad, e.position_m);
+  }
+  // 999 of 1000 today: the miss is 19 um off (its three planes nearly share a line: position poorly conditioned).
+  EXPECT_GE(recovered, kTrials - 2);
+}
+
 TEST(VerticalLinesSolver, RefusesDegenerateInput)
 {
   std::mt19937 rng(7);

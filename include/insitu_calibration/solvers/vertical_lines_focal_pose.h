@@ -57,6 +57,12 @@ struct VerticalLinesSolverOptions
 std::vector<CameraModel> solveVerticalLinesFocalPose(const std::array<ImageMapLine, 4>& lines,
                                                      const Eigen::Vector2d& principal_point, int image_width,
                                                      const VerticalLinesSolverOptions& options = {});
+
+// The same with the focal length known (px): three lines (two vertical, one not) fix the pose; up to two solutions
+// (line 2's yaw), each the exact solution of the three. The hypothesis generator uses it over a grid of focal lengths.
+std::vector<CameraModel> solveVerticalLinesPose(const std::array<ImageMapLine, 3>& lines,
+                                                const Eigen::Vector2d& principal_point, int image_width,
+                                                double focal_px, const VerticalLinesSolverOptions& options = {});
 }  // namespace insitu_calibration
 
 #endif  // INSITU_CALIBRATION_SOLVERS_VERTICAL_LINES_FOCAL_POSE_H

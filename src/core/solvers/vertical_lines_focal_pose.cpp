@@ -22,13 +22,15 @@ struct NormalizedLines
   std::array<Eigen::Vector3d, 4> point;
   std::array<Eigen::Vector3d, 4> direction;
   Eigen::Vector3d vanishing;  // the vertical vanishing point: image[0] x image[1]
+  size_t count = 4;           // lines used (3: the known-focal solver)
 };
 
-bool normalizeLines(const std::array<ImageMapLine, 4>& lines, const Eigen::Vector2d& pp, double scale,
+bool normalizeLines(const ImageMapLine* lines, size_t count, const Eigen::Vector2d& pp, double scale,
                     double vertical_tolerance_deg, NormalizedLines* out)
 {
   const double cos_tolerance = std::cos(vertical_tolerance_deg * kDegToRad);
-  for (size_t i = 0; i < 4; ++i)
+  out->count = count;
+  for (size_t i = 0; i < count; ++i)
   {
     const Eigen::Vector2d a = (lines[i].image_a - pp) / scale;
     const Eigen::Vector2d b = (lines[i].image_b - pp) / scale;
@@ -105,6 +107,11 @@ YawSystem yawSystem(const NormalizedLines& lines, double f)
   s.tilt = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), upAxis(lines.vanishing, f)).toRotationMatrix();
   for (int k = 0; k < 2; ++k)
   {
+    if (2 + k >= static_cast<int>(lines.count))
+    {
+      s.a[k] = s.b[k] = s.c[k] = 0.0;
+      continue;
+    }
     const Eigen::Vector3d m = s.tilt.transpose() * planeNormal(lines.image[2 + k], f);
     const Eigen::Vector3d& d = lines.direction[2 + k];
     s.a[k] = m.x() * d.x() + m.y() * d.y();
@@ -212,10 +219,11 @@ std::optional<CameraPose> poseAt(const NormalizedLines& lines, const FocalYaw& r
   const Eigen::Matrix3d r =
       Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), upAxis(lines.vanishing, f)).toRotationMatrix() *
       Eigen::AngleAxisd(root.yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  Eigen::Matrix<double, 4, 3> a;
-  Eigen::Vector4d b;
+  const int n = static_cast<int>(lines.count);
+  Eigen::MatrixXd a(n, 3);
+  Eigen::VectorXd b(n);
   std::array<Eigen::Vector3d, 4> normals;
-  for (int i = 0; i < 4; ++i)
+  for (int i = 0; i < n; ++i)
   {
     normals[i] = planeNormal(lines.image[i], f);
     a.row(i) = normals[i].transpose();
@@ -226,7 +234,7 @@ std::optional<CameraPose> poseAt(const NormalizedLines& lines, const FocalYaw& r
   if (eigen.eigenvalues()(0) < 1e-12 * eigen.eigenvalues()(2))  // the planes do not fix the position
     return std::nullopt;
   const Eigen::Vector3d t = normal_matrix.ldlt().solve(a.transpose() * b);
-  for (int i = 0; i < 4; ++i)
+  for (int i = 0; i < n; ++i)
   {
     const Eigen::Vector3d x0 = r * lines.point[i] + t;
     const Eigen::Vector3d x1 = r * (lines.point[i] + lines.direction[i]) + t;
@@ -241,6 +249,14 @@ std::optional<CameraPose> poseAt(const NormalizedLines& lines, const FocalYaw& r
   pose.translation = t;
   return pose;
 }
+CameraModel pinHole(const CameraPose& pose, double focal_px, const Eigen::Vector2d& principal_point)
+{
+  Intrinsics in;
+  in.fx = in.fy = focal_px;
+  in.cx = principal_point.x();
+  in.cy = principal_point.y();
+  return CameraModel(in, DivisionModel{0.0, principal_point}, pose);
+}
 }  // namespace
 
 std::vector<CameraModel> solveVerticalLinesFocalPose(const std::array<ImageMapLine, 4>& lines,
@@ -250,7 +266,7 @@ std::vector<CameraModel> solveVerticalLinesFocalPose(const std::array<ImageMapLi
   std::vector<CameraModel> cameras;
   NormalizedLines normalized;
   const double scale = std::max(1, image_width);
-  if (!normalizeLines(lines, principal_point, scale, options.vertical_tolerance_deg, &normalized))
+  if (!normalizeLines(lines.data(), lines.size(), principal_point, scale, options.vertical_tolerance_deg, &normalized))
     return cameras;
   // f / image width = 0.5 / tan(hfov / 2).
   const double f_min = 0.5 / std::tan(0.5 * options.max_fov_deg * kDegToRad);
@@ -262,12 +278,32 @@ std::vector<CameraModel> solveVerticalLinesFocalPose(const std::array<ImageMapLi
       const std::optional<CameraPose> pose = poseAt(normalized, root, options.max_residual);
       if (!pose)
         continue;
-      Intrinsics in;
-      in.fx = in.fy = root.f * scale;
-      in.cx = principal_point.x();
-      in.cy = principal_point.y();
-      cameras.emplace_back(in, DivisionModel{0.0, principal_point}, *pose);
+      cameras.push_back(pinHole(*pose, root.f * scale, principal_point));
     }
+  return cameras;
+}
+
+std::vector<CameraModel> solveVerticalLinesPose(const std::array<ImageMapLine, 3>& lines,
+                                                const Eigen::Vector2d& principal_point, int image_width,
+                                                double focal_px, const VerticalLinesSolverOptions& options)
+{
+  std::vector<CameraModel> cameras;
+  NormalizedLines normalized;
+  const double scale = std::max(1, image_width);
+  if (!(focal_px > 0.0) ||
+      !normalizeLines(lines.data(), lines.size(), principal_point, scale, options.vertical_tolerance_deg, &normalized))
+    return cameras;
+  const double f = focal_px / scale;
+  const YawSystem s = yawSystem(normalized, f);
+  const double r = std::hypot(s.a[0], s.b[0]);
+  if (r < 1e-12 || std::abs(s.c[0]) > r)  // line 2's plane cannot hold its 3D line's direction at this f
+    return cameras;
+  for (int branch : {-1, 1})
+  {
+    const double yaw = std::atan2(s.b[0], s.a[0]) + branch * std::acos(-s.c[0] / r);
+    if (const std::optional<CameraPose> pose = poseAt(normalized, {f, yaw}, options.max_residual))
+      cameras.push_back(pinHole(*pose, focal_px, principal_point));
+  }
   return cameras;
 }
 }  // namespace insitu_calibration
