@@ -65,6 +65,12 @@ struct LineMatcherOptions
   double search_min_cap_px = 4.0;
   double search_cap_shrink = 0.5;
   int search_starts = 4;  // distinct search results each refined; the one explaining most image lines wins
+  // Hypotheses from line correspondences (src/core/matching/hypotheses.cpp, docs/survey_calibration.md): cameras
+  // solved from sampled pairs of image lines and map lines (two vertical, one or two not) anywhere in the prior's
+  // 3-sigma cone, scored like the grid; the best hypothesis_starts distinct ones join the starts (0: none), after
+  // hypothesis_iterations samples.
+  int hypothesis_starts = 0;
+  int hypothesis_iterations = 4000;
   // The explanation score that picks among results: per image line its squared mean distance to the nearest
   // compatible projected 3D line, capped at this (px), summed.
   double explanation_cap_px = 1.0;

@@ -58,6 +58,18 @@ std::vector<CameraModel> solveVerticalLinesFocalPose(const std::array<ImageMapLi
                                                      const Eigen::Vector2d& principal_point, int image_width,
                                                      const VerticalLinesSolverOptions& options = {});
 
+// The solver's first stage alone: the rotation (world -> camera) and focal length (px) from the four lines'
+// directions; their positions are not used (the 3D "lines" may be directions: a map's dominant horizontal
+// directions). Every root, without the position step's checks (no cheirality: the yaw may be off by 180 deg).
+struct RotationFocal
+{
+  Eigen::Matrix3d rotation;
+  double focal_px;
+};
+std::vector<RotationFocal> solveVerticalLinesRotationFocal(const std::array<ImageMapLine, 4>& lines,
+                                                           const Eigen::Vector2d& principal_point, int image_width,
+                                                           const VerticalLinesSolverOptions& options = {});
+
 // The same with the focal length known (px): three lines (two vertical, one not) fix the pose; up to two solutions
 // (line 2's yaw), each the exact solution of the three. The hypothesis generator uses it over a grid of focal lengths.
 std::vector<CameraModel> solveVerticalLinesPose(const std::array<ImageMapLine, 3>& lines,

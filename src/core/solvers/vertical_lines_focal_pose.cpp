@@ -283,6 +283,26 @@ std::vector<CameraModel> solveVerticalLinesFocalPose(const std::array<ImageMapLi
   return cameras;
 }
 
+std::vector<RotationFocal> solveVerticalLinesRotationFocal(const std::array<ImageMapLine, 4>& lines,
+                                                           const Eigen::Vector2d& principal_point, int image_width,
+                                                           const VerticalLinesSolverOptions& options)
+{
+  std::vector<RotationFocal> out;
+  NormalizedLines normalized;
+  const double scale = std::max(1, image_width);
+  if (!normalizeLines(lines.data(), lines.size(), principal_point, scale, options.vertical_tolerance_deg, &normalized))
+    return out;
+  const double f_min = 0.5 / std::tan(0.5 * options.max_fov_deg * kDegToRad);
+  const double f_max = 0.5 / std::tan(0.5 * options.min_fov_deg * kDegToRad);
+  for (double f : focalRoots(normalized, f_min, f_max, std::max(2, options.fov_samples)))
+  {
+    const YawSystem s = yawSystem(normalized, f);
+    for (double yaw : s.commonYaws(1e-6))
+      out.push_back({s.tilt * Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix(), f * scale});
+  }
+  return out;
+}
+
 std::vector<CameraModel> solveVerticalLinesPose(const std::array<ImageMapLine, 3>& lines,
                                                 const Eigen::Vector2d& principal_point, int image_width,
                                                 double focal_px, const VerticalLinesSolverOptions& options)
