@@ -301,12 +301,13 @@ std::vector<PlanePair> planePairs(const MatchingProblem& problem, const Cone& co
   return pairs;
 }
 
-// Stage 2: the centre from three plane pairs (linear), the most pairs within 3 cm, refined on them.
-std::optional<Eigen::Vector3d> centreHypothesis(const std::vector<PlanePair>& pairs, const Cone& cone, int iterations,
-                                                std::mt19937& rng)
+// Stage 2: centres from three plane pairs (linear), ranked by the pairs within 3 cm and refined on them; the best
+// `count` at least 0.2 m apart (a corridor's repeated heights leave several).
+std::vector<Eigen::Vector3d> centreHypotheses(const std::vector<PlanePair>& pairs, const Cone& cone, int iterations,
+                                              size_t count, std::mt19937& rng)
 {
   if (pairs.size() < 3)
-    return std::nullopt;
+    return {};
   std::vector<double> weights;
   for (const PlanePair& p : pairs)
     weights.push_back(p.weight);
@@ -318,8 +319,7 @@ std::optional<Eigen::Vector3d> centreHypothesis(const std::vector<PlanePair>& pa
         in.push_back(k);
     return in;
   };
-  size_t best_count = 0;
-  std::optional<Eigen::Vector3d> best;
+  std::vector<std::pair<size_t, Eigen::Vector3d>> found;
   for (int it = 0; it < iterations; ++it)
   {
     Eigen::Matrix3d a;
@@ -333,23 +333,29 @@ std::optional<Eigen::Vector3d> centreHypothesis(const std::vector<PlanePair>& pa
     if (std::abs(a.determinant()) < 0.05)  // planes nearly sharing a line
       continue;
     const Eigen::Vector3d c = a.partialPivLu().solve(b);
-    if ((c - cone.prior.position).norm() > cone.max_offset_m)
-      continue;
-    const size_t count = inliers(c).size();
-    if (count > best_count)
-      best_count = count, best = c;
+    if ((c - cone.prior.position).norm() <= cone.max_offset_m)
+      found.emplace_back(inliers(c).size(), c);
   }
-  if (!best)
-    return std::nullopt;
-  Eigen::Matrix3d normal_matrix = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
-  for (size_t k : inliers(*best))
+  std::sort(found.begin(), found.end(), [](const auto& x, const auto& y) { return x.first > y.first; });
+  std::vector<Eigen::Vector3d> centres;
+  for (const auto& candidate : found)
   {
-    normal_matrix += pairs[k].normal * pairs[k].normal.transpose();
-    rhs += pairs[k].normal * pairs[k].normal.dot(pairs[k].point);
+    Eigen::Matrix3d normal_matrix = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+    for (size_t k : inliers(candidate.second))
+    {
+      normal_matrix += pairs[k].normal * pairs[k].normal.transpose();
+      rhs += pairs[k].normal * pairs[k].normal.dot(pairs[k].point);
+    }
+    Eigen::Vector3d c = normal_matrix.ldlt().solve(rhs);
+    if (!c.allFinite() || (c - cone.prior.position).norm() > cone.max_offset_m)
+      c = candidate.second;
+    if (std::all_of(centres.begin(), centres.end(), [&](const Eigen::Vector3d& e) { return (e - c).norm() > 0.2; }))
+      centres.push_back(c);
+    if (centres.size() >= count)
+      break;
   }
-  const Eigen::Vector3d refined = normal_matrix.ldlt().solve(rhs);
-  return refined.allFinite() && (refined - cone.prior.position).norm() <= cone.max_offset_m ? refined : *best;
+  return centres;
 }
 }  // namespace
 
@@ -372,14 +378,15 @@ std::vector<CameraModel> lineHypotheses(const MatchingProblem& problem, const Ca
   for (const Rotation& r : rotations)
   {
     const std::vector<PlanePair> pairs = planePairs(problem, cone, r.value, maps);
-    const std::optional<Eigen::Vector3d> centre = centreHypothesis(pairs, cone, 500, rng);
-    trace(o, "hypotheses: rotation supported by %.0f px of lines, fx %.1f, %zu plane pairs%s", r.support,
-          r.value.focal_px, pairs.size(), centre ? "" : ", no centre");
-    if (!centre)
-      continue;
-    const CameraModel c(Intrinsics{r.value.focal_px, r.value.focal_px, 0.0, pp.x(), pp.y()}, DivisionModel{0.0, pp},
-                        CameraPose{r.value.rotation, -r.value.rotation * *centre});
-    scored.push_back({searchScore(c, problem, 5.0, cap), c});
+    const std::vector<Eigen::Vector3d> centres = centreHypotheses(pairs, cone, 500, 3, rng);
+    trace(o, "hypotheses: rotation supported by %.0f px of lines, fx %.1f, %zu plane pairs, %zu centres", r.support,
+          r.value.focal_px, pairs.size(), centres.size());
+    for (const Eigen::Vector3d& centre : centres)
+    {
+      const CameraModel c(Intrinsics{r.value.focal_px, r.value.focal_px, 0.0, pp.x(), pp.y()}, DivisionModel{0.0, pp},
+                          CameraPose{r.value.rotation, -r.value.rotation * centre});
+      scored.push_back({searchScore(c, problem, 5.0, cap), c});
+    }
   }
   std::sort(scored.begin(), scored.end(), [](const Scored& a, const Scored& b) { return a.score < b.score; });
   std::vector<Scored> chosen;
