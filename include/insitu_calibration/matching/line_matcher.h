@@ -66,9 +66,9 @@ struct LineMatcherOptions
   double search_cap_shrink = 0.5;
   int search_starts = 4;  // distinct search results each refined; the one explaining most image lines wins
   // Hypotheses from line correspondences (src/core/matching/hypotheses.cpp, docs/survey_calibration.md): cameras
-  // solved from sampled pairs of image lines and map lines (two vertical, one or two not) anywhere in the prior's
-  // 3-sigma cone, scored like the grid; the best hypothesis_starts distinct ones join the starts (0: none), after
-  // hypothesis_iterations samples.
+  // anywhere in the prior's 3-sigma cone, their rotation and focal length from image lines taken as vertical or as
+  // the map's dominant directions (hypothesis_iterations samples), their centre from image/map line pairs, scored
+  // like the grid; the best hypothesis_starts distinct ones join the starts (0: none).
   int hypothesis_starts = 0;
   int hypothesis_iterations = 4000;
   // The explanation score that picks among results: per image line its squared mean distance to the nearest

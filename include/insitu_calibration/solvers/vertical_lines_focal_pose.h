@@ -1,24 +1,25 @@
 // A minimal solver for a camera's pose and focal length from four 2D-3D line correspondences, two of them on
 // vertical 3D lines (the map's z axis is vertical). Principal point known, square pixels, no distortion. One solver,
 // no robust layer (PoseLib's style): the matcher's hypothesis generation (src/core/matching/hypotheses.cpp) samples
-// putative correspondences and scores what this returns.
+// its inputs and scores what it returns.
 //
-// The method (docs/survey_calibration.md, "The vertical-lines solver"): the two vertical lines' images meet at the
-// vertical vanishing point v; for a focal length f the world's up axis in the camera is u(f) = normalize(K^-1 v)
+// The method (docs/survey_calibration.md, "Hypotheses from line correspondences"): the two vertical lines' images meet
+// at the vertical vanishing point v; for a focal length f the world's up axis in the camera is u(f) = normalize(K^-1 v)
 // (the sign that makes it point to the top of the image), so the rotation is R = R_u(f) Rz(theta). Each of the two
 // other lines constrains theta through its direction (n^T R d = 0, n = K^T l the normal of the line's back-projected
 // plane): a cos(theta) + b sin(theta) + c = 0. Both together leave one equation in f (the solution (cos, sin) of the
 // 2x2 linear system must have unit norm), solved by bracketing its sign changes over a range of fields of view and
 // bisection. The translation is then linear: n_i^T (R X_i + t) = 0 for the four lines (least squares).
 //
-// Related work: minimal absolute pose from lines with a known vertical direction (Horanyi & Kato, "Multiview
-// absolute pose using 3D-2D perspective line correspondences and vertical direction", ICCV Workshops 2017; Abdellali,
-// Frohlich & Kato, "Robust absolute and relative pose estimation of a central camera system from 2D-3D line
-// correspondences", ICCV Workshops 2019) take the vertical from an IMU with a calibrated camera; here the vertical
-// comes from the image (its vanishing point) and depends on the unknown focal length, as in focal length from
-// orthogonal vanishing points (Caprile & Torre, "Using vanishing points for camera calibration", IJCV 1990). Unknown
-// focal length minimal solvers from points (Bujnak, Kukelova & Pajdla, "A general solution to the P4P problem for
-// camera with unknown focal length", CVPR 2008) are closed-form; this one is a 1-D numerical root search.
+// Related work: absolute pose from 2D-3D line pairs with a known vertical direction (Horanyi & Kato, "Multiview
+// absolute pose using 3D-2D perspective line correspondences and vertical direction", ICCV Workshops 2017) takes
+// the vertical from an IMU with a calibrated camera, and the direct least-squares line-pair solver of Abdellali,
+// Frohlich & Kato ("A direct least-squares solution to multi-view absolute and relative pose from 2D-3D perspective
+// line pairs", ICCV Workshops 2019) needs a calibrated camera too; here the vertical comes from the image (its
+// vanishing point) and depends on the unknown focal length, as in focal length from orthogonal vanishing points
+// (Caprile & Torre, "Using vanishing points for camera calibration", IJCV 1990). Unknown-focal minimal solvers from
+// points (Bujnak, Kukelova & Pajdla, "A general solution to the P4P problem for camera with unknown focal length", CVPR
+// 2008) are closed-form; this one is a 1-D numerical root search.
 #ifndef INSITU_CALIBRATION_SOLVERS_VERTICAL_LINES_FOCAL_POSE_H
 #define INSITU_CALIBRATION_SOLVERS_VERTICAL_LINES_FOCAL_POSE_H
 
@@ -71,7 +72,7 @@ std::vector<RotationFocal> solveVerticalLinesRotationFocal(const std::array<Imag
                                                            const VerticalLinesSolverOptions& options = {});
 
 // The same with the focal length known (px): three lines (two vertical, one not) fix the pose; up to two solutions
-// (line 2's yaw), each the exact solution of the three. The hypothesis generator uses it over a grid of focal lengths.
+// (line 2's yaw), each the exact solution of the three.
 std::vector<CameraModel> solveVerticalLinesPose(const std::array<ImageMapLine, 3>& lines,
                                                 const Eigen::Vector2d& principal_point, int image_width,
                                                 double focal_px, const VerticalLinesSolverOptions& options = {});

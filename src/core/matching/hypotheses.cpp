@@ -36,11 +36,10 @@ struct Cone
     const double aspect = std::hypot(width, height) / width;  // half diagonal over half width
     half_diagonal_deg = std::atan(aspect * std::tan(0.5 * fov_max_deg * kDegToRad)) / kDegToRad;
   }
-  // How far (deg) the direction to a point at `distance_m` may differ from the prior's prediction.
-  double margin(double distance_m, double off_axis_deg) const
+  // How far (deg) the direction to a point at `distance_m` may differ from the prior's axis beyond its view.
+  double margin(double distance_m) const
   {
-    return max_angle_deg + std::atan2(max_offset_m, std::max(0.1, distance_m)) / kDegToRad +
-           kConeSigmas * prior.fov_sigma_relative * off_axis_deg + 3.0;
+    return max_angle_deg + std::atan2(max_offset_m, std::max(0.1, distance_m)) / kDegToRad + 3.0;
   }
   bool contains(const CameraModel& c, int width) const
   {
@@ -61,14 +60,6 @@ struct Cone
 double wrapDeg(double a)
 {
   return std::remainder(a, 360.0);
-}
-
-// The world ray of an image point under the prior camera (pin-hole, its own focal length).
-Eigen::Vector3d priorRay(const Cone& cone, const Eigen::Vector2d& pixel)
-{
-  const Intrinsics& in = cone.camera.intrinsics();
-  const Eigen::Vector3d ray((pixel.x() - in.cx) / in.fx, (pixel.y() - in.cy) / in.fy, 1.0);
-  return (cone.camera.pose().rotation.transpose() * ray).normalized();
 }
 
 // Whether an image line may be the image of a vertical line: its direction agrees with the vertical vanishing
@@ -115,7 +106,7 @@ std::vector<MapCandidate> mapCandidates(const Cone& cone, const std::vector<Segm
       const Eigen::Vector3d w = p - cone.prior.position;
       const double distance = w.norm();
       const double angle = std::acos(std::clamp(w.dot(cone.axis) / std::max(1e-9, distance), -1.0, 1.0)) / kDegToRad;
-      if (distance > 0.3 && angle <= cone.half_diagonal_deg + cone.margin(distance, 0.0))
+      if (distance > 0.3 && angle <= cone.half_diagonal_deg + cone.margin(distance))
         c.points.push_back(p);
     }
     if (!c.points.empty())

@@ -1,9 +1,9 @@
 // Camera hypotheses from line correspondences, for a prior that is not close (docs/survey_calibration.md,
 // "Hypotheses from line correspondences"): the grid of prior_search.cpp never moves the camera, so a prior 0.5 m off
-// near the scene leaves it in the wrong basin. Here putative pairs of image lines and map lines (two on vertical map
-// lines, two not) are sampled within the prior's 3-sigma cone, solved for a camera (solvers/
-// vertical_lines_focal_pose.h: the four-line solver for f, and the three-line one over a grid of f), and the
-// cameras inside the cone are scored with the grid's score.
+// near the scene can leave it in the wrong basin. Here rotation and focal length come from image lines taken as
+// vertical or as the map's dominant horizontal directions (the vertical-lines solver's first stage,
+// solvers/vertical_lines_focal_pose.h), the centre from plane pairs of image and map lines under that rotation
+// (linear, RANSAC), all within the prior's 3-sigma cone; the cameras are scored with the grid's score.
 #ifndef INSITU_CALIBRATION_MATCHING_HYPOTHESES_H
 #define INSITU_CALIBRATION_MATCHING_HYPOTHESES_H
 
