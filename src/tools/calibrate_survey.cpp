@@ -69,6 +69,7 @@ Options:
                         the camera (default 1)
   --camera NAME         calibrate only this camera
   --search-starts N     distinct results of the prior search refined per camera (default 4)
+  --hypothesis-starts N extra starts from line-correspondence hypotheses in the prior's 3-sigma cone (default 0)
   --truth-dir DIR       the simulator's truth folder (<bag>_truth): also report, per camera, how many matches pair
                         the wrong edges and how far the matched map lines are from the true edges, the localiser's
                         limit (its error averaged over the keyframes, at the camera: "truth-limit" lines) and the
@@ -557,6 +558,8 @@ bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options)
     options->cameras.matcher.calibration.ransac = false;
   options->cameras.matcher.search_starts =
       static_cast<int>(cli.number("search-starts", options->cameras.matcher.search_starts));
+  options->cameras.matcher.hypothesis_starts =
+      static_cast<int>(cli.number("hypothesis-starts", options->cameras.matcher.hypothesis_starts));
   if (cli.flag("trace"))
     options->cameras.matcher.trace = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
   if (!cli.error().empty())
@@ -743,9 +746,9 @@ int main(int argc, char** argv)
   ic::quietSolverLogging();
   ic::CommandLine cli(
       argc, argv,
-      {"cameras", "params", "out-dir", "world-frame", "min-support", "camera", "search-starts", "truth-dir",
-       "prior-from-truth", "prior-sigmas", "max-spread", "localization-sigma", "odom-frame", "odometry-sigma",
-       "floor-lines", "floor-height", "floor-max-range", "occlusion-test"},
+      {"cameras", "params", "out-dir", "world-frame", "min-support", "camera", "search-starts", "hypothesis-starts",
+       "truth-dir", "prior-from-truth", "prior-sigmas", "max-spread", "localization-sigma", "odom-frame",
+       "odometry-sigma", "floor-lines", "floor-height", "floor-max-range", "occlusion-test"},
       {"no-refine", "no-ransac", "no-report", "quiet", "oracle", "oracle-details", "trace", "no-odometry"});
   if (cli.help())
   {
