@@ -9,6 +9,7 @@
 #ifndef INSITU_CALIBRATION_SIMULATION_WORLD_H
 #define INSITU_CALIBRATION_SIMULATION_WORLD_H
 
+#include <array>
 #include <string>
 #include <vector>
 
@@ -62,6 +63,12 @@ struct Texture
   bool material() const
   {
     return pattern == Pattern::kPlanks || pattern == Pattern::kBricks || pattern == Pattern::kTiles;
+  }
+  // The structure's amounts by their world-file names (one list for the writer and the validation).
+  std::array<std::pair<const char*, double>, 5> structureAmounts() const
+  {
+    return {
+        {{"variation", variation}, {"grain", grain}, {"speckle", speckle}, {"gradient", gradient}, {"shine", shine}}};
   }
 
   // Colour at (u, v) and the region it belongs to: every change of region is a strong edge (the pattern's parity, a

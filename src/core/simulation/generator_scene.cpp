@@ -79,12 +79,7 @@ std::string structureYaml(const Texture& t)
   std::string s;
   if (t.material())
     s += "joint: " + num(t.joint) + ", ";
-  const std::pair<const char*, double> amounts[] = {{"variation", t.variation},
-                                                    {"grain", t.grain},
-                                                    {"speckle", t.speckle},
-                                                    {"gradient", t.gradient},
-                                                    {"shine", t.shine}};
-  for (const auto& [key, value] : amounts)
+  for (const auto& [key, value] : t.structureAmounts())
     if (value > 0.0)
       s += std::string(key) + ": " + num(value) + ", ";
   if (!s.empty())

@@ -47,12 +47,7 @@ Status checkStructure(const Texture& t, const std::string& where)
 {
   if (t.material() && !within(t.joint, kMinJointM, 0.5 * t.cell.minCoeff()))
     return refuse(where + ".joint", range(kMinJointM, 0.5 * t.cell.minCoeff()) + " m (half the smaller cell side)");
-  const std::pair<const char*, double> amounts[] = {{"variation", t.variation},
-                                                    {"grain", t.grain},
-                                                    {"speckle", t.speckle},
-                                                    {"gradient", t.gradient},
-                                                    {"shine", t.shine}};
-  for (const auto& [key, value] : amounts)
+  for (const auto& [key, value] : t.structureAmounts())
     if (!within(value, 0.0, 1.0))
       return refuse(where + "." + key, range(0.0, 1.0));
   return Success{};

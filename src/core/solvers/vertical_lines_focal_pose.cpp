@@ -257,6 +257,13 @@ CameraModel pinHole(const CameraPose& pose, double focal_px, const Eigen::Vector
   in.cy = principal_point.y();
   return CameraModel(in, DivisionModel{0.0, principal_point}, pose);
 }
+// The focal roots within the options' field-of-view range (f / image width = 0.5 / tan(hfov / 2)).
+std::vector<double> focalRootsInFov(const NormalizedLines& normalized, const VerticalLinesSolverOptions& options)
+{
+  const double f_min = 0.5 / std::tan(0.5 * options.max_fov_deg * kDegToRad);
+  const double f_max = 0.5 / std::tan(0.5 * options.min_fov_deg * kDegToRad);
+  return focalRoots(normalized, f_min, f_max, std::max(2, options.fov_samples));
+}
 }  // namespace
 
 std::vector<CameraModel> solveVerticalLinesFocalPose(const std::array<ImageMapLine, 4>& lines,
@@ -268,10 +275,7 @@ std::vector<CameraModel> solveVerticalLinesFocalPose(const std::array<ImageMapLi
   const double scale = std::max(1, image_width);
   if (!normalizeLines(lines.data(), lines.size(), principal_point, scale, options.vertical_tolerance_deg, &normalized))
     return cameras;
-  // f / image width = 0.5 / tan(hfov / 2).
-  const double f_min = 0.5 / std::tan(0.5 * options.max_fov_deg * kDegToRad);
-  const double f_max = 0.5 / std::tan(0.5 * options.min_fov_deg * kDegToRad);
-  for (double f : focalRoots(normalized, f_min, f_max, std::max(2, options.fov_samples)))
+  for (double f : focalRootsInFov(normalized, options))
     for (double yaw : yawSystem(normalized, f).commonYaws(options.max_residual))
     {
       const FocalYaw root{f, yaw};
@@ -292,9 +296,7 @@ std::vector<RotationFocal> solveVerticalLinesRotationFocal(const std::array<Imag
   const double scale = std::max(1, image_width);
   if (!normalizeLines(lines.data(), lines.size(), principal_point, scale, options.vertical_tolerance_deg, &normalized))
     return out;
-  const double f_min = 0.5 / std::tan(0.5 * options.max_fov_deg * kDegToRad);
-  const double f_max = 0.5 / std::tan(0.5 * options.min_fov_deg * kDegToRad);
-  for (double f : focalRoots(normalized, f_min, f_max, std::max(2, options.fov_samples)))
+  for (double f : focalRootsInFov(normalized, options))
   {
     const YawSystem s = yawSystem(normalized, f);
     for (double yaw : s.commonYaws(1e-6))
