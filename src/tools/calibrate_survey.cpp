@@ -65,12 +65,16 @@ Options:
                         keyframes become map lines (default 0: off)
   --floor-height M      the floor plane's z in the world frame (default 0)
   --floor-max-range M   floor lines farther from the camera are not used (default 12)
+  --triangulated-lines 0|1
+                        RGB lines beyond the depth range triangulated from three or more keyframes become map lines
+                        (default 0: off)
   --camera NAME         calibrate only this camera
   --search-starts N     distinct results of the prior search refined per camera (default 4)
   --truth-dir DIR       the simulator's truth folder (<bag>_truth): also report, per camera, how many matches pair
                         the wrong edges and how far the matched map lines are from the true edges, the localiser's
                         limit (its error averaged over the keyframes, at the camera: "truth-limit" lines) and the
-                        cameras' poses relative to each other against the truth ("truth-relative" lines)
+                        cameras' poses relative to each other against the truth ("truth-relative" lines) and
+                        the map's coverage of each camera's image lines ("truth-coverage" lines)
   --prior-from-truth P,D,F[,SEED]
                         with --truth-dir: replace every camera's prior by its true camera moved P m in a random
                         direction, its viewing direction turned D degrees (about a random axis across it; the
@@ -231,6 +235,31 @@ void reportMapAgainstTruth(const std::string& truth_dir, const ic::Survey& surve
       std::printf("truth-relative %s %s %.2f mm %.4f deg\n", found[i].first.c_str(), found[j].first.c_str(),
                   1000.0 * (p - pt).norm(), angle);
     }
+}
+
+// Map coverage (line_evaluation.h): the camera's image lines, extracted from its median under the true distortion,
+// by length on a true edge the used map holds within 1 cm; whatever the calibration's outcome.
+void reportCoverageAgainstTruth(const std::string& truth_dir, const ic::Survey& survey, const std::string& name,
+                                const std::vector<ic::Segment3d>& map)
+{
+  const auto truth = ic::loadCalibrationFile(truth_dir + "/" + name + ".yaml");
+  const auto edges = ic::simulation::loadTrueEdges(truth_dir + "/edges.yaml");
+  if (!truth || !edges || survey.camera(name).imageCount() == 0)
+    return;
+  const auto lines =
+      ic::extractImageLines(survey.camera(name).medianImage(), truth->camera, survey.options().cameras.image_lines);
+  if (!lines)
+    return;
+  std::vector<std::vector<Eigen::Vector2d>> polylines;
+  for (const auto& line : *lines)
+    polylines.push_back(line.points);
+  std::vector<ic::Segment3d> segments;
+  for (const auto& e : *edges)
+    segments.push_back({e.start, e.end});
+  const ic::MapCoverage c = ic::measureMapCoverage(polylines, truth->camera, segments, map);
+  std::printf("truth-coverage %s %.1f %% of %.0f px (%zu of %zu lines; %.1f %% on a true edge)\n", name.c_str(),
+              100.0 * c.fraction(), c.total_px, c.covered_lines, c.lines,
+              c.total_px > 0.0 ? 100.0 * c.on_edge_px / c.total_px : 0.0);
 }
 
 // The oracle's data: the image lines matched under the true camera and, as variants, the same matches with the
@@ -548,6 +577,7 @@ bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options)
   options->floor.enabled = cli.number("floor-lines", options->floor.enabled ? 1.0 : 0.0) != 0.0;
   options->floor.floor_height_m = cli.number("floor-height", options->floor.floor_height_m);
   options->floor.max_range_m = cli.number("floor-max-range", options->floor.max_range_m);
+  options->triangulated.enabled = cli.number("triangulated-lines", options->triangulated.enabled ? 1.0 : 0.0) != 0.0;
   if (cli.flag("no-refine"))
     options->cameras.matcher.calibration.refine = false;
   if (cli.flag("no-ransac"))
@@ -632,6 +662,13 @@ void printSurveySummary(const ic::Survey& survey, size_t frames_without_pose, do
       floor_lines += line.source == ic::MapLineSource::kFloor ? 1 : 0;
     std::printf("floor lines: %zu candidates (%zu refused: depth off the floor), %zu floor map lines used\n",
                 stats.floor_candidates, stats.floor_refused, floor_lines);
+  }
+  if (survey.options().triangulated.enabled)
+  {
+    size_t triangulated = 0;
+    for (const auto& line : survey.usedMapLines())
+      triangulated += line.source == ic::MapLineSource::kTriangulated ? 1 : 0;
+    std::printf("triangulated lines: %zu map lines used\n", triangulated);
   }
 }
 
@@ -722,7 +759,12 @@ int calibrateCameras(const ic::CommandLine& cli, ic::Survey& survey)
     if (selected(name) && !cli.flag("oracle") && !calibrateAndSave(cli, survey, name, map))
       status = 1;
   if (cli.has("truth-dir"))
+  {
+    for (const auto& name : survey.cameraNames())
+      if (selected(name))
+        reportCoverageAgainstTruth(cli.value("truth-dir"), survey, name, map);
     reportMapAgainstTruth(cli.value("truth-dir"), survey);
+  }
   if (cli.flag("oracle") && cli.has("truth-dir"))
     for (const auto& name : survey.cameraNames())
       if (selected(name))
@@ -741,7 +783,8 @@ int main(int argc, char** argv)
   ic::CommandLine cli(
       argc, argv,
       {"cameras", "params", "out-dir", "world-frame", "min-support", "camera", "search-starts", "truth-dir",
-       "prior-from-truth", "prior-sigmas", "max-spread", "localization-sigma", "odom-frame", "odometry-sigma"},
+       "prior-from-truth", "prior-sigmas", "max-spread", "localization-sigma", "odom-frame", "odometry-sigma",
+       "floor-lines", "floor-height", "floor-max-range", "triangulated-lines"},
       {"no-refine", "no-ransac", "no-report", "quiet", "oracle", "oracle-details", "trace", "no-odometry"});
   if (cli.help())
   {

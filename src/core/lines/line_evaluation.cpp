@@ -204,4 +204,55 @@ Line3dError measureLine3d(const Eigen::Vector3d& a, const Eigen::Vector3d& b, co
   return best;
 }
 
+namespace
+{
+// Whether a map line lies on the edge's (infinite) line within max_distance_m and overlaps its extent.
+bool holdsEdge(const Segment3d& edge, const Segment3d& line, double max_distance_m)
+{
+  const double length = (edge.b - edge.a).norm();
+  if (!(length > 0.0))
+    return false;
+  const Eigen::Vector3d u = (edge.b - edge.a) / length;
+  auto off = [&](const Eigen::Vector3d& p) { return ((p - edge.a) - (p - edge.a).dot(u) * u).norm(); };
+  const double sa = (line.a - edge.a).dot(u), sb = (line.b - edge.a).dot(u);
+  return off(line.a) <= max_distance_m && off(line.b) <= max_distance_m && std::max(sa, sb) > 0.0 &&
+         std::min(sa, sb) < length;
+}
+
+double polylineLength(const std::vector<Eigen::Vector2d>& polyline)
+{
+  double length = 0.0;
+  for (size_t i = 0; i + 1 < polyline.size(); ++i)
+    length += (polyline[i + 1] - polyline[i]).norm();
+  return length;
+}
+}  // namespace
+
+MapCoverage measureMapCoverage(const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                               const CameraModel& true_camera, const std::vector<Segment3d>& true_edges,
+                               const std::vector<Segment3d>& map_lines, double max_distance_m)
+{
+  const std::vector<Segment3d> edges = mergeCollinearSegments(true_edges);
+  const std::vector<TrueEdgeImage> images = projectEdges(true_camera, edges);
+  MapCoverage coverage;
+  for (const auto& polyline : image_lines)
+  {
+    const double length = polylineLength(polyline);
+    coverage.total_px += length;
+    ++coverage.lines;
+    const ImageLineError on = measureImageLine(polyline, true_camera.distortion(), images, 3.0, 1.0, 0.6);
+    if (on.edge < 0)
+      continue;
+    coverage.on_edge_px += length;
+    const bool held = std::any_of(map_lines.begin(), map_lines.end(),
+                                  [&](const Segment3d& m) { return holdsEdge(edges[on.edge], m, max_distance_m); });
+    if (held)
+    {
+      coverage.covered_px += length;
+      ++coverage.covered_lines;
+    }
+  }
+  return coverage;
+}
+
 }  // namespace insitu_calibration
