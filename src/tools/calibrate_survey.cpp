@@ -257,9 +257,14 @@ void reportCoverageAgainstTruth(const std::string& truth_dir, const ic::Survey& 
   for (const auto& e : *edges)
     segments.push_back({e.start, e.end});
   const ic::MapCoverage c = ic::measureMapCoverage(polylines, truth->camera, segments, map);
-  std::printf("truth-coverage %s %.1f %% of %.0f px (%zu of %zu lines; %.1f %% on a true edge)\n", name.c_str(),
-              100.0 * c.fraction(), c.total_px, c.covered_lines, c.lines,
-              c.total_px > 0.0 ? 100.0 * c.on_edge_px / c.total_px : 0.0);
+  // Within 3 and 10 cm too: whether the map lacks the edges or holds them a little off.
+  const double c3 = ic::measureMapCoverage(polylines, truth->camera, segments, map, 0.03).fraction();
+  const double c10 = ic::measureMapCoverage(polylines, truth->camera, segments, map, 0.1).fraction();
+  std::printf(
+      "truth-coverage %s %.1f %% of %.0f px (%zu of %zu lines; %.1f %% on a true edge; within 3 / 10 cm "
+      "%.1f / %.1f %%)\n",
+      name.c_str(), 100.0 * c.fraction(), c.total_px, c.covered_lines, c.lines,
+      c.total_px > 0.0 ? 100.0 * c.on_edge_px / c.total_px : 0.0, 100.0 * c3, 100.0 * c10);
 }
 
 // The oracle's data: the image lines matched under the true camera and, as variants, the same matches with the

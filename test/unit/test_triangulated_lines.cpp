@@ -127,7 +127,9 @@ TEST(TriangulatedLines, NoiseFreeSegmentsGiveTheTrueLines)
   std::mt19937 rng(3);
   const auto lines = farLines(rng);
   const auto keyframes = route(lines, 0.0, rng, always);
-  const auto made = ic::triangulateLines(keyframes, {}, {}, enabled());
+  ic::TriangulatedLineOptions options = enabled();
+  options.max_sigma_m = 1.0;  // every line, however weak its geometry (its sigma at 0.3 px noise)
+  const auto made = ic::triangulateLines(keyframes, {}, {}, options);
   std::set<int> found;
   for (const auto& m : made)
   {
@@ -144,7 +146,7 @@ TEST(TriangulatedLines, NoiseFreeSegmentsGiveTheTrueLines)
 TEST(TriangulatedLines, NoisyLinesLieWithinThreePredictedSigmas)
 {
   int within = 0, total = 0;
-  for (unsigned seed = 1; seed <= 5; ++seed)
+  for (unsigned seed = 1; seed <= 8; ++seed)
   {
     std::mt19937 rng(seed);
     const auto lines = farLines(rng);
@@ -157,7 +159,7 @@ TEST(TriangulatedLines, NoisyLinesLieWithinThreePredictedSigmas)
     }
   }
   std::printf("%d of %d triangulated lines within 3 predicted sigmas of the truth\n", within, total);
-  EXPECT_GE(total, 50);
+  EXPECT_GE(total, 60);
   EXPECT_GE(within, 0.9 * total) << within << " of " << total;
 }
 

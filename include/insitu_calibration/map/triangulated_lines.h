@@ -32,11 +32,11 @@ struct TriangulatedLineOptions
   std::vector<int> pair_spans = {6, 12, 24};
   double confirm_px = 1.5;     // a supporting segment's end points from the candidate's image
   double max_angle_deg = 2.0;  // of a supporting segment to the candidate's image
-  int min_keyframes = 3;       // keyframes whose segments support the line
+  int min_keyframes = 5;       // keyframes whose segments support the line (at least 3)
   double min_range_m = 0.5;    // every supporting camera sees the line at least this far in front
   double max_range_m = 25.0;   // ... and at most this far
   double min_length_m = 0.2;
-  double max_sigma_m = 0.05;  // lines predicted to be worse are dropped
+  double max_sigma_m = 0.02;  // lines predicted to be worse are dropped
 };
 
 // The lines triangulated from the keyframes' RGB-only segments (Keyframe::rgb) under the corrected poses

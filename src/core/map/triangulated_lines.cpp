@@ -221,14 +221,19 @@ bool supportedExtent(const std::vector<View>& views, const std::vector<Support>&
   return true;
 }
 
-// The predicted error (m) across the line at its worse end point: the least-squares covariance at the pixel noise,
-// and the poses' errors (a shift, and a turn over the mean range) in quadrature.
+// The predicted error (m) across the line at its worse end point: the least-squares covariance at the pixel noise
+// (or at the residuals' level when higher), and the poses' errors (a shift, and a turn over the mean range) in
+// quadrature.
 double predictedSigma(const std::vector<View>& views, const std::vector<Support>& support, const Line& centred,
                       double half_length, const TriangulatedLineOptions& o)
 {
   const auto [u, w] = acrossBasis(centred.direction);
   const Eigen::MatrixXd J = jacobian(views, support, centred, u, w, o.pixel_sigma_px);
-  const Eigen::Matrix4d covariance = (J.transpose() * J).inverse();
+  // Scaled by the fit's variance factor when its residuals exceed the pixel noise (segments of nearby edges among
+  // the support, noise above the assumed): the prediction must not be more confident than the fit.
+  const Eigen::VectorXd r = whitenedResiduals(views, support, centred, o.pixel_sigma_px);
+  const double dof = std::max<double>(1.0, static_cast<double>(r.size()) - 4.0);
+  const Eigen::Matrix4d covariance = (J.transpose() * J).inverse() * std::max(1.0, r.squaredNorm() / dof);
   double fit = 0.0;
   for (const double s : {-half_length, half_length})
   {
@@ -335,6 +340,28 @@ std::optional<MapLine> fitLine(const std::vector<View>& views, const std::vector
   out.last_stamp = keyframes[support->back().view].stamp;
   return out;
 }
+
+// The map line of a pair of segments: their candidate, confirmed by a keyframe between them, refined on the
+// support it gathers, which is gathered again along the refined line (the pair alone places it poorly) and fitted.
+std::optional<MapLine> lineOfPair(const std::vector<View>& views, const std::vector<Keyframe>& keyframes, Support first,
+                                  Support second, int span, const std::vector<std::vector<bool>>& used,
+                                  const TriangulatedLineOptions& o, std::vector<Support>* support)
+{
+  const auto candidate = intersect(views[first.view], (*views[first.view].segments)[first.segment], views[second.view],
+                                   (*views[second.view].segments)[second.segment], o);
+  if (!candidate)
+    return std::nullopt;
+  Line line = candidate->first;
+  const auto [lo, hi] = candidate->second;
+  if (!confirmedBetween(views, first.view, second.view, line, lo, hi, used, o))
+    return std::nullopt;
+  *support = gatherSupport(views, first, second, line, lo, hi, span, used, o);
+  if (static_cast<int>(support->size()) < std::max(3, o.min_keyframes) ||
+      !refine(views, *support, &line, o.pixel_sigma_px))
+    return std::nullopt;
+  *support = gatherSupport(views, first, second, line, lo, hi, span, used, o);
+  return fitLine(views, keyframes, support, line, o);
+}
 }  // namespace
 
 std::vector<MapLine> triangulateLines(const std::vector<Keyframe>& keyframes,
@@ -360,15 +387,8 @@ std::vector<MapLine> triangulateLines(const std::vector<Keyframe>& keyframes,
         {
           if (used[j][sj])
             continue;
-          const auto candidate = intersect(views[i], (*views[i].segments)[si], views[j], (*views[j].segments)[sj], o);
-          if (!candidate)
-            continue;
-          const auto& [line, extent] = *candidate;
-          if (!confirmedBetween(views, i, j, line, extent.first, extent.second, used, o))
-            continue;
-          std::vector<Support> support =
-              gatherSupport(views, {i, si}, {j, sj}, line, extent.first, extent.second, widest, used, o);
-          const auto fitted = fitLine(views, keyframes, &support, line, o);
+          std::vector<Support> support;
+          const auto fitted = lineOfPair(views, keyframes, {i, si}, {j, sj}, widest, used, o, &support);
           if (!fitted)
             continue;
           // Its segments are explained either way: by a line of the map, by one triangulated before, or by it.
