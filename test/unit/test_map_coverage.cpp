@@ -1,6 +1,7 @@
 // Map coverage (lines/line_evaluation.h, issue 11): the share of a camera's image lines, by length, on a true edge the
 // map holds within 1 cm. Synthetic: two true edges of equal image length seen by a distorted camera, image lines drawn
-// exactly on them (and one on no edge); the map holds one edge, the other exactly, 5 mm or 2 cm off.
+// exactly on them (and one on no edge); the map holds one edge, the other exactly, 5 mm or 2 cm off; on a long edge
+// only a map line where the image line shows it counts.
 #include <gtest/gtest.h>
 
 #include "insitu_calibration/lines/line_evaluation.h"
@@ -60,6 +61,16 @@ TEST(MapCoverage, CountsTheImageLengthOnTrueEdgesTheMapHoldsWithinOneCentimetre)
   // A map line on the edge's line but beyond its extent holds nothing of it.
   EXPECT_NEAR(ic::measureMapCoverage(lines, cam, kEdges, {kEdges[0], shifted(kEdges[1], {2.0, 0, 0})}).fraction(), 0.5,
               1e-3);
+}
+
+TEST(MapCoverage, AMapLineOnALongEdgeCountsWhereTheImageLineShowsIt)
+{
+  // The first edge goes on for 10 m to the side, out of the view; the image line shows its first metre.
+  const ic::CameraModel cam = camera();
+  const std::vector<ic::Segment3d> edges = {{kEdges[0].a, {10.5, -0.8, 5.0}}};
+  const std::vector<std::vector<Eigen::Vector2d>> lines = {imageOf(cam, kEdges[0])};
+  EXPECT_EQ(ic::measureMapCoverage(lines, cam, edges, {{{5.0, -0.8, 5.0}, {6.0, -0.8, 5.0}}}).fraction(), 0.0);
+  EXPECT_NEAR(ic::measureMapCoverage(lines, cam, edges, {{{0.3, -0.8, 5.0}, {2.0, -0.8, 5.0}}}).fraction(), 1.0, 1e-9);
 }
 
 TEST(MapCoverage, AnImageLineOnNoTrueEdgeCountsAsUncovered)

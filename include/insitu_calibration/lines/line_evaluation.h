@@ -66,7 +66,8 @@ Line3dError measureLine3d(const Eigen::Vector3d& a, const Eigen::Vector3d& b, co
 
 // How much of a fixed camera's view the line map explains (issue 11's map coverage): of the image lines' length
 // (distorted px), the share on a true edge (measureImageLine: 3 px, 60 % of the samples, under the true camera) for
-// which the map holds a line: both end points within max_distance_m of the edge's line, overlapping its extent.
+// which the map holds a line: both end points within max_distance_m of the edge's line, overlapping the part of it
+// the image line shows (a map line elsewhere on a long edge, a row of floor tiles, is out of the view).
 // Collinear true edges count as one edge (mergeCollinearSegments), as they do for the calibration.
 struct MapCoverage
 {
