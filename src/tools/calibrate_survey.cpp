@@ -267,6 +267,32 @@ void reportCoverageAgainstTruth(const std::string& truth_dir, const ic::Survey& 
       c.total_px > 0.0 ? 100.0 * c.on_edge_px / c.total_px : 0.0, 100.0 * c3, 100.0 * c10);
 }
 
+// The triangulated map lines in use against the true edges: within 3 predicted sigmas, within 1 cm, on none.
+void reportTriangulatedAgainstTruth(const std::string& truth_dir, const ic::Survey& survey)
+{
+  const auto edges = ic::simulation::loadTrueEdges(truth_dir + "/edges.yaml");
+  if (!edges || !survey.options().triangulated.enabled)
+    return;
+  std::vector<ic::Segment3d> segments;
+  for (const auto& e : *edges)
+    segments.push_back({e.start, e.end});
+  size_t lines = 0, within_sigmas = 0, within_cm = 0, none = 0;
+  for (const auto& line : survey.usedMapLines())
+  {
+    if (line.source != ic::MapLineSource::kTriangulated)
+      continue;
+    ++lines;
+    const ic::Line3dError e = ic::measureLine3d(line.a(), line.b(), segments, 0.1, 5.0);
+    none += e.edge < 0 ? 1 : 0;
+    within_sigmas += e.edge >= 0 && e.distance_m <= 3.0 * line.sigma() ? 1 : 0;
+    within_cm += e.edge >= 0 && e.distance_m <= 0.01 ? 1 : 0;
+  }
+  std::printf(
+      "truth-triangulated %zu lines: %zu within 3 predicted sigmas of a true edge, %zu within 1 cm, %zu on "
+      "none (10 cm, 5 deg)\n",
+      lines, within_sigmas, within_cm, none);
+}
+
 // The oracle's data: the image lines matched under the true camera and, as variants, the same matches with the
 // map lines replaced by their true edges (image-line errors only), with the image lines replaced by the true edges'
 // images (map-line errors only) and with both.
@@ -768,6 +794,7 @@ int calibrateCameras(const ic::CommandLine& cli, ic::Survey& survey)
     for (const auto& name : survey.cameraNames())
       if (selected(name))
         reportCoverageAgainstTruth(cli.value("truth-dir"), survey, name, map);
+    reportTriangulatedAgainstTruth(cli.value("truth-dir"), survey);
     reportMapAgainstTruth(cli.value("truth-dir"), survey);
   }
   if (cli.flag("oracle") && cli.has("truth-dir"))

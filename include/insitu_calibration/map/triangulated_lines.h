@@ -30,11 +30,14 @@ struct TriangulatedLineOptions
   // of about 0.6, 1.2 and 2.4 m), tested first on the keyframes between them; the support is sought up to the
   // largest of them before and after the pair.
   std::vector<int> pair_spans = {6, 12, 24};
-  double confirm_px = 1.5;     // a supporting segment's end points from the candidate's image
+  double confirm_px = 1.0;     // a supporting segment's end points from the candidate's image
   double max_angle_deg = 2.0;  // of a supporting segment to the candidate's image
   int min_keyframes = 5;       // keyframes whose segments support the line (at least 3)
-  double min_range_m = 0.5;    // every supporting camera sees the line at least this far in front
-  double max_range_m = 25.0;   // ... and at most this far
+  // Every supporting camera sees the line at least this far in front (nearer, depth would have lifted it: an RGB
+  // line there without depth is mostly a ghost of nearly coplanar views, floor lines along the route on the
+  // hall world) ...
+  double min_range_m = 4.0;
+  double max_range_m = 25.0;  // ... and at most this far
   double min_length_m = 0.2;
   double max_sigma_m = 0.02;  // lines predicted to be worse are dropped
 };

@@ -98,15 +98,18 @@ bool supports(const View& v, const FloorObservation& s, const Line& line, double
   return extent && extent->second > s_min && extent->first < s_max;
 }
 
-// The best-fitting segment of a view (smallest worst end-point residual), -1 when none supports the line.
+// The one segment of a view that supports the line, -1 when none or several do.
 int supportingSegment(const View& v, const Line& line, double s_min, double s_max, const std::vector<bool>& used,
                       const TriangulatedLineOptions& o)
 {
-  int best = -1;
+  int best = -1, supporting = 0;
   double best_px = std::numeric_limits<double>::infinity();
   for (size_t k = 0; k < v.segments->size(); ++k)
   {
-    if (used[k] || !supports(v, (*v.segments)[k], line, s_min, s_max, o))
+    if (!supports(v, (*v.segments)[k], line, s_min, s_max, o))
+      continue;
+    ++supporting;
+    if (used[k])
       continue;
     const double px = imageResiduals(v, (*v.segments)[k], line).cwiseAbs().maxCoeff();
     if (px < best_px)
@@ -115,7 +118,9 @@ int supportingSegment(const View& v, const Line& line, double s_min, double s_ma
       best = static_cast<int>(k);
     }
   }
-  return best;
+  // Two segments along it (parallel edges a few px apart in the image: tiles, stripes far away) are ambiguous: the
+  // wrong one makes a ghost line that such repeated edges confirm in other views too.
+  return supporting == 1 ? best : -1;
 }
 
 // The candidate of two segments: the intersection of their planes, with the overlap of their extents.
