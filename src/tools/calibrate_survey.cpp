@@ -66,7 +66,7 @@ Options:
   --floor-height M      the floor plane's z in the world frame (default 0)
   --floor-max-range M   floor lines farther from the camera are not used (default 12)
   --triangulated-lines 0|1
-                        RGB lines beyond the depth range triangulated from three or more keyframes become map lines
+                        RGB lines beyond the depth range (4 m) triangulated from five or more keyframes become map lines
                         (default 0: off)
   --camera NAME         calibrate only this camera
   --search-starts N     distinct results of the prior search refined per camera (default 4)
