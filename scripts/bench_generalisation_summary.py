@@ -20,19 +20,19 @@ def row(seed, directory, seconds):
         name, size, hfov, height = m.groups()
         failed = re.search(r"^%s: FAILED: (.*)$" % name, log, re.M)
         cells = [seed, kind, name, size, hfov, height]
-        result = re.search(r"^\| %s \| ([-+0-9.]+) %% \|[^|]*\|[^|]*\| ([0-9.]+) deg \| ([0-9.]+) mm \|" % name,
-                           compare, re.M)
+        result = re.search(r"^\| %s \| ([-+0-9.]+) %% \|[^|]*\|[^|]*\| ([0-9.]+) deg \| ([0-9.]+) mm \|"
+                           r"[^|]*\|[^|]*\| [0-9.]+ px / ([0-9.]+) mm / ([0-9.]+) deg" % name, compare, re.M)
         if failed or not result:
             reason = failed.group(1) if failed else "no result (see calibrate.log)"
             # With the truth, calibrate_survey says how far the refused result was: was the refusal needed?
             truth = re.search(r"^%s: FAILED: .*\n  truth of the refused result: focal ([-+0-9.]+) %%, rotation "
                               r"([0-9.]+) deg, position ([0-9.]+) mm" % name, log, re.M)
             refused = category(*(abs(float(x)) for x in truth.groups())) if truth else ""
-            print("\t".join(cells + ["refused", "", "", "", reason, seconds, refused]))
+            print("\t".join(cells + ["refused", "", "", "", reason, seconds, refused, "", ""]))
             continue
         focal, rotation, position = abs(float(result.group(1))), float(result.group(2)), float(result.group(3))
         print("\t".join(cells + [category(focal, rotation, position), "%.3f" % focal, "%.3f" % rotation,
-                                 "%.1f" % position, "", seconds, ""]))
+                                 "%.1f" % position, "", seconds, "", result.group(4), result.group(5)]))
 
 
 def category(focal, rotation, position):
@@ -96,6 +96,13 @@ def summary(path):
         for name, column, unit in (("focal", 7, "%"), ("rotation", 8, "deg"), ("position", 9, "mm")):
             v = [float(r[column]) for r in accepted]
             print("    %-9s %8.3f / %8.3f / %8.3f %s" % (name, percentile(v, 50), percentile(v, 90), max(v), unit))
+    # Honesty of the reported uncertainty: an accepted result's error within twice its one-sigma (position: the
+    # square root of the covariance's trace, so 2 sigma covers a 3D error more than 95 % of the time).
+    sigmas = [r for r in accepted if len(r) > 14 and r[13]]
+    if sigmas:
+        covered = lambda err, sig: sum(1 for r in sigmas if float(r[err]) <= 2.0 * float(r[sig]))
+        print("  two-sigma coverage of the accepted results (goal >= 90 %%): position %d of %d, rotation %d of %d" %
+              (covered(9, 13), len(sigmas), covered(8, 14), len(sigmas)))
     by_kind = {}
     for r in rows:
         k = by_kind.setdefault(r[1], [0, 0, 0])

@@ -507,6 +507,7 @@ void CalibrationServer::calibrateOne(const std::string& name, const std::functio
   {
     std::lock_guard<std::mutex> lock(mutex_);
     camera.emplace(survey_->camera(name));
+    camera->setOccluders(survey_->surfaces());
     keyframes = survey_->stats().keyframes;
     map = survey_->latestMapSegments();
     sigmas = survey_->latestMapLineSigmas();

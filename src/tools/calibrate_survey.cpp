@@ -68,8 +68,11 @@ Options:
   --triangulated-lines 0|1
                         RGB lines beyond the depth range (4 m) triangulated from five or more keyframes become map lines
                         (default 0: off)
+  --occlusion-test 0|1  the final check leaves out map lines that surfaces the survey's depth measured hide from
+                        the camera (default 1)
   --camera NAME         calibrate only this camera
   --search-starts N     distinct results of the prior search refined per camera (default 4)
+  --hypothesis-starts N extra starts from line-correspondence hypotheses in the prior's 3-sigma cone (default 0)
   --truth-dir DIR       the simulator's truth folder (<bag>_truth): also report, per camera, how many matches pair
                         the wrong edges and how far the matched map lines are from the true edges, the localiser's
                         limit (its error averaged over the keyframes, at the camera: "truth-limit" lines) and the
@@ -609,12 +612,15 @@ bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options)
   options->floor.floor_height_m = cli.number("floor-height", options->floor.floor_height_m);
   options->floor.max_range_m = cli.number("floor-max-range", options->floor.max_range_m);
   options->triangulated.enabled = cli.number("triangulated-lines", options->triangulated.enabled ? 1.0 : 0.0) != 0.0;
+  options->occlusion.enabled = cli.number("occlusion-test", options->occlusion.enabled ? 1.0 : 0.0) != 0.0;
   if (cli.flag("no-refine"))
     options->cameras.matcher.calibration.refine = false;
   if (cli.flag("no-ransac"))
     options->cameras.matcher.calibration.ransac = false;
   options->cameras.matcher.search_starts =
       static_cast<int>(cli.number("search-starts", options->cameras.matcher.search_starts));
+  options->cameras.matcher.hypothesis_starts =
+      static_cast<int>(cli.number("hypothesis-starts", options->cameras.matcher.hypothesis_starts));
   if (cli.flag("trace"))
     options->cameras.matcher.trace = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
   if (!cli.error().empty())
@@ -814,9 +820,26 @@ int main(int argc, char** argv)
   ic::quietSolverLogging();
   ic::CommandLine cli(
       argc, argv,
-      {"cameras", "params", "out-dir", "world-frame", "min-support", "camera", "search-starts", "truth-dir",
-       "prior-from-truth", "prior-sigmas", "max-spread", "localization-sigma", "odom-frame", "odometry-sigma",
-       "floor-lines", "floor-height", "floor-max-range", "triangulated-lines"},
+      {"cameras",
+       "params",
+       "out-dir",
+       "world-frame",
+       "min-support",
+       "camera",
+       "search-starts",
+       "hypothesis-starts",
+       "truth-dir",
+       "prior-from-truth",
+       "prior-sigmas",
+       "max-spread",
+       "localization-sigma",
+       "odom-frame",
+       "odometry-sigma",
+       "floor-lines",
+       "floor-height",
+       "floor-max-range",
+       "occlusion-test",
+       "triangulated-lines"},
       {"no-refine", "no-ransac", "no-report", "quiet", "oracle", "oracle-details", "trace", "no-odometry"});
   if (cli.help())
   {

@@ -30,6 +30,10 @@ Options:
                            sigmas are the same sizes (default 0.5,10,0.2)
   --max-route-s S          keep the drive under S seconds (lanes further apart, the route cut; default 0: cover
                            the floor in lanes 1.5 m apart)
+  --appearance A           realistic (default): sensor blur, vignetting, exposure and white balance differing per
+                           camera, JPEG on the fixed cameras, Xtion RGB noise, flying pixels, low-frequency depth
+                           error and RGB-to-depth misregistration (docs/simulator.md, "appearance"); plain: none of
+                           these, as the hand-made worlds (the building is the same either way)
   -h, --help               this text
 
 Example:
@@ -58,8 +62,8 @@ bool parsePriorError(const std::string& text, sim::PriorError* error)
 
 int main(int argc, char** argv)
 {
-  insitu_calibration::CommandLine cli(argc, argv, {"seed", "kind", "out", "cameras-out", "prior-error", "max-route-s"},
-                                      {});
+  insitu_calibration::CommandLine cli(
+      argc, argv, {"seed", "kind", "out", "cameras-out", "prior-error", "max-route-s", "appearance"}, {});
   if (cli.help())
   {
     std::cout << kUsage;
@@ -78,6 +82,14 @@ int main(int argc, char** argv)
       options.kind = *kind;
     else
       problem = kind.error().message();
+  }
+  if (problem.empty() && cli.has("appearance"))
+  {
+    const std::string look = cli.value("appearance");
+    if (look == "plain" || look == "realistic")
+      options.realistic_appearance = look == "realistic";
+    else
+      problem = "--appearance must be plain or realistic (got '" + look + "')";
   }
   if (problem.empty() && cli.has("prior-error") && !parsePriorError(cli.value("prior-error"), &options.prior_error))
     problem = "--prior-error needs three non-negative numbers M,DEG,FOV (FOV < 1), e.g. 0.5,10,0.2";

@@ -80,11 +80,11 @@ void renderXtionView(const sim::SurveySimulator& survey, double t, const std::st
   sim::RenderOptions ro;
   ro.supersampling = w.xtion.supersampling;
   const sim::RenderedView view = survey.renderer().render(cam, ro);
-  const cv::Mat depth = sim::simulateXtionDepth(view, w, cam, w.xtion.depth, true, 1);
+  const cv::Mat depth = sim::simulateXtionDepth(view, w, cam, w.xtion.depth, true, 1, w.appearance.depth);
   char name[64];
   std::snprintf(name, sizeof(name), "xtion_%05.1f", t);
   cv::Mat bgr;
-  cv::cvtColor(view.rgb, bgr, cv::COLOR_RGB2BGR);
+  cv::cvtColor(sim::applyCameraOptics(view.rgb, w.appearance.xtion_rgb, cam), bgr, cv::COLOR_RGB2BGR);
   cv::imwrite(dir + "/" + name + ".png", bgr);
   cv::Mat d8, colour;
   depth.convertTo(d8, CV_8U, 255.0 / 5000.0);

@@ -32,6 +32,10 @@ TEST(GeneratedSurvey, NoWrongCameraAcceptedInAGeneratedRoom)
   generator.seed = kBuilding;
   generator.kind = sim::BuildingKind::kRoom;
   generator.max_route_s = kDuration;
+  // The plain appearance this guard was tuned on. With the realistic default (materials, sensor effects) both
+  // cameras of this room are refused (cam_a too weakly determined, cam_b 7 of 8 lines matched): no wrong camera, but
+  // none within the thresholds either (measured when the appearance was added; docs/simulator.md).
+  generator.realistic_appearance = false;
   const auto building = sim::generateWorld(generator);
   ASSERT_TRUE(building) << building.error().describe();
   const auto configs = ic::parseCameraConfig(building->cameras_yaml);

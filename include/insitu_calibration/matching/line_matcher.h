@@ -65,6 +65,12 @@ struct LineMatcherOptions
   double search_min_cap_px = 4.0;
   double search_cap_shrink = 0.5;
   int search_starts = 4;  // distinct search results each refined; the one explaining most image lines wins
+  // Hypotheses from line correspondences (src/core/matching/hypotheses.cpp, docs/survey_calibration.md): cameras
+  // anywhere in the prior's 3-sigma cone, their rotation and focal length from image lines taken as vertical or as
+  // the map's dominant directions (hypothesis_iterations samples), their centre from image/map line pairs, scored
+  // like the grid; the best hypothesis_starts distinct ones join the starts (0: none).
+  int hypothesis_starts = 0;
+  int hypothesis_iterations = 4000;
   // The explanation score that picks among results: per image line its squared mean distance to the nearest
   // compatible projected 3D line, capped at this (px), summed.
   double explanation_cap_px = 1.0;
@@ -126,6 +132,13 @@ Expected<LineMatchResult> matchAndCalibrateFrom(const std::vector<Segment3d>& ma
                                                 const CameraModel& start, int image_width, int image_height,
                                                 const LineMatcherOptions& options = {},
                                                 const std::vector<double>& map_line_sigmas_m = {});
+
+// How well a camera explains the image lines, the score the matcher picks among its starts and local moves by: per
+// image line the squared mean distance to the nearest compatible projected map line, capped at
+// options.explanation_cap_px^2, summed. Lower is better; scores of one set of image lines compare.
+double explanationScore(const std::vector<Segment3d>& map_lines,
+                        const std::vector<std::vector<Eigen::Vector2d>>& image_lines, const CameraModel& camera,
+                        int image_width, int image_height, const LineMatcherOptions& options = {});
 
 // Step 2 alone: matches under a given camera.
 std::vector<LineMatch> matchLines(const std::vector<Segment3d>& map_lines,

@@ -122,7 +122,8 @@ public:
   ViewCamera fixedCamera(int camera) const;
 
   XtionFrame xtionFrame(int index) const;
-  // The clean image is rendered once per camera; each frame gets fresh sensor noise.
+  // The clean image (rendered, then the camera's blur, vignetting and gains) is made once per camera; each frame gets
+  // fresh sensor noise, then its JPEG compression.
   FixedFrame fixedFrame(int camera, int index) const;
   const cv::Mat& fixedCleanImage(int camera) const;
 

@@ -3,8 +3,9 @@
 //
 // Every shape of the file (polygon, rectangle, box, wall) becomes one or more Surfaces: a planar polygon (an
 // outline and optional holes, filled by the even-odd rule, seen from both sides) with a texture frame (origin, u and
-// v axes in its plane, metres) and a procedural texture with strong edges (solid, checker, stripes, plus rectangles
-// on top: poster pictures, door panels, window frames).
+// v axes in its plane, metres) and a procedural texture with strong edges (solid, checker, stripes, and the materials
+// planks, bricks and tiles with their joints, plus rectangles on top: poster pictures, door panels, window frames),
+// optionally with natural structure inside its regions (grain, speckle, a lighting gradient, a glossy highlight).
 #ifndef INSITU_CALIBRATION_SIMULATION_WORLD_H
 #define INSITU_CALIBRATION_SIMULATION_WORLD_H
 
@@ -36,7 +37,10 @@ struct Texture
   {
     kSolid,
     kChecker,
-    kStripes
+    kStripes,
+    kPlanks,  // boards of cell (length along u, width along v) in rows along u, each row's joints at a random offset
+    kBricks,  // bricks of cell (length along u, height along v) in courses along u, every other one shifted by half
+    kTiles    // a grid of cell tiles
   };
   Pattern pattern = Pattern::kSolid;
   Color color = Color(200.0f, 200.0f, 200.0f);       // solid colour; first colour of checker and stripes
@@ -45,12 +49,32 @@ struct Texture
   bool stripes_along_v = false;                      // stripes: bands stacked along v (horizontal) instead of u
   Eigen::Vector2d offset = Eigen::Vector2d::Zero();  // origin of the pattern in (u, v)
   std::vector<TextureRect> rects;                    // painted in order over the pattern (the last on top)
+  // Materials (planks, bricks, tiles): color is the units', color2 the joints' (mortar, grout, gaps) of this width.
+  double joint = 0.004;
+  // Natural structure, 0..1 each; changes brightness inside regions only (the edges stay where the regions change).
+  double variation = 0.0;  // materials: each unit's brightness differs by up to this
+  double grain = 0.0;      // wood grain: wavy streaks along u
+  double speckle = 0.0;    // fine noise on 3 mm cells (carpet, brick, fabric, concrete)
+  double gradient = 0.0;   // brightness varying smoothly over metres (paint under uneven light); also on rects
+  double shine = 0.0;      // a glossy highlight of the light (Blinn-Phong, exponent 40), up to this x 255 grey levels
+  uint32_t seed = 0;       // of the variation, grain, speckle and gradient
 
-  // Colour at (u, v) and the region it belongs to: every change of region is a strong edge (the pattern's parity, or
-  // 2 + the index of the top rectangle).
+  bool material() const
+  {
+    return pattern == Pattern::kPlanks || pattern == Pattern::kBricks || pattern == Pattern::kTiles;
+  }
+
+  // Colour at (u, v) and the region it belongs to: every change of region is a strong edge (the pattern's parity, a
+  // material's unit 0 or joint 1, or 2 + the index of the top rectangle).
   Color sample(double u, double v, int* region) const;
   // The base pattern alone (no rectangles).
   Color basePattern(double u, double v, int* region) const;
+  // A material's unit or joint at (u, v) relative to offset: region 0 (unit, its index in *unit) or 1 (joint).
+  int materialRegion(double u, double v, Eigen::Vector2i* unit) const;
+  // Materials: the u offset of row j's joints (bricks: half a brick every other course; planks: random).
+  double rowShift(long row) const;
+  // The brightness factor of the natural structure at (u, v) in the given region (1 without structure).
+  float structure(double u, double v, int region) const;
 };
 
 struct Surface
@@ -133,6 +157,40 @@ struct ImageNoiseConfig
   double shot_gain = 0.02;  // variance grows by shot_gain per grey level: sigma^2 = read^2 + gain I
 };
 
+// A colour camera's optics and image processing (the world file's appearance block, docs/simulator.md). The defaults
+// change nothing; every effect is off at its neutral value.
+struct CameraAppearance
+{
+  double blur_sigma_px = 0.0;  // Gaussian point-spread function, pixels (0: sharp)
+  double vignetting = 0.0;  // 0..1: brightness times 1 - vignetting (1 - cos^4 theta), theta the ray's angle off axis
+  double exposure = 1.0;    // gain on all channels (values saturate at 255)
+  Eigen::Vector3d white_balance = Eigen::Vector3d::Ones();  // gains on R, G, B
+  int jpeg_quality = 0;  // 1..100: each frame compressed to JPEG at this quality and decoded; 0: none
+
+  bool neutral() const
+  {
+    return blur_sigma_px == 0.0 && vignetting == 0.0 && exposure == 1.0 && white_balance == Eigen::Vector3d::Ones() &&
+           jpeg_quality == 0;
+  }
+};
+
+// The Xtion's registered depth beyond its noise model (DepthSensorConfig). Neutral by default.
+struct DepthAppearance
+{
+  double flying_pixels = 0.0;   // 0..1: share of the pixels at a depth step that take a depth between its two sides
+  double flying_step_m = 0.05;  // a step: 4-neighbours further apart in depth than this (+ 2 % of the depth)
+  double low_frequency_coefficient = 0.0;  // 1/m: a smooth error field with sigma coefficient * z^2
+  double low_frequency_px = 60.0;          // its correlation length, pixels
+  Eigen::Vector2d misregistration_px = Eigen::Vector2d::Zero();  // depth registered this far off the RGB image
+};
+
+struct Appearance
+{
+  CameraAppearance xtion_rgb;
+  DepthAppearance depth;
+  CameraAppearance fixed_cameras;  // every fixed camera's unless it has its own appearance block
+};
+
 struct SimulatedFixedCamera
 {
   std::string name;
@@ -142,6 +200,7 @@ struct SimulatedFixedCamera
   double rate_hz = 0.2;
   double phase_s = 0.0;  // first frame at start + phase
   ImageNoiseConfig noise;
+  CameraAppearance appearance;
   int supersampling = 4;
 };
 
@@ -151,6 +210,7 @@ struct World
   std::string source;  // the file it came from
   std::vector<Surface> surfaces;
   Lighting lighting;
+  Appearance appearance;
   Route route;
   XtionConfig xtion;
   std::vector<SimulatedFixedCamera> fixed_cameras;

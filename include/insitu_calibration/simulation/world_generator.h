@@ -2,6 +2,7 @@
 // seed, with fixed cameras placed as installers place them and the installers' priors in config/cameras.yaml's
 // format, so that the survey pipeline can be measured on buildings nobody tuned it on (scripts/bench_generalisation).
 //
+// Appearance: realistic by default (see WorldGeneratorOptions::realistic_appearance).
 // Kinds: room (4 x 4 x 2.6 m to 10 x 8 x 3.2 m), hall (12 x 8 x 4 m to 20 x 12 x 6 m, columns, a reception desk, a
 // stage with steps), corridor (15-25 m long, rooms off it through doorways) and office (desk rows, screens,
 // cabinets). Doorways open onto small vestibules so that nothing is seen through them but more building.
@@ -51,6 +52,11 @@ struct WorldGeneratorOptions
   PriorError prior_error;
   double max_route_s = 0.0;  // > 0: lanes further apart (and the route cut) to keep the drive this short
   double speed = 0.45;       // robot speed along the legs, m/s
+  // Realistic sensors (the world file's appearance block: blur, vignetting, exposure and white balance drawn per
+  // camera, JPEG on the fixed cameras, Xtion RGB noise, flying pixels, low-frequency depth error, RGB-to-depth
+  // misregistration); false: the plain appearance of the hand-made worlds. Drawn from its own stream of the seed, so
+  // the building is the same either way.
+  bool realistic_appearance = true;
 };
 
 struct GeneratedWorld

@@ -20,6 +20,7 @@ constexpr size_t kMaxSurfaces = 5000;        // after boxes and walls are split 
 constexpr size_t kMaxRingVertices = 1000;    // per outline or hole
 constexpr size_t kMaxTotalVertices = 50000;  // over every surface
 constexpr double kMinTextureCellM = 1e-3;    // checker cells and stripes, metres
+constexpr double kMinJointM = 2e-3;          // planks', bricks' and tiles' joints (true edges test 1 mm either side)
 constexpr size_t kMaxWaypoints = 10000;
 constexpr double kMaxSpeedMps = 10.0;
 constexpr double kMaxTurnRateDegPerS = 3600.0;
@@ -30,7 +31,12 @@ constexpr size_t kMaxFixedCameras = 64;
 constexpr double kMinRateHz = 1e-3;  // fixed cameras' frame rate
 constexpr double kMaxRateHz = 100.0;
 constexpr double kMaxPhaseS = 1e4;
-constexpr double kMaxNoise = 1e3;  // grey levels (sigmas, gains)
+constexpr double kMaxNoise = 1e3;         // grey levels (sigmas, gains)
+constexpr double kMaxBlurSigmaPx = 10.0;  // appearance: the blur kernel is 6 sigma wide
+constexpr double kMinGain = 0.05;         // appearance: exposure and white-balance gains
+constexpr double kMaxGain = 10.0;
+constexpr double kMaxMisregistrationPx = 10.0;  // appearance.depth.misregistration_px, each axis
+constexpr double kMinLowFrequencyPx = 2.0;      // appearance.depth.low_frequency_px (grid of width / this nodes)
 }  // namespace world_limits
 
 // Refuses a world beyond the limits above or with a non-finite number, naming the entry.

@@ -4,6 +4,7 @@
 #ifndef INSITU_CALIBRATION_SURVEY_FIXED_CAMERA_H
 #define INSITU_CALIBRATION_SURVEY_FIXED_CAMERA_H
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -14,10 +15,12 @@
 #include "insitu_calibration/geometry/segment.h"
 #include "insitu_calibration/io/calibration_file.h"
 #include "insitu_calibration/lines/image_lines.h"
+#include "insitu_calibration/map/surface_voxels.h"
 #include "insitu_calibration/matching/line_matcher.h"
 #include "insitu_calibration/survey/camera_verification.h"
 #include "insitu_calibration/survey/image_explanation.h"
 #include "insitu_calibration/survey/temporal_median.h"
+#include "insitu_calibration/survey/view_ambiguity.h"
 
 namespace insitu_calibration
 {
@@ -58,6 +61,9 @@ struct FixedCameraOptions
   // The final check (image_explanation.h): the camera must explain the image as a whole (its projected map lines on
   // image edges, its matched lines predicted when held out).
   ImageExplanationOptions explanation;
+  // ... and no camera at a clearly different pose may explain it about as well (view_ambiguity.h: a view of a
+  // repeating structure, floor tiles or a row of identical windows, does not decide the camera).
+  ViewAmbiguityOptions ambiguity;
 };
 
 struct FixedCameraStatus
@@ -85,6 +91,7 @@ struct FixedCameraResult
   CorrespondenceSet correspondences;  // the lines calibrated on (calibration.inlier_lines indexes them)
   int loops = 0;
   ImageExplanation explanation;  // the final check's measurements (map-based calibrations)
+  ViewAmbiguity ambiguity;       // its ambiguity test (map-based calibrations that passed the other checks)
   std::string summary;           // how good the result is, in words
 };
 
@@ -122,6 +129,9 @@ public:
   void setOptions(const FixedCameraOptions& options);
   // Forgets images, matches and calibration.
   void reset();
+  // The surfaces the survey measured: the final check leaves out the map lines (or their parts) they hide from the
+  // camera. None: every map line in view counts.
+  void setOccluders(std::shared_ptr<const SurfaceVoxels> occluders) { occluders_ = std::move(occluders); }
 
   // The camera used to look at the map: the calibration when there is one, else the prior's.
   std::optional<CameraModel> currentCamera() const;
@@ -130,9 +140,21 @@ private:
   Expected<FixedCameraResult> calibrateFromFile(const std::string& world_frame);
   Expected<FixedCameraResult> calibrateFromMap(const std::vector<Segment3d>& map_lines, const std::string& world_frame,
                                                const std::vector<double>& map_line_sigmas_m);
-  Status check(const CameraCalibration& calibration, size_t matched_lines) const;
+  // The map lines not hidden from every viewpoint near the prior by the occluders (all without either), with their
+  // sigmas (when given) kept in step.
+  std::vector<Segment3d> seeableFromPrior(const std::vector<Segment3d>& map_lines, std::vector<double>* sigmas) const;
+  // check_prior: also the distance to the prior (the ambiguity test weighs that itself).
+  Status check(const CameraCalibration& calibration, size_t matched_lines, bool check_prior = true) const;
   // The final check of a map-based result: measures how well it explains the median image, refuses it if badly.
   Status checkExplanation(FixedCameraResult& result, const std::vector<Segment3d>& map_lines) const;
+  // The map lines in the camera's view, clipped to it, less the parts the occluders hide from it.
+  std::vector<Segment3d> unhiddenLines(const CameraModel& camera, const std::vector<Segment3d>& map_lines) const;
+  // Its ambiguity test: refuses a result when a camera at a clearly different pose explains the image about as well
+  // and would pass the checks too.
+  // Whether the prior makes an alternative camera implausible (ViewAmbiguityOptions::prior_margin_sigmas).
+  bool priorRulesOut(const CameraModel& alternative, const CameraModel& accepted) const;
+  Status checkAmbiguity(FixedCameraResult& result, const std::vector<Segment3d>& map_lines,
+                        const std::vector<double>& map_line_sigmas_m) const;
   // The image lines of the median image under a distortion (the polylines only).
   Expected<std::vector<std::vector<Eigen::Vector2d>>> medianLines(const DivisionModel& distortion) const;
   void measureVerificationReference(const std::vector<Segment3d>& map_lines);
@@ -144,6 +166,7 @@ private:
   std::optional<FixedCameraResult> last_result_;
   std::optional<FixedCameraResult> last_refused_;
   size_t last_matched_ = 0;
+  std::shared_ptr<const SurfaceVoxels> occluders_;
   // The watchdog's zero (verify): the pose its own fit finds on the images of the calibration, kept with the
   // calibrated pose it belongs to. Its line-end fit and the calibration's adjustment weigh the lines differently:
   // their optima lie a few millimetres apart, which would otherwise read as a motion. None after a restart (the

@@ -16,6 +16,7 @@
 #include "insitu_calibration/map/floor_lines.h"
 #include "insitu_calibration/map/triangulated_lines.h"
 #include "insitu_calibration/map/line_map_adjustment.h"
+#include "insitu_calibration/map/surface_voxels.h"
 #include "insitu_calibration/survey/fixed_camera.h"
 #include "insitu_calibration/survey/keyframe_selector.h"
 
@@ -43,9 +44,12 @@ struct SurveyOptions
   LineMapAdjustmentOptions adjustment;  // its localization sigmas are set from the two above
   // Lines on the floor beyond the depth range (map/floor_lines.h), added to the map in use (adjusted or not).
   FloorLineOptions floor;
-  // Lines beyond the depth range triangulated from RGB segments of three or more keyframes
+  // Lines beyond the depth range triangulated from RGB segments of five or more keyframes
   // (map/triangulated_lines.h), added to the map in use after the floor lines.
   TriangulatedLineOptions triangulated;
+  // The surfaces the keyframes' depth measured (map/surface_voxels.h): the final check leaves out map lines they
+  // hide from a fixed camera.
+  SurfaceVoxelOptions occlusion;
 };
 
 // The map's placement in the map frame: how far the whole survey may be off, as a shift and a turn about centre.
@@ -110,6 +114,9 @@ public:
   const LineMap& lineMap() const;
   const SurveyStats& stats() const { return stats_; }
   const std::vector<Keyframe>& keyframes() const { return keyframe_data_; }
+  // The surfaces the keyframes' depth measured (none when options().occlusion is off); later keyframes go into a
+  // copy, so the pointer stays valid and unchanged for whoever holds it.
+  std::shared_ptr<const SurfaceVoxels> surfaces() const { return surfaces_; }
   // Per keyframe the adjustment's correction of the pose tf gave (zeros without an adjustment).
   std::vector<PoseCorrection> poseCorrections() const;
   MapPlacementUncertainty mapPlacement() const;
@@ -171,6 +178,7 @@ private:
   std::map<std::string, std::unique_ptr<FixedCamera>> cameras_;
   std::map<std::string, double> last_fixed_stamp_;
   std::vector<Keyframe> keyframe_data_;
+  std::shared_ptr<SurfaceVoxels> surfaces_;  // the keyframes' depth (options_.occlusion), none when disabled
   // The adjusted map and corrections, a cache of keyframes_ (current while adjusted_ is true; has_adjustment_: one
   // was computed, perhaps before the newest keyframes).
   mutable LineMap adjusted_map_;

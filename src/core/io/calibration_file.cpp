@@ -141,6 +141,116 @@ Status validateCalibration(const CalibrationFile& c)
 
 namespace
 {
+// division_model: {lambda, center, plumb_bob_max_error_px}; without it, no distortion about the principal point.
+Status readDivisionModel(const yaml_util::YamlNode& doc, CalibrationFile& c)
+{
+  const yaml_util::YamlNode division = doc["division_model"];
+  if (!division)
+  {
+    c.camera.distortion() = DivisionModel{0.0, c.camera.intrinsics().principalPoint()};
+    return Success{};
+  }
+  if (!division.IsMap())
+    return Error(ErrorCode::kParseError, "division_model: expected a map {lambda, center}");
+  const auto lambda = yaml_util::toDouble(division["lambda"], "division_model.lambda");
+  if (!lambda)
+    return lambda.error();
+  const auto center = yaml_util::toVector<2>(division["center"], "division_model.center");
+  if (!center)
+    return center.error();
+  c.camera.distortion() = DivisionModel{*lambda, *center};
+  if (division["plumb_bob_max_error_px"])
+  {
+    const auto max_error =
+        yaml_util::toDouble(division["plumb_bob_max_error_px"], "division_model.plumb_bob_max_error_px");
+    if (!max_error)
+      return max_error.error();
+    c.plumb_bob.max_error_px = *max_error;
+  }
+  return Success{};
+}
+
+// The plumb_bob approximation ROS tools read (optional: it is recomputed on saving).
+Status readPlumbBob(const yaml_util::YamlNode& doc, CalibrationFile& c)
+{
+  const yaml_util::YamlNode d = yaml_util::child(doc, "distortion_coefficients");
+  if (!(d && d["data"] && d["data"].IsSequence()))
+    return Success{};
+  if (d["data"].size() > 16)
+    return Error(ErrorCode::kParseError, "distortion_coefficients.data: expected at most 16 numbers");
+  const auto coefficients = yaml_util::toNumbers(d["data"], "distortion_coefficients.data");
+  if (!coefficients)
+    return coefficients.error();
+  for (size_t i = 0; i < std::min<size_t>(5, coefficients->size()); ++i)
+    c.plumb_bob.coefficients[i] = (*coefficients)[i];
+  return Success{};
+}
+
+Status readCameraPose(const yaml_util::YamlNode& doc, CalibrationFile& c)
+{
+  const yaml_util::YamlNode pose = doc["camera_pose"];
+  if (!pose || !pose.IsMap())
+    return Error(ErrorCode::kParseError, "camera_pose: missing (this file has intrinsics but no pose in the world)");
+  c.world_frame = pose["frame_id"] && pose["frame_id"].IsScalar() ? pose["frame_id"].Scalar() : "map";
+  const auto position = yaml_util::toVector<3>(pose["position"], "camera_pose.position");
+  if (!position)
+    return position.error();
+  const auto orientation = yaml_util::toVector<4>(pose["orientation"], "camera_pose.orientation");
+  if (!orientation)
+    return orientation.error();
+  const Eigen::Quaterniond q((*orientation)(3), (*orientation)(0), (*orientation)(1), (*orientation)(2));
+  if (!(q.norm() > 1e-9))
+    return Error(ErrorCode::kInvalidInput, "camera_pose.orientation: zero quaternion");
+  Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
+  world_from_camera.linear() = q.normalized().toRotationMatrix();
+  world_from_camera.translation() = *position;
+  c.camera.pose() = CameraPose::fromWorldFromCamera(world_from_camera);
+  return Success{};
+}
+
+// One entry of quality: the named fields, and any other finite number as an extra (non-numeric notes are dropped).
+void readQualityEntry(const std::string& key, const yaml_util::YamlNode& value, CalibrationQuality& q)
+{
+  if (key == "rms_px")
+    q.rms_px = value.as<double>(0.0);
+  else if (key == "median_px")
+    q.median_px = value.as<double>(0.0);
+  else if (key == "lines")
+    q.lines = value.as<size_t>(0);
+  else if (key == "points")
+    q.points = value.as<size_t>(0);
+  else if (key == "constraints")
+    q.constraints = value.as<size_t>(0);
+  else if (key == "distortion_estimated")
+    q.distortion_estimated = value.as<bool>(false);
+  else if (value.IsScalar())
+  {
+    try
+    {
+      if (const double number = value.as<double>(); std::isfinite(number))
+        q.extra[key] = number;
+    }
+    catch (const YAML::Exception&)
+    {}
+  }
+}
+
+Status readQuality(const yaml_util::YamlNode& doc, CalibrationFile& c)
+{
+  const yaml_util::YamlNode quality = doc["quality"];
+  if (!(quality && quality.IsMap()))
+    return Success{};
+  CalibrationQuality q;
+  for (const auto& kv : quality)
+  {
+    if (!kv.first.IsScalar())
+      return Error(ErrorCode::kParseError, "quality: a key is not a name");
+    readQualityEntry(kv.first.Scalar(), kv.second, q);
+  }
+  c.quality = q;
+  return Success{};
+}
+
 Expected<CalibrationFile> parseDocument(const std::string& yaml_text)
 {
   const auto root = yaml_util::parseYaml(yaml_text, "calibration file");
@@ -161,97 +271,9 @@ Expected<CalibrationFile> parseDocument(const std::string& yaml_text)
   if (!k)
     return k.error();
   c.camera.intrinsics() = Intrinsics::fromMatrix(*k);
-
-  const yaml_util::YamlNode division = doc["division_model"];
-  if (division)
-  {
-    if (!division.IsMap())
-      return Error(ErrorCode::kParseError, "division_model: expected a map {lambda, center}");
-    const auto lambda = yaml_util::toDouble(division["lambda"], "division_model.lambda");
-    if (!lambda)
-      return lambda.error();
-    const auto center = yaml_util::toVector<2>(division["center"], "division_model.center");
-    if (!center)
-      return center.error();
-    c.camera.distortion() = DivisionModel{*lambda, *center};
-    if (division["plumb_bob_max_error_px"])
-    {
-      const auto max_error =
-          yaml_util::toDouble(division["plumb_bob_max_error_px"], "division_model.plumb_bob_max_error_px");
-      if (!max_error)
-        return max_error.error();
-      c.plumb_bob.max_error_px = *max_error;
-    }
-  }
-  else
-  {
-    c.camera.distortion() = DivisionModel{0.0, c.camera.intrinsics().principalPoint()};
-  }
-  if (const yaml_util::YamlNode d = yaml_util::child(doc, "distortion_coefficients");
-      d && d["data"] && d["data"].IsSequence())
-  {
-    if (d["data"].size() > 16)
-      return Error(ErrorCode::kParseError, "distortion_coefficients.data: expected at most 16 numbers");
-    const auto coefficients = yaml_util::toNumbers(d["data"], "distortion_coefficients.data");
-    if (!coefficients)
-      return coefficients.error();
-    for (size_t i = 0; i < std::min<size_t>(5, coefficients->size()); ++i)
-      c.plumb_bob.coefficients[i] = (*coefficients)[i];
-  }
-
-  const yaml_util::YamlNode pose = doc["camera_pose"];
-  if (!pose || !pose.IsMap())
-    return Error(ErrorCode::kParseError, "camera_pose: missing (this file has intrinsics but no pose in the world)");
-  c.world_frame = pose["frame_id"] && pose["frame_id"].IsScalar() ? pose["frame_id"].Scalar() : "map";
-  const auto position = yaml_util::toVector<3>(pose["position"], "camera_pose.position");
-  if (!position)
-    return position.error();
-  const auto orientation = yaml_util::toVector<4>(pose["orientation"], "camera_pose.orientation");
-  if (!orientation)
-    return orientation.error();
-  const Eigen::Quaterniond q((*orientation)(3), (*orientation)(0), (*orientation)(1), (*orientation)(2));
-  if (!(q.norm() > 1e-9))
-    return Error(ErrorCode::kInvalidInput, "camera_pose.orientation: zero quaternion");
-  Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
-  world_from_camera.linear() = q.normalized().toRotationMatrix();
-  world_from_camera.translation() = *position;
-  c.camera.pose() = CameraPose::fromWorldFromCamera(world_from_camera);
-
-  if (const yaml_util::YamlNode quality = doc["quality"]; quality && quality.IsMap())
-  {
-    CalibrationQuality q;
-    for (const auto& kv : quality)
-    {
-      if (!kv.first.IsScalar())
-        return Error(ErrorCode::kParseError, "quality: a key is not a name");
-      const std::string key = kv.first.Scalar();
-      if (key == "rms_px")
-        q.rms_px = kv.second.as<double>(0.0);
-      else if (key == "median_px")
-        q.median_px = kv.second.as<double>(0.0);
-      else if (key == "lines")
-        q.lines = kv.second.as<size_t>(0);
-      else if (key == "points")
-        q.points = kv.second.as<size_t>(0);
-      else if (key == "constraints")
-        q.constraints = kv.second.as<size_t>(0);
-      else if (key == "distortion_estimated")
-        q.distortion_estimated = kv.second.as<bool>(false);
-      else if (kv.second.IsScalar())
-      {
-        try
-        {
-          if (const double value = kv.second.as<double>(); std::isfinite(value))
-            q.extra[key] = value;
-        }
-        catch (const YAML::Exception&)
-        {
-          // Non-numeric extras (notes) are not kept.
-        }
-      }
-    }
-    c.quality = q;
-  }
+  for (const auto read : {readDivisionModel, readPlumbBob, readCameraPose, readQuality})
+    if (const Status s = read(doc, c); !s)
+      return s.error();
   if (const Status valid = validateCalibration(c); !valid)
     return valid.error();
   return c;

@@ -150,4 +150,13 @@ Expected<LineMatchResult> matchAndCalibrateFrom(const std::vector<Segment3d>& ma
                                           options);
   return matching::matchFromStarts(problem, {start}, options.known_camera_max_distance_px, false);
 }
+
+double explanationScore(const std::vector<Segment3d>& map_lines,
+                        const std::vector<std::vector<Eigen::Vector2d>>& image_lines, const CameraModel& camera,
+                        int image_width, int image_height, const LineMatcherOptions& options)
+{
+  const std::vector<double> no_sigmas;
+  const matching::MatchingProblem problem(map_lines, no_sigmas, image_lines, image_width, image_height, options);
+  return matching::explanationScore(camera, problem);
+}
 }  // namespace insitu_calibration

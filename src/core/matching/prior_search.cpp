@@ -1,5 +1,7 @@
 #include "matching/prior_search.h"
 
+#include "matching/hypotheses.h"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -152,6 +154,10 @@ std::vector<CameraModel> searchPrior(const MatchingProblem& problem, const Camer
   std::vector<CameraModel> cameras;
   for (const SearchState& seed : bestGridCells(problem, prior, grid))
     cameras.push_back(patternSearch(problem, prior, grid, seed));
+  // Starts from line correspondences anywhere in the prior's cone, each refined by the same pattern search about it.
+  if (problem.options.hypothesis_starts > 0)
+    for (const CameraModel& hypothesis : lineHypotheses(problem, prior))
+      cameras.push_back(patternSearch(problem, priorAt(hypothesis, problem.width, prior), grid, SearchState{}));
   return cameras;
 }
 }  // namespace matching

@@ -12,7 +12,8 @@ namespace matching
 {
 // A grid over yaw, pitch and field of view within 1.5 sigma; the search_starts best distinct cells are then each
 // refined by a pattern search over all seven values (repetitive structure such as a row of windows gives several
-// local optima, and the best grid cell is not always the right one).
+// local optima, and the best grid cell is not always the right one). With hypothesis_starts, the best hypotheses from
+// line correspondences (hypotheses.h) follow, each refined by the same pattern search.
 std::vector<CameraModel> searchPrior(const MatchingProblem& problem, const CameraPrior& prior);
 }  // namespace matching
 }  // namespace insitu_calibration

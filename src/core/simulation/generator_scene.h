@@ -3,6 +3,7 @@
 #ifndef INSITU_CALIBRATION_SIMULATION_GENERATOR_SCENE_H
 #define INSITU_CALIBRATION_SIMULATION_GENERATOR_SCENE_H
 
+#include <optional>
 #include <set>
 #include <sstream>
 #include <string>
@@ -81,12 +82,31 @@ public:
   void onWall(const std::string& name, const WallSide& side, double u, double v, const Eigen::Vector2d& size,
               const Texture& texture, double lift = 0.002);
 
-  std::string surfaces() const { return out_.str(); }
+  // The surfaces' YAML; with a seed, every texture dressed as a material with natural structure (drawn from a stream
+  // of its own, so that the geometry is the same either way).
+  std::string surfaces(std::optional<uint64_t> materials_seed = std::nullopt) const;
   FloorPlan plan;
   std::vector<Box3> solids;  // for the cameras' lines of sight
 
 private:
-  std::ostringstream out_;
+  enum class Kind
+  {
+    kFloor,
+    kCeiling,
+    kWall,
+    kOther
+  };
+  struct Entry
+  {
+    std::string head;  // the surface's YAML up to its texture
+    Kind kind;
+    Texture texture;
+  };
+  void add(Kind kind, const Texture& texture);
+  static Texture dress(Kind kind, Texture texture, Rng& rng);
+
+  std::vector<Entry> entries_;
+  std::ostringstream out_;  // the surface being written
   std::set<std::string> names_;
 };
 

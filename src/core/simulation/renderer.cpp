@@ -52,6 +52,7 @@ struct Renderer::Prepared
 {
   Eigen::Matrix3d camera_from_world;
   Eigen::Vector3d translation;  // X_c = camera_from_world X + translation
+  Eigen::Vector3d light;        // towards the light, in the camera frame
   std::vector<CameraSurface> surfaces;
 };
 
@@ -378,6 +379,7 @@ Renderer::Prepared Renderer::prepare(const ViewCamera& cam) const
   p.camera_from_world = cam.world_from_camera.linear().transpose();
   p.translation = -p.camera_from_world * cam.world_from_camera.translation();
   const Eigen::Vector3d center = cam.world_from_camera.translation();
+  p.light = p.camera_from_world * world_.lighting.direction;
   for (const Surface& s : world_.surfaces)
   {
     CameraSurface cs;
@@ -419,8 +421,17 @@ void Renderer::renderVisibility(const ViewCamera& cam, const Prepared& p, const 
 Color Renderer::shadeAt(const Prepared& p, int id, const Eigen::Vector3d& xc, int* region) const
 {
   const CameraSurface& cs = p.surfaces[id];
-  const Color c = world_.surfaces[id].texture.sample(cs.au.dot(xc) + cs.bu, cs.av.dot(xc) + cs.bv, region);
-  return c * shade_[id];
+  const Texture& texture = world_.surfaces[id].texture;
+  const Color c = texture.sample(cs.au.dot(xc) + cs.bu, cs.av.dot(xc) + cs.bv, region);
+  if (texture.shine == 0.0)
+    return c * shade_[id];
+  // A glossy highlight (Blinn-Phong, exponent 40) of the light mirrored onto the viewer's side of the surface, as the
+  // constant Lambert factor lights both sides.
+  const Eigen::Vector3d view = -xc.normalized();
+  const Eigen::Vector3d n = cs.n.dot(view) >= 0.0 ? cs.n : Eigen::Vector3d(-cs.n);
+  const Eigen::Vector3d light = n.dot(p.light) >= 0.0 ? p.light : Eigen::Vector3d(p.light - 2.0 * n.dot(p.light) * n);
+  const double highlight = texture.shine * 255.0 * std::pow(std::max(0.0, n.dot((light + view).normalized())), 40.0);
+  return (c * shade_[id] + Color::Constant(static_cast<float>(highlight))).cwiseMin(255.0f);
 }
 
 // Shading and texture regions at the pixel centres.

@@ -4,6 +4,9 @@
 #include <cmath>
 #include <vector>
 
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
 #include "insitu_calibration/simulation/random.h"
 
 namespace insitu_calibration
@@ -42,7 +45,77 @@ cv::Mat correlatedField(int width, int height, double spacing, FastRandom& rng)
   }
   return field;
 }
+
+// Flying pixels: the depth of a pixel at a step mixed with its 4-neighbour across the step (the sensor's correlation
+// window straddles both surfaces). Reads the original depths, so a pixel's draw does not depend on its neighbours'.
+cv::Mat flyingPixels(const cv::Mat& depth, const DepthAppearance& a, FastRandom& rng)
+{
+  cv::Mat out = depth.clone();
+  const int w = depth.cols, h = depth.rows;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+    {
+      const float u = rng.uniform(), t = rng.uniform();
+      const float z = depth.at<float>(y, x);
+      if (!(z > 0.0f) || u >= a.flying_pixels)
+        continue;
+      float other = z, step = 0.0f;
+      for (const auto& [dx, dy] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}})
+      {
+        const int nx = x + dx, ny = y + dy;
+        const float n = (nx >= 0 && ny >= 0 && nx < w && ny < h) ? depth.at<float>(ny, nx) : 0.0f;
+        if (n > 0.0f && std::abs(n - z) > step)
+        {
+          step = std::abs(n - z);
+          other = n;
+        }
+      }
+      if (step > a.flying_step_m + 0.02 * z)
+        out.at<float>(y, x) = z + t * (other - z);
+    }
+  return out;
+}
+
+enum AppearanceStream : uint64_t
+{
+  kFlyingStream = 0xF1,
+  kLowFrequencyStream = 0xF2,
+};
 }  // namespace
+
+RenderedView misregisterDepth(const RenderedView& view, const Eigen::Vector2d& shift_px)
+{
+  RenderedView out;
+  out.depth = cv::Mat(view.depth.size(), CV_32FC1, cv::Scalar(0.0f));
+  out.surface = cv::Mat(view.depth.size(), CV_32SC1, cv::Scalar(-1));
+  const int w = view.depth.cols, h = view.depth.rows;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+    {
+      const double sx = x + shift_px.x(), sy = y + shift_px.y();
+      const int x0 = static_cast<int>(std::floor(sx)), y0 = static_cast<int>(std::floor(sy));
+      const double fx = sx - x0, fy = sy - y0;
+      if (x0 < 0 || y0 < 0 || x0 + 1 >= w || y0 + 1 >= h)
+        continue;
+      const int id = view.surface.at<int>(y0, x0);
+      const bool one_surface = id >= 0 && view.surface.at<int>(y0, x0 + 1) == id &&
+                               view.surface.at<int>(y0 + 1, x0) == id && view.surface.at<int>(y0 + 1, x0 + 1) == id;
+      if (one_surface)
+      {
+        // 1/z is affine in the image over a plane: interpolate it.
+        const double inv =
+            (1 - fx) * (1 - fy) / view.depth.at<float>(y0, x0) + fx * (1 - fy) / view.depth.at<float>(y0, x0 + 1) +
+            (1 - fx) * fy / view.depth.at<float>(y0 + 1, x0) + fx * fy / view.depth.at<float>(y0 + 1, x0 + 1);
+        out.depth.at<float>(y, x) = static_cast<float>(1.0 / inv);
+        out.surface.at<int>(y, x) = id;
+        continue;
+      }
+      const int nx = x0 + (fx >= 0.5 ? 1 : 0), ny = y0 + (fy >= 0.5 ? 1 : 0);
+      out.depth.at<float>(y, x) = view.depth.at<float>(ny, nx);
+      out.surface.at<int>(y, x) = view.surface.at<int>(ny, nx);
+    }
+  return out;
+}
 
 double depthGaussianCoefficient(const DepthSensorConfig& config, double focal_px)
 {
@@ -53,9 +126,14 @@ double depthGaussianCoefficient(const DepthSensorConfig& config, double focal_px
   return std::sqrt(std::max(0.0, total * total - quantisation * quantisation));
 }
 
-cv::Mat simulateXtionDepth(const RenderedView& view, const World& world, const ViewCamera& camera,
-                           const DepthSensorConfig& config, bool noise, uint64_t seed)
+cv::Mat simulateXtionDepth(const RenderedView& rendered, const World& world, const ViewCamera& camera,
+                           const DepthSensorConfig& config, bool noise, uint64_t seed,
+                           const DepthAppearance& appearance)
 {
+  const RenderedView registered = appearance.misregistration_px.isZero()
+                                      ? RenderedView{}
+                                      : misregisterDepth(rendered, appearance.misregistration_px);
+  const RenderedView& view = registered.depth.empty() ? rendered : registered;
   const int w = view.depth.cols;
   const int h = view.depth.rows;
   cv::Mat out(h, w, CV_16UC1, cv::Scalar(0));
@@ -71,10 +149,22 @@ cv::Mat simulateXtionDepth(const RenderedView& view, const World& world, const V
   cv::Mat field;
   if (noise && config.correlation_px > 0.0)
     field = correlatedField(w, h, config.correlation_px, rng);
+  cv::Mat low_frequency, depth = view.depth;
+  if (noise && appearance.low_frequency_coefficient > 0.0)
+  {
+    FastRandom low_rng(streamSeed(seed, kLowFrequencyStream));
+    low_frequency = correlatedField(w, h, appearance.low_frequency_px, low_rng);
+  }
+  if (noise && appearance.flying_pixels > 0.0)
+  {
+    FastRandom flying_rng(streamSeed(seed, kFlyingStream));
+    depth = flyingPixels(view.depth, appearance, flying_rng);
+  }
 
   for (int y = 0; y < h; ++y)
   {
-    const float* z_row = view.depth.ptr<float>(y);
+    const float* z_row = depth.ptr<float>(y);
+    const float* low_row = low_frequency.empty() ? nullptr : low_frequency.ptr<float>(y);
     const int* id_row = view.surface.ptr<int>(y);
     const float* field_row = field.empty() ? nullptr : field.ptr<float>(y);
     uint16_t* out_row = out.ptr<uint16_t>(y);
@@ -92,7 +182,8 @@ cv::Mat simulateXtionDepth(const RenderedView& view, const World& world, const V
       double zq = z;
       if (noise)
       {
-        const double zn = z + coefficient * z * z * g;
+        const double zn =
+            z + z * z * (coefficient * g + (low_row ? appearance.low_frequency_coefficient * low_row[x] : 0.0));
         if (sub > 0.0 && zn > 0.0)
         {
           const double d = std::round(fb / zn * sub) / sub;
@@ -107,6 +198,46 @@ cv::Mat simulateXtionDepth(const RenderedView& view, const World& world, const V
       out_row[x] = static_cast<uint16_t>(std::clamp(mm, 0L, 65535L));
     }
   }
+  return out;
+}
+
+cv::Mat applyCameraOptics(const cv::Mat& rgb, const CameraAppearance& a, const ViewCamera& camera)
+{
+  CV_Assert(rgb.type() == CV_8UC3);
+  if (a.blur_sigma_px == 0.0 && a.vignetting == 0.0 && a.exposure == 1.0 && a.white_balance == Eigen::Vector3d::Ones())
+    return rgb;
+  cv::Mat f;
+  rgb.convertTo(f, CV_32FC3);
+  if (a.blur_sigma_px > 0.0)
+    cv::GaussianBlur(f, f, cv::Size(0, 0), a.blur_sigma_px, a.blur_sigma_px, cv::BORDER_REFLECT);
+  const Intrinsics& k = camera.intrinsics;
+  const Eigen::Vector3f gain = (a.exposure * a.white_balance).cast<float>();
+  for (int y = 0; y < f.rows; ++y)
+  {
+    cv::Vec3f* row = f.ptr<cv::Vec3f>(y);
+    const double ry = (y - k.cy) / k.fy;
+    for (int x = 0; x < f.cols; ++x)
+    {
+      const double rx = (x - k.cx) / k.fx;
+      const double cos2 = 1.0 / (1.0 + rx * rx + ry * ry);  // cos^2 of the angle off the optical axis
+      const float v = static_cast<float>(1.0 - a.vignetting * (1.0 - cos2 * cos2));
+      for (int c = 0; c < 3; ++c)
+        row[x][c] *= v * gain[c];
+    }
+  }
+  cv::Mat out;
+  f.convertTo(out, CV_8UC3);  // rounds and saturates at 0 and 255
+  return out;
+}
+
+cv::Mat jpegRoundTrip(const cv::Mat& rgb, int quality)
+{
+  cv::Mat bgr;
+  cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
+  std::vector<uint8_t> bytes;
+  cv::imencode(".jpg", bgr, bytes, {cv::IMWRITE_JPEG_QUALITY, std::clamp(quality, 1, 100)});
+  cv::Mat decoded = cv::imdecode(bytes, cv::IMREAD_COLOR), out;
+  cv::cvtColor(decoded, out, cv::COLOR_BGR2RGB);
   return out;
 }
 

@@ -217,11 +217,13 @@ XtionFrame SurveySimulator::xtionFrame(int index) const
   timings_.xtion_render_s += secondsSince(t0);
   t0 = Clock::now();
   f.depth_mm = simulateXtionDepth(view, *world_, cam, x.depth, options_.depth_noise,
-                                  streamSeed(options_.seed, kDepthStream, 0, index));
+                                  streamSeed(options_.seed, kDepthStream, 0, index), world_->appearance.depth);
+  const CameraAppearance& look = world_->appearance.xtion_rgb;
+  f.rgb = applyCameraOptics(view.rgb, look, cam);
   if (options_.image_noise && x.rgb_noise_sigma > 0.0)
-    f.rgb = addImageNoise(view.rgb, {x.rgb_noise_sigma, 0.0}, streamSeed(options_.seed, kXtionRgbStream, 0, index));
-  else
-    f.rgb = view.rgb;
+    f.rgb = addImageNoise(f.rgb, {x.rgb_noise_sigma, 0.0}, streamSeed(options_.seed, kXtionRgbStream, 0, index));
+  if (look.jpeg_quality > 0)
+    f.rgb = jpegRoundTrip(f.rgb, look.jpeg_quality);
   timings_.xtion_sensor_s += secondsSince(t0);
   ++timings_.xtion_frames;
   return f;
@@ -235,7 +237,8 @@ const cv::Mat& SurveySimulator::fixedCleanImage(int camera) const
     const auto t0 = Clock::now();
     RenderOptions ro;
     ro.supersampling = world_->fixed_cameras[camera].supersampling;
-    clean = renderer_->render(fixedCamera(camera), ro).rgb;
+    const ViewCamera view = fixedCamera(camera);
+    clean = applyCameraOptics(renderer_->render(view, ro).rgb, world_->fixed_cameras[camera].appearance, view);
     timings_.fixed_render_s += secondsSince(t0);
   }
   return clean;
@@ -251,6 +254,8 @@ FixedFrame SurveySimulator::fixedFrame(int camera, int index) const
   f.image = options_.image_noise ? addImageNoise(clean, world_->fixed_cameras[camera].noise,
                                                  streamSeed(options_.seed, kFixedStream, camera, index))
                                  : clean.clone();
+  if (const int quality = world_->fixed_cameras[camera].appearance.jpeg_quality; quality > 0)
+    f.image = jpegRoundTrip(f.image, quality);
   timings_.fixed_noise_s += secondsSince(t0);
   ++timings_.fixed_frames;
   return f;

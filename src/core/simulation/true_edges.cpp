@@ -69,6 +69,37 @@ struct Candidate
   int above;  // rectangles with index >= above can cover it
 };
 
+// A material's joints: both sides of every joint along u (lines v = c), and of the joints across u - a grid for
+// tiles, per row for planks and bricks (whose rows are shifted), unless there are more than kMaxJointSegments.
+template <typename GridLines>
+void materialJoints(const Texture& tex, const Eigen::Vector4d& bounds, GridLines& gridLines,
+                    std::vector<Candidate>& candidates)
+{
+  constexpr double kMaxJointSegments = 20000.0;
+  gridLines(false, tex.offset.y(), tex.cell.y(), 0.0);
+  gridLines(false, tex.offset.y(), tex.cell.y(), tex.joint);
+  if (tex.pattern == Texture::Pattern::kTiles)
+  {
+    gridLines(true, tex.offset.x(), tex.cell.x(), 0.0);
+    gridLines(true, tex.offset.x(), tex.cell.x(), tex.joint);
+    return;
+  }
+  const double rows = (bounds[3] - bounds[1]) / tex.cell.y() + 1.0,
+               columns = (bounds[2] - bounds[0]) / tex.cell.x() + 2.0;
+  if (!(rows * columns <= kMaxJointSegments))
+    return;
+  for (long row = static_cast<long>(std::floor((bounds[1] - tex.offset.y()) / tex.cell.y()));
+       tex.offset.y() + row * tex.cell.y() <= bounds[3]; ++row)
+  {
+    const double v0 = tex.offset.y() + row * tex.cell.y();
+    const double u0 = tex.offset.x() + tex.rowShift(row);
+    for (long k = static_cast<long>(std::floor((bounds[0] - u0) / tex.cell.x())); u0 + k * tex.cell.x() <= bounds[2];
+         ++k)
+      for (const double side : {0.0, tex.joint})
+        candidates.push_back({true, u0 + k * tex.cell.x() + side, v0 + tex.joint, v0 + tex.cell.y(), 0});
+  }
+}
+
 void textureEdges(const Surface& s, std::vector<TrueEdge>& out)
 {
   const Texture& tex = s.texture;
@@ -98,6 +129,8 @@ void textureEdges(const Surface& s, std::vector<TrueEdge>& out)
     gridLines(along_v, offset, period, 0.0);
     gridLines(along_v, offset, period, tex.cell.x());
   }
+  else if (tex.material())
+    materialJoints(tex, bounds, gridLines, candidates);
   for (size_t r = 0; r < tex.rects.size(); ++r)
   {
     const TextureRect& rect = tex.rects[r];

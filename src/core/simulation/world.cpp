@@ -180,7 +180,8 @@ Expected<Texture> parseTexture(const yaml_util::YamlNode& node, const std::strin
   if (!node)
     return texture;
   const MapReader m(node, where);
-  TRY(m.check({"pattern", "color", "color2", "cell", "horizontal", "offset", "rects"}));
+  TRY(m.check({"pattern", "color", "color2", "cell", "horizontal", "offset", "rects", "joint", "variation", "grain",
+               "speckle", "gradient", "shine", "seed"}));
   std::string pattern = "solid";
   if (m.has("pattern"))
     TRY_ASSIGN(pattern, m.text("pattern"));
@@ -188,10 +189,17 @@ Expected<Texture> parseTexture(const yaml_util::YamlNode& node, const std::strin
     texture.pattern = Texture::Pattern::kSolid;
   else if (pattern == "checker")
     texture.pattern = Texture::Pattern::kChecker;
+  else if (pattern == "planks")
+    texture.pattern = Texture::Pattern::kPlanks;
+  else if (pattern == "bricks")
+    texture.pattern = Texture::Pattern::kBricks;
+  else if (pattern == "tiles")
+    texture.pattern = Texture::Pattern::kTiles;
   else if (pattern == "stripes")
     texture.pattern = Texture::Pattern::kStripes;
   else
-    return invalid(m.at("pattern"), "unknown pattern '" + pattern + "' (solid, checker or stripes)");
+    return invalid(m.at("pattern"),
+                   "unknown pattern '" + pattern + "' (solid, checker, stripes, planks, bricks or tiles)");
   if (m.has("color"))
     TRY_ASSIGN(texture.color, parseColor(m["color"], m.at("color")));
   if (m.has("color2"))
@@ -203,6 +211,17 @@ Expected<Texture> parseTexture(const yaml_util::YamlNode& node, const std::strin
       return invalid(m.at("cell"), "cell sizes must be positive");
   }
   TRY_ASSIGN(texture.stripes_along_v, m.boolean("horizontal", false));
+  TRY_ASSIGN(texture.joint, m.number("joint", texture.joint));
+  TRY_ASSIGN(texture.variation, m.number("variation", 0.0));
+  TRY_ASSIGN(texture.grain, m.number("grain", 0.0));
+  TRY_ASSIGN(texture.speckle, m.number("speckle", 0.0));
+  TRY_ASSIGN(texture.gradient, m.number("gradient", 0.0));
+  TRY_ASSIGN(texture.shine, m.number("shine", 0.0));
+  int seed = 0;
+  TRY_ASSIGN(seed, m.integer("seed", 0));
+  if (seed < 0)
+    return invalid(m.at("seed"), "must not be negative");
+  texture.seed = static_cast<uint32_t>(seed);
   if (m.has("offset"))
     TRY_ASSIGN(texture.offset, parsePair(m["offset"], m.at("offset")));
   if (m.has("rects"))
@@ -543,14 +562,74 @@ Expected<XtionConfig> parseXtion(const yaml_util::YamlNode& node, const std::str
   return x;
 }
 
+// Keys absent from the block keep the values of base (the world's default for its kind of camera).
+Expected<CameraAppearance> parseCameraAppearance(const yaml_util::YamlNode& node, const std::string& where,
+                                                 const CameraAppearance& base)
+{
+  CameraAppearance a = base;
+  if (!node)
+    return a;
+  const MapReader m(node, where);
+  TRY(m.check({"blur_sigma_px", "vignetting", "exposure", "white_balance", "jpeg_quality"}));
+  TRY_ASSIGN(a.blur_sigma_px, m.number("blur_sigma_px", a.blur_sigma_px));
+  TRY_ASSIGN(a.vignetting, m.number("vignetting", a.vignetting));
+  TRY_ASSIGN(a.exposure, m.number("exposure", a.exposure));
+  if (m.has("white_balance"))
+    TRY_ASSIGN(a.white_balance, m.vector<3>("white_balance"));
+  TRY_ASSIGN(a.jpeg_quality, m.integer("jpeg_quality", a.jpeg_quality));
+  return a;
+}
+
+Expected<Appearance> parseAppearance(const yaml_util::YamlNode& node, const std::string& where)
+{
+  Appearance a;
+  if (!node)
+    return a;
+  const MapReader m(node, where);
+  TRY(m.check({"xtion_rgb", "fixed_cameras", "depth"}));
+  TRY_ASSIGN(a.xtion_rgb, parseCameraAppearance(m["xtion_rgb"], m.at("xtion_rgb"), a.xtion_rgb));
+  TRY_ASSIGN(a.fixed_cameras, parseCameraAppearance(m["fixed_cameras"], m.at("fixed_cameras"), a.fixed_cameras));
+  if (m.has("depth"))
+  {
+    const MapReader d(m["depth"], m.at("depth"));
+    TRY(d.check(
+        {"flying_pixels", "flying_step_m", "low_frequency_coefficient", "low_frequency_px", "misregistration_px"}));
+    DepthAppearance& z = a.depth;
+    TRY_ASSIGN(z.flying_pixels, d.number("flying_pixels", z.flying_pixels));
+    TRY_ASSIGN(z.flying_step_m, d.number("flying_step_m", z.flying_step_m));
+    TRY_ASSIGN(z.low_frequency_coefficient, d.number("low_frequency_coefficient", z.low_frequency_coefficient));
+    TRY_ASSIGN(z.low_frequency_px, d.number("low_frequency_px", z.low_frequency_px));
+    if (d.has("misregistration_px"))
+      TRY_ASSIGN(z.misregistration_px, d.vector<2>("misregistration_px"));
+  }
+  return a;
+}
+
 Expected<SimulatedFixedCamera> parseFixedCamera(const yaml_util::YamlNode& node, size_t index,
-                                                const std::string& source)
+                                                const std::string& source, const CameraAppearance& appearance)
 {
   std::string where = source + ": fixed_cameras[" + std::to_string(index) + "]";
   const MapReader m(node, where);
-  TRY(m.check({"name", "width", "height", "fx", "fy", "cx", "cy", "skew", "lambda", "corner_displacement_px",
-               "distortion_center", "position", "look_at", "roll_deg", "orientation", "rate", "phase", "noise",
-               "supersampling"}));
+  TRY(m.check({"name",
+               "width",
+               "height",
+               "fx",
+               "fy",
+               "cx",
+               "cy",
+               "skew",
+               "lambda",
+               "corner_displacement_px",
+               "distortion_center",
+               "position",
+               "look_at",
+               "roll_deg",
+               "orientation",
+               "rate",
+               "phase",
+               "noise",
+               "supersampling",
+               "appearance"}));
   SimulatedFixedCamera c;
   TRY_ASSIGN(c.name, m.text("name"));
   where += " '" + c.name + "'";
@@ -633,6 +712,7 @@ Expected<SimulatedFixedCamera> parseFixedCamera(const yaml_util::YamlNode& node,
     if (c.noise.read_sigma < 0.0 || c.noise.shot_gain < 0.0)
       return invalid(z.where(), "noise parameters must not be negative");
   }
+  TRY_ASSIGN(c.appearance, parseCameraAppearance(n["appearance"], n.at("appearance"), appearance));
   return c;
 }
 
@@ -679,6 +759,13 @@ Color Texture::basePattern(double u, double v, int* region) const
       *region = m < cell.x() ? 0 : 1;
       return *region ? color2 : color;
     }
+    case Pattern::kPlanks:
+    case Pattern::kBricks:
+    case Pattern::kTiles: {
+      Eigen::Vector2i unit;
+      *region = materialRegion(u, v, &unit);
+      return *region ? color2 : color;
+    }
   }
   *region = 0;
   return color;
@@ -686,16 +773,22 @@ Color Texture::basePattern(double u, double v, int* region) const
 
 Color Texture::sample(double u, double v, int* region) const
 {
-  for (size_t i = rects.size(); i-- > 0;)
+  Color c;
+  *region = -1;
+  for (size_t i = rects.size(); i-- > 0 && *region < 0;)
   {
     const TextureRect& r = rects[i];
     if (u >= r.min.x() && u < r.max.x() && v >= r.min.y() && v < r.max.y())
     {
       *region = 2 + static_cast<int>(i);
-      return r.color;
+      c = r.color;
     }
   }
-  return basePattern(u, v, region);
+  if (*region < 0)
+    c = basePattern(u, v, region);
+  if (variation == 0.0 && grain == 0.0 && speckle == 0.0 && gradient == 0.0)
+    return c;
+  return (c * structure(u, v, *region)).cwiseMin(255.0f);
 }
 
 bool Surface::contains(const Eigen::Vector2d& p) const
@@ -798,13 +891,14 @@ Expected<World> parseWorldEntries(const std::string& yaml_text, const std::strin
   if (!root)
     return root.error();
   const MapReader m(root->root(), source);
-  TRY(m.check({"name", "description", "lighting", "surfaces", "route", "xtion", "fixed_cameras"}));
+  TRY(m.check({"name", "description", "lighting", "appearance", "surfaces", "route", "xtion", "fixed_cameras"}));
   World world;
   world.source = source;
   world.name = std::filesystem::path(source).stem().string();
   if (m.has("name"))
     TRY_ASSIGN(world.name, m.text("name"));
   TRY_ASSIGN(world.lighting, parseLighting(m["lighting"], source + ": lighting"));
+  TRY_ASSIGN(world.appearance, parseAppearance(m["appearance"], source + ": appearance"));
 
   TRY(m.require("surfaces"));
   if (!m["surfaces"].IsSequence() || m["surfaces"].size() == 0)
@@ -832,7 +926,7 @@ Expected<World> parseWorldEntries(const std::string& yaml_text, const std::strin
   for (size_t i = 0; i < m["fixed_cameras"].size(); ++i)
   {
     SimulatedFixedCamera c;
-    TRY_ASSIGN(c, parseFixedCamera(m["fixed_cameras"][i], i, source));
+    TRY_ASSIGN(c, parseFixedCamera(m["fixed_cameras"][i], i, source, world.appearance.fixed_cameras));
     if (!camera_names.insert(c.name).second)
       return invalid(source + ": fixed_cameras[" + std::to_string(i) + "]",
                      "the camera name '" + c.name + "' is used twice");

@@ -42,6 +42,22 @@ std::string range(double low, double high)
   return "must be within " + num(low) + " .. " + num(high);
 }
 
+// Materials: joints of kMinJointM .. half a unit; the structure's amounts 0..1.
+Status checkStructure(const Texture& t, const std::string& where)
+{
+  if (t.material() && !within(t.joint, kMinJointM, 0.5 * t.cell.minCoeff()))
+    return refuse(where + ".joint", range(kMinJointM, 0.5 * t.cell.minCoeff()) + " m (half the smaller cell side)");
+  const std::pair<const char*, double> amounts[] = {{"variation", t.variation},
+                                                    {"grain", t.grain},
+                                                    {"speckle", t.speckle},
+                                                    {"gradient", t.gradient},
+                                                    {"shine", t.shine}};
+  for (const auto& [key, value] : amounts)
+    if (!within(value, 0.0, 1.0))
+      return refuse(where + "." + key, range(0.0, 1.0));
+  return Success{};
+}
+
 Status checkSurfaces(const World& world, const std::string& source)
 {
   if (world.surfaces.size() > kMaxSurfaces)
@@ -65,6 +81,8 @@ Status checkSurfaces(const World& world, const std::string& source)
     if (!(t.cell.minCoeff() >= kMinTextureCellM) || !withinBuilding(t.cell) || !withinBuilding(t.offset))
       return refuse(where + ".texture",
                     "cell sizes must be " + num(kMinTextureCellM) + " m or more and offsets within the building");
+    if (const Status st = checkStructure(t, where + ".texture"); !st)
+      return st;
     for (const auto& rect : t.rects)
       if (!withinBuilding(rect.min) || !withinBuilding(rect.max))
         return refuse(where + ".texture.rects", "a rectangle lies beyond the building");
@@ -121,6 +139,43 @@ Status checkXtion(const XtionConfig& x, const std::string& where)
   return Success{};
 }
 
+Status checkCameraAppearance(const CameraAppearance& a, const std::string& where)
+{
+  if (!within(a.blur_sigma_px, 0.0, kMaxBlurSigmaPx))
+    return refuse(where + ".blur_sigma_px", range(0.0, kMaxBlurSigmaPx));
+  if (!within(a.vignetting, 0.0, 1.0))
+    return refuse(where + ".vignetting", range(0.0, 1.0));
+  if (!within(a.exposure, kMinGain, kMaxGain))
+    return refuse(where + ".exposure", range(kMinGain, kMaxGain));
+  for (int k = 0; k < 3; ++k)
+    if (!within(a.white_balance[k], kMinGain, kMaxGain))
+      return refuse(where + ".white_balance", "each gain " + range(kMinGain, kMaxGain));
+  if (a.jpeg_quality < 0 || a.jpeg_quality > 100)
+    return refuse(where + ".jpeg_quality", "must be within 1 .. 100, or 0 for no compression");
+  return Success{};
+}
+
+Status checkAppearance(const Appearance& a, int xtion_width, const std::string& where)
+{
+  if (const Status s = checkCameraAppearance(a.xtion_rgb, where + ".xtion_rgb"); !s)
+    return s;
+  if (const Status s = checkCameraAppearance(a.fixed_cameras, where + ".fixed_cameras"); !s)
+    return s;
+  const DepthAppearance& d = a.depth;
+  if (!within(d.flying_pixels, 0.0, 1.0))
+    return refuse(where + ".depth.flying_pixels", range(0.0, 1.0));
+  if (!within(d.flying_step_m, 1e-3, 10.0))
+    return refuse(where + ".depth.flying_step_m", range(1e-3, 10.0) + " m");
+  if (!within(d.low_frequency_coefficient, 0.0, 1.0))
+    return refuse(where + ".depth.low_frequency_coefficient", range(0.0, 1.0));
+  if (!within(d.low_frequency_px, kMinLowFrequencyPx, xtion_width))
+    return refuse(where + ".depth.low_frequency_px", range(kMinLowFrequencyPx, xtion_width) + " (the Xtion's width)");
+  if (!d.misregistration_px.allFinite() || d.misregistration_px.cwiseAbs().maxCoeff() > kMaxMisregistrationPx)
+    return refuse(where + ".depth.misregistration_px",
+                  "each axis " + range(-kMaxMisregistrationPx, kMaxMisregistrationPx));
+  return Success{};
+}
+
 Status checkFixedCameras(const World& world, const std::string& source)
 {
   if (world.fixed_cameras.size() > kMaxFixedCameras)
@@ -140,6 +195,8 @@ Status checkFixedCameras(const World& world, const std::string& source)
       return refuse(where + ".phase", range(0.0, kMaxPhaseS) + " s");
     if (!within(c.noise.read_sigma, 0.0, kMaxNoise) || !within(c.noise.shot_gain, 0.0, kMaxNoise))
       return refuse(where + ".noise", range(0.0, kMaxNoise));
+    if (const Status s = checkCameraAppearance(c.appearance, where + ".appearance"); !s)
+      return s;
   }
   return Success{};
 }
@@ -156,6 +213,8 @@ Status validateWorldLimits(const World& world, const std::string& source)
   if (!world.lighting.direction.allFinite() || !std::isfinite(world.lighting.ambient) ||
       !std::isfinite(world.lighting.diffuse))
     return refuse(source + ": lighting", "NaN or infinite values");
+  if (const Status s = checkAppearance(world.appearance, world.xtion.width, source + ": appearance"); !s)
+    return s;
   return checkFixedCameras(world, source);
 }
 

@@ -116,7 +116,7 @@ std::optional<CameraModel> FixedCamera::currentCamera() const
   return std::nullopt;
 }
 
-Status FixedCamera::check(const CameraCalibration& c, size_t matched_lines) const
+Status FixedCamera::check(const CameraCalibration& c, size_t matched_lines, bool check_prior) const
 {
   const Intrinsics& k = c.camera.intrinsics();
   const double w = config_.image_width;
@@ -134,7 +134,7 @@ Status FixedCamera::check(const CameraCalibration& c, size_t matched_lines) cons
     return Error(ErrorCode::kNotEnoughData, "only " + std::to_string(matched_lines) + " lines matched (" +
                                                 std::to_string(options_.min_matched_lines) +
                                                 " needed); survey more of the camera's view");
-  if (config_.prior)
+  if (config_.prior && check_prior)
   {
     const double distance = (c.camera.pose().center() - config_.prior->position).norm();
     const double limit = options_.max_prior_distance_sigmas * config_.prior->position_sigma_m;
@@ -163,12 +163,81 @@ Status FixedCamera::check(const CameraCalibration& c, size_t matched_lines) cons
   return Success{};
 }
 
+std::vector<Segment3d> FixedCamera::unhiddenLines(const CameraModel& camera,
+                                                  const std::vector<Segment3d>& map_lines) const
+{
+  if (!occluders_)
+    return map_lines;
+  std::vector<Segment3d> in_view;
+  for (const Segment3d& line : map_lines)
+    if (const auto interval = visibleInterval(camera, line, config_.image_width, config_.image_height))
+      in_view.push_back({line.pointAt(interval->first), line.pointAt(interval->second)});
+  return occluders_->unoccludedParts(camera.pose().center(), in_view);
+}
+
 Status FixedCamera::checkExplanation(FixedCameraResult& result, const std::vector<Segment3d>& map_lines) const
 {
   const CameraCalibration& c = result.calibration;
-  result.explanation = explainImage(median_.median(), c.camera, config_.image_width, config_.image_height, map_lines,
+  const std::vector<Segment3d> seen = unhiddenLines(c.camera, map_lines);
+  result.explanation = explainImage(median_.median(), c.camera, config_.image_width, config_.image_height, seen,
                                     c.refinement ? &*c.refinement : nullptr, options_.explanation);
   return acceptExplanation(result.explanation, options_.explanation);
+}
+
+bool FixedCamera::priorRulesOut(const CameraModel& alternative, const CameraModel& accepted) const
+{
+  if (!config_.prior)
+    return false;
+  const CameraPrior& p = *config_.prior;
+  const double d_alternative = (alternative.pose().center() - p.position).norm();
+  const double d_accepted = (accepted.pose().center() - p.position).norm();
+  return d_alternative > options_.max_prior_distance_sigmas * p.position_sigma_m &&
+         d_alternative - d_accepted > options_.ambiguity.prior_margin_sigmas * p.position_sigma_m;
+}
+
+Status FixedCamera::checkAmbiguity(FixedCameraResult& result, const std::vector<Segment3d>& map_lines,
+                                   const std::vector<double>& map_line_sigmas_m) const
+{
+  const ViewAmbiguityOptions& o = options_.ambiguity;
+  if (!o.enabled)
+    return Success{};
+  std::vector<std::vector<Eigen::Vector2d>> image_lines = result.matched_image_lines;
+  image_lines.insert(image_lines.end(), result.unmatched_image_lines.begin(), result.unmatched_image_lines.end());
+  const int w = config_.image_width, h = config_.image_height;
+  result.ambiguity = findAlternativeCameras(map_lines, image_lines, result.calibration, result.matched_map_lines, w, h,
+                                            options_.matcher, map_line_sigmas_m, o);
+  const cv::Mat median = median_.median();
+  for (AlternativeCamera& alt : result.ambiguity.alternatives)
+  {
+    if (!alt.clearly_different)
+      continue;
+    if (!explainsAsWell(alt, result.ambiguity, o))
+    {
+      alt.dismissed = "explains less";
+      continue;
+    }
+    if (const Status own = check(alt.calibration, alt.matched_lines, false); !own)
+    {
+      alt.dismissed = "its own checks refuse it: " + own.error().message().substr(0, 60);
+      continue;
+    }
+    if (priorRulesOut(alt.calibration.camera, result.calibration.camera))
+    {
+      alt.dismissed = "the prior rules it out";
+      continue;
+    }
+    const CameraCalibration& c = alt.calibration;
+    // Measured as the accepted camera's was: without the map lines hidden from it.
+    const ImageExplanation e = explainImage(median, c.camera, w, h, unhiddenLines(c.camera, map_lines),
+                                            c.refinement ? &*c.refinement : nullptr, options_.explanation);
+    if (e.samples > 0 && e.overlay_agreement < result.explanation.overlay_agreement - o.overlay_margin)
+    {  // its map lines meet image edges less often: the accepted camera explains the view better
+      alt.dismissed = "overlay " + std::to_string(static_cast<int>(100.0 * e.overlay_agreement)) + " %";
+      continue;
+    }
+    return ambiguityError(result.calibration, alt, result.ambiguity);
+  }
+  return Success{};
 }
 
 Expected<FixedCameraResult> FixedCamera::calibrateFromFile(const std::string& world_frame)
@@ -201,14 +270,43 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromFile(const std::string& wo
   return result;
 }
 
-Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segment3d>& map_lines,
+std::vector<Segment3d> FixedCamera::seeableFromPrior(const std::vector<Segment3d>& map_lines,
+                                                     std::vector<double>* sigmas) const
+{
+  if (!occluders_ || !config_.prior)
+    return map_lines;
+  const CameraPrior& prior = *config_.prior;
+  std::vector<Eigen::Vector3d> viewpoints = {prior.position};
+  for (int axis = 0; axis < 3; ++axis)
+    for (const double sign : {-1.0, 1.0})
+      viewpoints.push_back(prior.position + sign * prior.position_sigma_m * Eigen::Vector3d::Unit(axis));
+  std::vector<Segment3d> seeable;
+  std::vector<double> seeable_sigmas;
+  for (size_t i = 0; i < map_lines.size(); ++i)
+    if (!occluders_->hiddenFromAll(viewpoints, map_lines[i]))
+    {
+      seeable.push_back(map_lines[i]);
+      if (i < sigmas->size())
+        seeable_sigmas.push_back((*sigmas)[i]);
+    }
+  if (!sigmas->empty())
+    *sigmas = std::move(seeable_sigmas);
+  return seeable;
+}
+
+Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segment3d>& all_map_lines,
                                                           const std::string& world_frame,
-                                                          const std::vector<double>& map_line_sigmas_m)
+                                                          const std::vector<double>& map_line_sigmas_all)
 {
   if (median_.empty())
     return Error(ErrorCode::kNotEnoughData, "no image has arrived from " + config_.image_topic + " yet");
-  if (map_lines.empty())
+  if (all_map_lines.empty())
     return Error(ErrorCode::kNotEnoughData, "the 3D line map is empty: drive the robot through the camera's view");
+  // Map lines no camera near the prior could see (behind surfaces the survey measured, from the prior's position
+  // and from a sigma off it along each axis) would only be wrong candidates for the matching.
+  std::vector<double> sigmas = map_line_sigmas_all;
+  const std::vector<Segment3d> map_lines = seeableFromPrior(all_map_lines, &sigmas);
+  const std::vector<double>& map_line_sigmas_m = sigmas;
   const cv::Mat median = median_.median();
   DivisionModel distortion{0.0, imageCenter(config_.image_width, config_.image_height)};
   std::optional<FixedCameraResult> best;
@@ -277,6 +375,8 @@ Expected<FixedCameraResult> FixedCamera::calibrate(const std::vector<Segment3d>&
   Status ok = check(result->calibration, result->matched_image_lines.size());
   if (ok && config_.correspondence_file.empty())
     ok = checkExplanation(*result, map_lines);
+  if (ok && config_.correspondence_file.empty())
+    ok = checkAmbiguity(*result, map_lines, map_line_sigmas_m);
   if (!ok)
   {
     last_refused_ = *result;
@@ -284,7 +384,7 @@ Expected<FixedCameraResult> FixedCamera::calibrate(const std::vector<Segment3d>&
   }
   result->summary = describeResult(result->calibration, result->matched_image_lines.size());
   if (config_.correspondence_file.empty())
-    result->summary += "; " + result->explanation.describe();
+    result->summary += "; " + result->explanation.describe() + "; " + result->ambiguity.describe();
   calibration_ = result->file;
   if (config_.correspondence_file.empty())
     measureVerificationReference(map_lines);

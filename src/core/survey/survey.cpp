@@ -65,6 +65,8 @@ Survey::Survey(const std::vector<FixedCameraConfig>& cameras, const SurveyOption
   options_.adjustment.localization_sigma_deg = options.localization_sigma_deg;
   for (const auto& config : cameras)
     cameras_.emplace(config.name, std::make_unique<FixedCamera>(config, options.cameras));
+  if (options_.occlusion.enabled)
+    surfaces_ = std::make_shared<SurfaceVoxels>(options_.occlusion);
 }
 
 Expected<bool> Survey::addRgbdFrame(const RgbdFrame& frame, const std::optional<Eigen::Isometry3d>& T_odom_camera)
@@ -85,6 +87,12 @@ Expected<bool> Survey::addRgbdFrame(const RgbdFrame& frame, const std::optional<
     return lines.error();
   }
   map_.insert(*lines);
+  if (surfaces_)
+  {
+    if (surfaces_.use_count() > 1)  // a calibration holds these (the node's, running unlocked): copy on write
+      surfaces_ = std::make_shared<SurfaceVoxels>(*surfaces_);
+    surfaces_->insertDepth(frame);
+  }
   keyframe_data_.push_back(toKeyframe(frame, *lines, floorObservations(frame, unlifted)));
   if (options_.triangulated.enabled)
     for (const auto& u : unlifted)
@@ -314,6 +322,7 @@ Expected<FixedCameraResult> Survey::calibrate(const std::string& name, const std
 {
   if (!hasCamera(name))
     return Error(ErrorCode::kInvalidInput, "unknown camera '" + name + "'");
+  camera(name).setOccluders(surfaces_);
   auto result = camera(name).calibrate(mapSegments(), world_frame, mapLineSigmas());
   if (!result)
     return result;
@@ -424,6 +433,8 @@ void Survey::reset()
   map_.clear();
   keyframes_.reset();
   keyframe_data_.clear();
+  if (surfaces_)
+    surfaces_ = std::make_shared<SurfaceVoxels>(options_.occlusion);
   adjusted_map_.clear();
   corrections_.clear();
   adjusted_ = false;

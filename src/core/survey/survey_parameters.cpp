@@ -55,6 +55,8 @@ void readCameraParameters(ParameterSource& read, FixedCameraOptions& camera)
   camera.median_images = static_cast<size_t>(
       read.integer("median_images", static_cast<int>(camera.median_images), Range::integers(1, 255)));
   camera.matcher.search_starts = read.integer("search_starts", camera.matcher.search_starts, Range::integers(1, 64));
+  camera.matcher.hypothesis_starts =
+      read.integer("hypothesis_starts", camera.matcher.hypothesis_starts, Range::integers(0, 16));
   CalibrationOptions& calibration = camera.matcher.calibration;
   calibration.refine = read.flag("refine", calibration.refine);
   calibration.ransac = read.flag("ransac", calibration.ransac);
@@ -66,6 +68,7 @@ SurveyOptions readSurveyParameters(ParameterSource& source, SurveyOptions option
   readMapParameters(source, options);
   readFloorParameters(source, options.floor);
   readTriangulationParameters(source, options.triangulated);
+  options.occlusion.enabled = source.flag("occlusion_test", options.occlusion.enabled);
   readCameraParameters(source, options.cameras);
   FieldThresholds field = thresholds ? *thresholds : FieldThresholds{};
   field.cameras = options.cameras;

@@ -1,0 +1,119 @@
+// The ambiguity test of the final check: a view of a repeating structure (floor tiles, a row of identical windows,
+// doors or columns) is explained almost as well by a camera shifted by one period of the structure as by the right
+// camera, and the matcher may settle on either: with tiny residuals and small sigmas, confidently wrong. After a
+// camera has passed the other checks, the map's repetition periods near its matched lines (the spacings between each
+// matched map line and the map lines parallel to it, common to many matched lines) give candidate shifts; the
+// matching is redone from the camera shifted by each (also with the focal length compensated for the shift along the
+// optical axis), and an alternative at a clearly different pose that explains the image about as well means the
+// view does not decide the camera.
+#ifndef INSITU_CALIBRATION_SURVEY_VIEW_AMBIGUITY_H
+#define INSITU_CALIBRATION_SURVEY_VIEW_AMBIGUITY_H
+
+#include <string>
+#include <vector>
+
+#include "insitu_calibration/calibration.h"
+#include "insitu_calibration/error.h"
+#include "insitu_calibration/geometry/segment.h"
+#include "insitu_calibration/matching/line_matcher.h"
+
+namespace insitu_calibration
+{
+struct ViewAmbiguityOptions
+{
+  bool enabled = true;
+  // A repetition: map lines parallel (within max_parallel_deg) to a matched map line, min_period_m .. max_period_m
+  // across it, the same offset (within cluster_m) found beside at least min_support matched lines.
+  double max_parallel_deg = 2.0;
+  double min_period_m = 0.25;
+  double max_period_m = 3.0;
+  double cluster_m = 0.08;
+  size_t min_support = 3;
+  size_t max_periods = 3;  // the best-supported periods tried, each both ways (with and without focal compensation)
+  // An alternative is at a clearly different pose when it is farther from the accepted camera than both these and
+  // three of the accepted result's own sigmas, in position, rotation or focal length.
+  double min_position_m = 0.05;
+  double min_rotation_deg = 1.0;
+  double min_focal_relative = 0.01;
+  double difference_sigmas = 3.0;
+  // ... and explains the image about as well when its explanation score (the matcher's: per image line the squared
+  // distance to the nearest projected map line, capped at 1 px^2, summed) is at most this much above the accepted
+  // camera's (in capped lines), and it matches at least this share of the accepted camera's number of lines.
+  double score_margin = 2.0;
+  double min_matched_share = 0.8;
+  // ... and its map lines lie on image edges nearly as often (image_explanation.h's overlay agreement, at most this
+  // share lower).
+  double overlay_margin = 0.05;
+  // An alternative beyond the prior's distance limit (FixedCameraOptions::max_prior_distance_sigmas) is ruled out by
+  // the prior only when it is also this many position sigmas of the prior farther from it than the accepted camera:
+  // a result near the limit itself does not make its neighbour one period beyond it implausible.
+  double prior_margin_sigmas = 2.0;
+};
+
+// One candidate shift of the camera: a repetition of the map (the offset between parallel map lines) and how many
+// matched map lines have a parallel neighbour at that offset.
+struct RepetitionShift
+{
+  Eigen::Vector3d shift = Eigen::Vector3d::Zero();  // world, m
+  size_t support = 0;
+};
+
+// The map's repetition periods beside the matched map lines, best supported first (at most max_periods, each once:
+// its opposite is implied).
+std::vector<RepetitionShift> findRepetitionShifts(const std::vector<Segment3d>& map_lines,
+                                                  const std::vector<Segment3d>& matched_map_lines,
+                                                  const ViewAmbiguityOptions& options = {});
+
+// The camera moved by a shift of its centre in the world, the focal lengths optionally scaled for the part of the
+// shift along the optical axis (so that a scene depth_m ahead keeps its size in the image).
+CameraModel shiftedCamera(CameraModel camera, const Eigen::Vector3d& shift, bool compensate_focal, double depth_m);
+
+// How an alternative camera compares with the accepted one.
+struct AlternativeCamera
+{
+  CameraCalibration calibration;
+  Eigen::Vector3d shift = Eigen::Vector3d::Zero();  // the start's shift
+  bool focal_compensated = false;
+  size_t matched_lines = 0;
+  double score = 0.0;  // explanation score (lower is better)
+  double position_difference_m = 0.0;
+  double rotation_difference_deg = 0.0;
+  double focal_difference_relative = 0.0;
+  bool clearly_different = false;
+  std::string dismissed;  // why it did not refuse the result (empty: not judged, or it refused it)
+};
+
+struct ViewAmbiguity
+{
+  size_t periods = 0;  // repetitions found
+  size_t tried = 0;    // matchings redone
+  double seconds = 0.0;
+  double accepted_score = 0.0;
+  size_t accepted_matched = 0;
+  std::vector<AlternativeCamera> alternatives;  // every start that calibrated, in the order tried
+  std::string describe() const;
+};
+
+// The alternatives of an accepted camera: the matching (matchAndCalibrateFrom) redone from the camera shifted by
+// each repetition (both ways, with and without focal compensation). image_lines: the distorted-pixel polylines the
+// camera was matched on.
+ViewAmbiguity findAlternativeCameras(const std::vector<Segment3d>& map_lines,
+                                     const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                                     const CameraCalibration& accepted,
+                                     const std::vector<Segment3d>& accepted_matched_map_lines, int image_width,
+                                     int image_height, const LineMatcherOptions& matcher,
+                                     const std::vector<double>& map_line_sigmas_m,
+                                     const ViewAmbiguityOptions& options = {});
+
+// Whether an alternative explains the image about as well as the accepted camera (score and matched lines).
+bool explainsAsWell(const AlternativeCamera& alternative, const ViewAmbiguity& ambiguity,
+                    const ViewAmbiguityOptions& options);
+
+// The refusal (kNoSolution) for a view an alternative camera explains as well: names the repetition, the two
+// positions and what to do.
+Error ambiguityError(const CameraCalibration& accepted, const AlternativeCamera& alternative,
+                     const ViewAmbiguity& ambiguity);
+
+}  // namespace insitu_calibration
+
+#endif  // INSITU_CALIBRATION_SURVEY_VIEW_AMBIGUITY_H

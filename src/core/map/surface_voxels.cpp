@@ -1,0 +1,122 @@
+#include "insitu_calibration/map/surface_voxels.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace insitu_calibration
+{
+namespace
+{
+double depthAt(const cv::Mat& depth, int row, int col)
+{
+  if (depth.type() == CV_16UC1)
+    return 0.001 * depth.at<uint16_t>(row, col);
+  if (depth.type() == CV_32FC1)
+    return depth.at<float>(row, col);
+  return 0.0;
+}
+}  // namespace
+
+SurfaceVoxels::SurfaceVoxels(const SurfaceVoxelOptions& options) : options_(options)
+{
+  options_.voxel_m = std::max(options_.voxel_m, 1e-3);
+  options_.pixel_step = std::max(options_.pixel_step, 1);
+  options_.sample_step_m = std::max(options_.sample_step_m, 1e-3);
+}
+
+uint64_t SurfaceVoxels::key(const Eigen::Vector3d& point) const
+{
+  // 21 bits per axis: +-52 km at 5 cm; points beyond wrap (harmless: a building is far smaller).
+  const auto cell = [&](double v) {
+    return static_cast<uint64_t>(static_cast<int64_t>(std::floor(v / options_.voxel_m)) & 0x1FFFFF);
+  };
+  return cell(point.x()) | (cell(point.y()) << 21) | (cell(point.z()) << 42);
+}
+
+void SurfaceVoxels::insert(const Eigen::Vector3d& point)
+{
+  if (point.allFinite())
+    voxels_.insert(key(point));
+}
+
+bool SurfaceVoxels::occupied(const Eigen::Vector3d& point) const
+{
+  return point.allFinite() && voxels_.count(key(point)) > 0;
+}
+
+void SurfaceVoxels::insertDepth(const RgbdFrame& frame)
+{
+  const cv::Mat& depth = frame.depth;
+  const Eigen::Vector3d sensor = frame.T_map_camera.translation();
+  for (int row = options_.pixel_step / 2; row < depth.rows; row += options_.pixel_step)
+    for (int col = options_.pixel_step / 2; col < depth.cols; col += options_.pixel_step)
+    {
+      const double z = depthAt(depth, row, col);
+      if (!(z > 0.0 && z <= options_.max_range_m))
+        continue;
+      const Eigen::Vector2d ray = frame.camera.normalize(Eigen::Vector2d(col, row));
+      const Eigen::Vector3d point = frame.T_map_camera * Eigen::Vector3d(z * ray.x(), z * ray.y(), z);
+      // A layer 1.5 voxels deep behind the surface: a sight line crossing it meets two voxels at any angle.
+      const Eigen::Vector3d behind = 0.5 * options_.voxel_m * (point - sensor).normalized();
+      for (int k = 0; k < 4; ++k)
+        insert(point + k * behind);
+    }
+}
+
+bool SurfaceVoxels::blocks(const Eigen::Vector3d& from, const Eigen::Vector3d& to) const
+{
+  const Eigen::Vector3d d = to - from;
+  const double range = d.norm();
+  const double end = range - options_.target_margin_m - options_.target_margin_per_m * range;
+  if (!(end > options_.near_margin_m))
+    return false;
+  const Eigen::Vector3d unit = d / range;
+  const double step = 0.5 * options_.voxel_m;
+  int hits = 0;
+  uint64_t last = ~uint64_t{0};
+  for (double s = options_.near_margin_m; s < end; s += step)
+  {
+    const uint64_t k = key(from + s * unit);
+    if (k == last)
+      continue;
+    last = k;
+    if (voxels_.count(k) > 0 && ++hits >= options_.min_hits)
+      return true;
+  }
+  return false;
+}
+
+std::vector<Segment3d> SurfaceVoxels::unoccludedParts(const Eigen::Vector3d& center,
+                                                      const std::vector<Segment3d>& lines) const
+{
+  std::vector<Segment3d> out;
+  for (const Segment3d& line : lines)
+  {
+    const int n = std::clamp(static_cast<int>(std::ceil(line.length() / options_.sample_step_m)), 1, 100);
+    int run_start = -1;  // first visible sample of the current run
+    for (int k = 0; k <= n; ++k)
+    {
+      const bool visible = k < n && !blocks(center, line.pointAt((k + 0.5) / n));
+      if (visible && run_start < 0)
+        run_start = k;
+      if (!visible && run_start >= 0)
+      {
+        out.push_back({line.pointAt(static_cast<double>(run_start) / n), line.pointAt(static_cast<double>(k) / n)});
+        run_start = -1;
+      }
+    }
+  }
+  return out;
+}
+
+bool SurfaceVoxels::hiddenFromAll(const std::vector<Eigen::Vector3d>& viewpoints, const Segment3d& line) const
+{
+  const int n = std::clamp(static_cast<int>(std::ceil(line.length() / (2.5 * options_.sample_step_m))), 1, 40);
+  for (int k = 0; k < n; ++k)
+    for (const Eigen::Vector3d& from : viewpoints)
+      if (!blocks(from, line.pointAt((k + 0.5) / n)))
+        return false;
+  return true;
+}
+
+}  // namespace insitu_calibration

@@ -1,0 +1,100 @@
+// The measured surfaces that hide map lines from a fixed camera (map/surface_voxels.h), against geometry known
+// exactly: a wall between the camera and a line hides it, a line on the wall seen at a grazing angle stays visible,
+// a line partly behind the wall is cut where the wall's edge predicts.
+#include <gtest/gtest.h>
+
+#include "insitu_calibration/map/surface_voxels.h"
+
+namespace ic = insitu_calibration;
+
+namespace
+{
+// A wall in the plane x = x0, y within [y0, y1], z within [0, 3], measured from a sensor on the side x < x0 (the
+// layer 1.5 voxels deep lies behind it, as insertDepth puts it).
+void insertWallX(ic::SurfaceVoxels& voxels, double x0, double y0, double y1)
+{
+  for (double y = y0; y <= y1; y += 0.02)
+    for (double z = 0.0; z <= 3.0; z += 0.02)
+    {
+      for (int k = 0; k < 4; ++k)
+        voxels.insert({x0 + 0.5 * k * voxels.options().voxel_m, y, z});
+    }
+}
+
+// A wall in the plane y = 0, x within [0, 20], measured from the side y > 0.
+void insertWallY(ic::SurfaceVoxels& voxels)
+{
+  for (double x = 0.0; x <= 20.0; x += 0.02)
+    for (double z = 0.0; z <= 3.0; z += 0.02)
+    {
+      for (int k = 0; k < 4; ++k)
+        voxels.insert({x, -0.5 * k * voxels.options().voxel_m, z});
+    }
+}
+}  // namespace
+
+TEST(SurfaceVoxels, DepthOfAPlaneMarksTwoVoxelLayers)
+{
+  ic::SurfaceVoxels voxels;
+  ic::RgbdFrame frame;
+  frame.camera.width = 64;
+  frame.camera.height = 48;
+  frame.camera.intrinsics.fx = frame.camera.intrinsics.fy = 500.0;  // 2.4 cm between samples at 3 m
+  frame.camera.intrinsics.cx = 31.5;
+  frame.camera.intrinsics.cy = 23.5;
+  frame.depth = cv::Mat(48, 64, CV_32FC1, cv::Scalar(3.0f));
+  frame.depth.at<float>(0, 0) = 0.0f;  // no measurement
+  voxels.insertDepth(frame);
+  EXPECT_TRUE(voxels.occupied({0.18, 0.13, 3.01}));  // the image corner's sample (col 62, row 46)
+  EXPECT_TRUE(voxels.occupied({0.01, 0.01, 3.01}));
+  EXPECT_TRUE(voxels.occupied({0.01, 0.01, 3.06}));  // the layer behind
+  EXPECT_FALSE(voxels.occupied({0.01, 0.01, 2.9}));
+  EXPECT_FALSE(voxels.occupied({0.01, 0.01, 3.2}));
+
+  frame.depth.setTo(cv::Scalar(9.0f));  // beyond max_range_m: not inserted
+  ic::SurfaceVoxels far;
+  far.insertDepth(frame);
+  EXPECT_EQ(far.size(), 0u);
+}
+
+TEST(SurfaceVoxels, AWallHidesWhatIsBehindItOnly)
+{
+  ic::SurfaceVoxels voxels;
+  insertWallX(voxels, 2.0, -1.0, 1.0);
+  const Eigen::Vector3d camera(0.0, 0.0, 1.5);
+  EXPECT_TRUE(voxels.blocks(camera, {4.0, 0.0, 1.5}));
+  EXPECT_TRUE(voxels.blocks(camera, {6.0, 0.5, 1.0}));
+  EXPECT_FALSE(voxels.blocks(camera, {1.5, 0.0, 1.5}));  // in front of the wall
+  EXPECT_FALSE(voxels.blocks(camera, {4.0, 3.0, 1.5}));  // past the wall's end
+  EXPECT_FALSE(voxels.blocks(camera, {2.0, 0.3, 1.5}));  // on the wall: its own surface does not hide it
+}
+
+TEST(SurfaceVoxels, ALineOnAWallSeenAtAGrazingAngleStaysVisible)
+{
+  ic::SurfaceVoxels voxels;
+  insertWallY(voxels);
+  const Eigen::Vector3d camera(0.0, 0.5, 2.5);  // 0.5 m from the wall, looking along it
+  for (const double x : {2.0, 5.0, 10.0, 15.0})
+    EXPECT_FALSE(voxels.blocks(camera, {x, 0.0, 1.0})) << "x " << x;
+  EXPECT_TRUE(voxels.blocks(camera, {10.0, -1.0, 1.0}));  // behind the wall
+}
+
+TEST(SurfaceVoxels, ALinePartlyBehindAWallIsCutWhereTheWallEnds)
+{
+  ic::SurfaceVoxels voxels;
+  insertWallX(voxels, 2.0, -1.0, 1.0);
+  const Eigen::Vector3d camera(0.0, 0.0, 1.5);
+  // The line x = 4 from y = -3 to 3: a sight line crosses x = 2 at y / 2, so |y| < 2 is hidden.
+  const auto parts = voxels.unoccludedParts(camera, {{{4.0, -3.0, 1.5}, {4.0, 3.0, 1.5}}});
+  ASSERT_EQ(parts.size(), 2u);
+  EXPECT_NEAR(parts[0].a.y(), -3.0, 1e-9);
+  EXPECT_NEAR(parts[0].b.y(), -2.0, 0.15);
+  EXPECT_NEAR(parts[1].a.y(), 2.0, 0.15);
+  EXPECT_NEAR(parts[1].b.y(), 3.0, 1e-9);
+
+  const ic::SurfaceVoxels empty;  // nothing measured: nothing hidden
+  const auto all = empty.unoccludedParts(camera, {{{4.0, -3.0, 1.5}, {4.0, 3.0, 1.5}}});
+  ASSERT_EQ(all.size(), 1u);
+  EXPECT_NEAR((all[0].a - Eigen::Vector3d(4.0, -3.0, 1.5)).norm(), 0.0, 1e-9);
+  EXPECT_NEAR((all[0].b - Eigen::Vector3d(4.0, 3.0, 1.5)).norm(), 0.0, 1e-9);
+}
