@@ -65,6 +65,9 @@ Options:
                         keyframes become map lines (default 0: off)
   --floor-height M      the floor plane's z in the world frame (default 0)
   --floor-max-range M   floor lines farther from the camera are not used (default 12)
+  --triangulated-lines 0|1
+                        RGB lines beyond the depth range (4 m) triangulated from five or more keyframes become map lines
+                        (default 0: off)
   --occlusion-test 0|1  the final check leaves out map lines that surfaces the survey's depth measured hide from
                         the camera (default 1)
   --camera NAME         calibrate only this camera
@@ -73,7 +76,8 @@ Options:
   --truth-dir DIR       the simulator's truth folder (<bag>_truth): also report, per camera, how many matches pair
                         the wrong edges and how far the matched map lines are from the true edges, the localiser's
                         limit (its error averaged over the keyframes, at the camera: "truth-limit" lines) and the
-                        cameras' poses relative to each other against the truth ("truth-relative" lines)
+                        cameras' poses relative to each other against the truth ("truth-relative" lines) and
+                        the map's coverage of each camera's image lines ("truth-coverage" lines)
   --prior-from-truth P,D,F[,SEED]
                         with --truth-dir: replace every camera's prior by its true camera moved P m in a random
                         direction, its viewing direction turned D degrees (about a random axis across it; the
@@ -234,6 +238,62 @@ void reportMapAgainstTruth(const std::string& truth_dir, const ic::Survey& surve
       std::printf("truth-relative %s %s %.2f mm %.4f deg\n", found[i].first.c_str(), found[j].first.c_str(),
                   1000.0 * (p - pt).norm(), angle);
     }
+}
+
+// Map coverage (line_evaluation.h): the camera's image lines, extracted from its median under the true distortion,
+// by length on a true edge the used map holds within 1 cm; whatever the calibration's outcome.
+void reportCoverageAgainstTruth(const std::string& truth_dir, const ic::Survey& survey, const std::string& name,
+                                const std::vector<ic::Segment3d>& map)
+{
+  const auto truth = ic::loadCalibrationFile(truth_dir + "/" + name + ".yaml");
+  const auto edges = ic::simulation::loadTrueEdges(truth_dir + "/edges.yaml");
+  if (!truth || !edges || survey.camera(name).imageCount() == 0)
+    return;
+  const auto lines =
+      ic::extractImageLines(survey.camera(name).medianImage(), truth->camera, survey.options().cameras.image_lines);
+  if (!lines)
+    return;
+  std::vector<std::vector<Eigen::Vector2d>> polylines;
+  for (const auto& line : *lines)
+    polylines.push_back(line.points);
+  std::vector<ic::Segment3d> segments;
+  for (const auto& e : *edges)
+    segments.push_back({e.start, e.end});
+  const ic::MapCoverage c = ic::measureMapCoverage(polylines, truth->camera, segments, map);
+  // Within 3 and 10 cm too: whether the map lacks the edges or holds them a little off.
+  const double c3 = ic::measureMapCoverage(polylines, truth->camera, segments, map, 0.03).fraction();
+  const double c10 = ic::measureMapCoverage(polylines, truth->camera, segments, map, 0.1).fraction();
+  std::printf(
+      "truth-coverage %s %.1f %% of %.0f px (%zu of %zu lines; %.1f %% on a true edge; within 3 / 10 cm "
+      "%.1f / %.1f %%)\n",
+      name.c_str(), 100.0 * c.fraction(), c.total_px, c.covered_lines, c.lines,
+      c.total_px > 0.0 ? 100.0 * c.on_edge_px / c.total_px : 0.0, 100.0 * c3, 100.0 * c10);
+}
+
+// The triangulated map lines in use against the true edges: within 3 predicted sigmas, within 1 cm, on none.
+void reportTriangulatedAgainstTruth(const std::string& truth_dir, const ic::Survey& survey)
+{
+  const auto edges = ic::simulation::loadTrueEdges(truth_dir + "/edges.yaml");
+  if (!edges || !survey.options().triangulated.enabled)
+    return;
+  std::vector<ic::Segment3d> segments;
+  for (const auto& e : *edges)
+    segments.push_back({e.start, e.end});
+  size_t lines = 0, within_sigmas = 0, within_cm = 0, none = 0;
+  for (const auto& line : survey.usedMapLines())
+  {
+    if (line.source != ic::MapLineSource::kTriangulated)
+      continue;
+    ++lines;
+    const ic::Line3dError e = ic::measureLine3d(line.a(), line.b(), segments, 0.1, 5.0);
+    none += e.edge < 0 ? 1 : 0;
+    within_sigmas += e.edge >= 0 && e.distance_m <= 3.0 * line.sigma() ? 1 : 0;
+    within_cm += e.edge >= 0 && e.distance_m <= 0.01 ? 1 : 0;
+  }
+  std::printf(
+      "truth-triangulated %zu lines: %zu within 3 predicted sigmas of a true edge, %zu within 1 cm, %zu on "
+      "none (10 cm, 5 deg)\n",
+      lines, within_sigmas, within_cm, none);
 }
 
 // The oracle's data: the image lines matched under the true camera and, as variants, the same matches with the
@@ -551,6 +611,7 @@ bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options)
   options->floor.enabled = cli.number("floor-lines", options->floor.enabled ? 1.0 : 0.0) != 0.0;
   options->floor.floor_height_m = cli.number("floor-height", options->floor.floor_height_m);
   options->floor.max_range_m = cli.number("floor-max-range", options->floor.max_range_m);
+  options->triangulated.enabled = cli.number("triangulated-lines", options->triangulated.enabled ? 1.0 : 0.0) != 0.0;
   options->occlusion.enabled = cli.number("occlusion-test", options->occlusion.enabled ? 1.0 : 0.0) != 0.0;
   if (cli.flag("no-refine"))
     options->cameras.matcher.calibration.refine = false;
@@ -638,6 +699,13 @@ void printSurveySummary(const ic::Survey& survey, size_t frames_without_pose, do
       floor_lines += line.source == ic::MapLineSource::kFloor ? 1 : 0;
     std::printf("floor lines: %zu candidates (%zu refused: depth off the floor), %zu floor map lines used\n",
                 stats.floor_candidates, stats.floor_refused, floor_lines);
+  }
+  if (survey.options().triangulated.enabled)
+  {
+    size_t triangulated = 0;
+    for (const auto& line : survey.usedMapLines())
+      triangulated += line.source == ic::MapLineSource::kTriangulated ? 1 : 0;
+    std::printf("triangulated lines: %zu map lines used\n", triangulated);
   }
 }
 
@@ -728,7 +796,13 @@ int calibrateCameras(const ic::CommandLine& cli, ic::Survey& survey)
     if (selected(name) && !cli.flag("oracle") && !calibrateAndSave(cli, survey, name, map))
       status = 1;
   if (cli.has("truth-dir"))
+  {
+    for (const auto& name : survey.cameraNames())
+      if (selected(name))
+        reportCoverageAgainstTruth(cli.value("truth-dir"), survey, name, map);
+    reportTriangulatedAgainstTruth(cli.value("truth-dir"), survey);
     reportMapAgainstTruth(cli.value("truth-dir"), survey);
+  }
   if (cli.flag("oracle") && cli.has("truth-dir"))
     for (const auto& name : survey.cameraNames())
       if (selected(name))
@@ -746,9 +820,26 @@ int main(int argc, char** argv)
   ic::quietSolverLogging();
   ic::CommandLine cli(
       argc, argv,
-      {"cameras", "params", "out-dir", "world-frame", "min-support", "camera", "search-starts", "hypothesis-starts",
-       "truth-dir", "prior-from-truth", "prior-sigmas", "max-spread", "localization-sigma", "odom-frame",
-       "odometry-sigma", "floor-lines", "floor-height", "floor-max-range", "occlusion-test"},
+      {"cameras",
+       "params",
+       "out-dir",
+       "world-frame",
+       "min-support",
+       "camera",
+       "search-starts",
+       "hypothesis-starts",
+       "truth-dir",
+       "prior-from-truth",
+       "prior-sigmas",
+       "max-spread",
+       "localization-sigma",
+       "odom-frame",
+       "odometry-sigma",
+       "floor-lines",
+       "floor-height",
+       "floor-max-range",
+       "occlusion-test",
+       "triangulated-lines"},
       {"no-refine", "no-ransac", "no-report", "quiet", "oracle", "oracle-details", "trace", "no-odometry"});
   if (cli.help())
   {

@@ -64,6 +64,24 @@ struct Line3dError
 Line3dError measureLine3d(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const std::vector<Segment3d>& truth,
                           double max_distance_m = 0.1, double max_angle_deg = 5.0);
 
+// How much of a fixed camera's view the line map explains (issue 11's map coverage): of the image lines' length
+// (distorted px), the share on a true edge (measureImageLine: 3 px, 60 % of the samples, under the true camera) for
+// which the map holds a line: both end points within max_distance_m of the edge's line, overlapping the part of it
+// the image line shows (a map line elsewhere on a long edge, a row of floor tiles, is out of the view).
+// Collinear true edges count as one edge (mergeCollinearSegments), as they do for the calibration.
+struct MapCoverage
+{
+  double total_px = 0.0;    // the image lines' length
+  double on_edge_px = 0.0;  // of it, on a true edge
+  double covered_px = 0.0;  // of it, on a true edge the map holds
+  size_t lines = 0;
+  size_t covered_lines = 0;
+  double fraction() const { return total_px > 0.0 ? covered_px / total_px : 0.0; }
+};
+MapCoverage measureMapCoverage(const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                               const CameraModel& true_camera, const std::vector<Segment3d>& true_edges,
+                               const std::vector<Segment3d>& map_lines, double max_distance_m = 0.01);
+
 }  // namespace insitu_calibration
 
 #endif  // INSITU_CALIBRATION_LINES_LINE_EVALUATION_H

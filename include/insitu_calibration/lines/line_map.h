@@ -81,6 +81,7 @@ enum class MapLineSource
 {
   kDepth,
   kFloor,
+  kTriangulated,  // from RGB segments of three or more keyframes (map/triangulated_lines.h)
 };
 
 struct MapLine

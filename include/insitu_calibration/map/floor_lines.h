@@ -75,6 +75,11 @@ bool depthAgreesWithFloor(const std::vector<DepthSample>& samples, const RgbdCam
 bool intersectFloor(const FloorObservation& observation, const Eigen::Isometry3d& T_map_camera, double focal_px,
                     const FloorLineOptions& options, FloorCandidate* candidate);
 
+// Whether one of `others` already holds the line: parallel (max_angle_deg), within the line's 3 sigma or 3 cm, and
+// covering at least half of its extent (a line that reaches well beyond the other's end is kept: the part the other
+// did not reach).
+bool heldByMapLine(const MapLine& line, const std::vector<MapLine>& others, double max_angle_deg);
+
 // The confirmed floor lines of the keyframes (their floor observations under the corrected poses; corrections empty
 // or one per keyframe) that no depth map line of `depth_lines` already holds. MapLine::source is kFloor,
 // MapLine::sigma() their predicted error, MapLine::support the number of candidates.

@@ -58,6 +58,7 @@ struct Keyframe
   Eigen::Isometry3d T_odom_camera = Eigen::Isometry3d::Identity();
   std::vector<KeyframeLine> lines;
   std::vector<FloorObservation> floor;  // not adjusted: placed on the floor under the corrected pose
+  std::vector<FloorObservation> rgb;    // every RGB segment without a depth line, when lines are triangulated
 };
 
 // A keyframe's correction: T_map_camera(corrected) = C * T_map_camera(tf), C a rotation by yaw about the vertical

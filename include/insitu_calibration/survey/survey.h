@@ -14,6 +14,7 @@
 #include "insitu_calibration/lines/line_map.h"
 #include "insitu_calibration/lines/rgbd_lines.h"
 #include "insitu_calibration/map/floor_lines.h"
+#include "insitu_calibration/map/triangulated_lines.h"
 #include "insitu_calibration/map/line_map_adjustment.h"
 #include "insitu_calibration/map/surface_voxels.h"
 #include "insitu_calibration/survey/fixed_camera.h"
@@ -43,6 +44,9 @@ struct SurveyOptions
   LineMapAdjustmentOptions adjustment;  // its localization sigmas are set from the two above
   // Lines on the floor beyond the depth range (map/floor_lines.h), added to the map in use (adjusted or not).
   FloorLineOptions floor;
+  // Lines beyond the depth range triangulated from RGB segments of five or more keyframes
+  // (map/triangulated_lines.h), added to the map in use after the floor lines.
+  TriangulatedLineOptions triangulated;
   // The surfaces the keyframes' depth measured (map/surface_voxels.h): the final check leaves out map lines they
   // hide from a fixed camera.
   SurfaceVoxelOptions occlusion;
@@ -163,7 +167,7 @@ private:
   void cacheAdjustment(MapAdjustment adjustment) const;  // the cache's members are mutable
   std::vector<MapLine> usedLinesOf(const LineMap& map) const;
   std::vector<double> sigmasOf(const std::vector<MapLine>& used) const;
-  // The map as inserted with the confirmed floor lines (cached per keyframe generation).
+  // The map as inserted with the lines beyond the depth range (cached per keyframe generation).
   const LineMap& unadjustedMap() const;
   std::vector<FloorObservation> floorObservations(const RgbdFrame& frame, const std::vector<UnliftedSegment>& unlifted);
 

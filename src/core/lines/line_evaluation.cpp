@@ -204,4 +204,78 @@ Line3dError measureLine3d(const Eigen::Vector3d& a, const Eigen::Vector3d& b, co
   return best;
 }
 
+namespace
+{
+// Whether a map line lies on the edge's (infinite) line within max_distance_m and overlaps [lo, hi] along it
+// (from edge.a towards edge.b).
+bool holdsEdge(const Segment3d& edge, double lo, double hi, const Segment3d& line, double max_distance_m)
+{
+  const Eigen::Vector3d u = (edge.b - edge.a).normalized();
+  auto off = [&](const Eigen::Vector3d& p) { return ((p - edge.a) - (p - edge.a).dot(u) * u).norm(); };
+  const double sa = (line.a - edge.a).dot(u), sb = (line.b - edge.a).dot(u);
+  return off(line.a) <= max_distance_m && off(line.b) <= max_distance_m && std::max(sa, sb) > lo &&
+         std::min(sa, sb) < hi;
+}
+
+// The part of the edge an image line shows: where its end points' rays pass closest to the edge's line, from edge.a
+// towards edge.b (the whole edge when a ray cannot be formed).
+std::pair<double, double> shownPart(const CameraModel& camera, const std::vector<Eigen::Vector2d>& polyline,
+                                    const Segment3d& edge)
+{
+  const Eigen::Vector3d u = (edge.b - edge.a).normalized();
+  const Eigen::Vector3d centre = camera.pose().center();
+  std::vector<double> s;
+  for (const Eigen::Vector2d& p : {polyline.front(), polyline.back()})
+  {
+    const auto ray = camera.backProject(p);
+    if (!ray)
+      return {0.0, (edge.b - edge.a).norm()};
+    const Eigen::Vector3d r = camera.pose().rotation.transpose() * *ray, w = centre - edge.a;
+    // Closest points of centre + t r and edge.a + s u.
+    const double ru = r.dot(u), det = 1.0 - ru * ru;
+    if (std::abs(det) < 1e-12)
+      return {0.0, (edge.b - edge.a).norm()};
+    s.push_back((u.dot(w) - ru * r.dot(w)) / det);
+  }
+  return {std::min(s[0], s[1]), std::max(s[0], s[1])};
+}
+
+double polylineLength(const std::vector<Eigen::Vector2d>& polyline)
+{
+  double length = 0.0;
+  for (size_t i = 0; i + 1 < polyline.size(); ++i)
+    length += (polyline[i + 1] - polyline[i]).norm();
+  return length;
+}
+}  // namespace
+
+MapCoverage measureMapCoverage(const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                               const CameraModel& true_camera, const std::vector<Segment3d>& true_edges,
+                               const std::vector<Segment3d>& map_lines, double max_distance_m)
+{
+  const std::vector<Segment3d> edges = mergeCollinearSegments(true_edges);
+  const std::vector<TrueEdgeImage> images = projectEdges(true_camera, edges);
+  MapCoverage coverage;
+  for (const auto& polyline : image_lines)
+  {
+    const double length = polylineLength(polyline);
+    coverage.total_px += length;
+    ++coverage.lines;
+    const ImageLineError on = measureImageLine(polyline, true_camera.distortion(), images, 3.0, 1.0, 0.6);
+    if (on.edge < 0)
+      continue;
+    coverage.on_edge_px += length;
+    const auto [lo, hi] = shownPart(true_camera, polyline, edges[on.edge]);
+    const bool held = std::any_of(map_lines.begin(), map_lines.end(), [&](const Segment3d& m) {
+      return holdsEdge(edges[on.edge], lo, hi, m, max_distance_m);
+    });
+    if (held)
+    {
+      coverage.covered_px += length;
+      ++coverage.covered_lines;
+    }
+  }
+  return coverage;
+}
+
 }  // namespace insitu_calibration

@@ -228,29 +228,6 @@ bool confirmed(const Cluster& k, const std::vector<FloorCandidate>& candidates, 
   return std::abs(beta) <= 0.5 * beta_min && o.confirm_sigmas * beta_sigma <= 0.5 * beta_min;
 }
 
-// Whether a depth map line already holds the floor line: parallel, within its 3 sigma or 3 cm, and covering at least
-// half of its extent (a floor line that reaches well beyond the depth line's end is kept: the part depth did not
-// reach).
-bool heldByDepthLine(const MapLine& floor, const std::vector<MapLine>& depth_lines, double max_angle_deg)
-{
-  const double limit = std::max(0.03, 3.0 * floor.sigma());
-  for (const auto& d : depth_lines)
-  {
-    if (d.source != MapLineSource::kDepth ||
-        std::abs(d.direction.dot(floor.direction)) < std::cos(max_angle_deg * M_PI / 180.0))
-      continue;
-    auto across = [&](const Eigen::Vector3d& p) {
-      const Eigen::Vector3d r = p - floor.point;
-      return (r - r.dot(floor.direction) * floor.direction).norm();
-    };
-    const double sa = (d.a() - floor.point).dot(floor.direction), sb = (d.b() - floor.point).dot(floor.direction);
-    const double overlap = std::min(std::max(sa, sb), floor.s_max) - std::max(std::min(sa, sb), floor.s_min);
-    if (across(d.a()) <= limit && across(d.b()) <= limit && overlap >= 0.5 * floor.length())
-      return true;
-  }
-  return false;
-}
-
 MapLine toMapLine(const Cluster& k, const std::vector<FloorCandidate>& candidates,
                   const std::vector<Keyframe>& keyframes)
 {
@@ -317,6 +294,25 @@ bool intersectFloor(const FloorObservation& observation, const Eigen::Isometry3d
   return true;
 }
 
+bool heldByMapLine(const MapLine& line, const std::vector<MapLine>& others, double max_angle_deg)
+{
+  const double limit = std::max(0.03, 3.0 * line.sigma());
+  for (const auto& d : others)
+  {
+    if (std::abs(d.direction.dot(line.direction)) < std::cos(max_angle_deg * M_PI / 180.0))
+      continue;
+    auto across = [&](const Eigen::Vector3d& p) {
+      const Eigen::Vector3d r = p - line.point;
+      return (r - r.dot(line.direction) * line.direction).norm();
+    };
+    const double sa = (d.a() - line.point).dot(line.direction), sb = (d.b() - line.point).dot(line.direction);
+    const double overlap = std::min(std::max(sa, sb), line.s_max) - std::max(std::min(sa, sb), line.s_min);
+    if (across(d.a()) <= limit && across(d.b()) <= limit && overlap >= 0.5 * line.length())
+      return true;
+  }
+  return false;
+}
+
 std::vector<MapLine> confirmFloorLines(const std::vector<Keyframe>& keyframes,
                                        const std::vector<PoseCorrection>& corrections,
                                        const std::vector<MapLine>& depth_lines, const FloorLineOptions& options)
@@ -345,7 +341,7 @@ std::vector<MapLine> confirmFloorLines(const std::vector<Keyframe>& keyframes,
       continue;
     const MapLine line = toMapLine(k, candidates, keyframes);
     if (line.sigma() <= options.max_sigma_m && line.length() >= options.min_length_m &&
-        !heldByDepthLine(line, depth_lines, options.max_angle_deg))
+        !heldByMapLine(line, depth_lines, options.max_angle_deg))
       out.push_back(line);
   }
   return out;

@@ -32,6 +32,21 @@ Keyframe toKeyframe(const RgbdFrame& frame, const std::vector<Line3d>& lines, st
   return kf;
 }
 
+// The lines beyond the depth range (floor lines, then triangulated lines), added to a map of depth lines.
+void addLinesBeyondDepth(const std::vector<Keyframe>& keyframes, const std::vector<PoseCorrection>& corrections,
+                         const SurveyOptions& o, LineMap* map)
+{
+  for (const auto& line : confirmFloorLines(keyframes, corrections, map->lines(), o.floor))
+    map->add(line);
+  for (const auto& line : triangulateLines(keyframes, corrections, map->lines(), o.triangulated))
+    map->add(line);
+}
+
+bool beyondDepth(const SurveyOptions& o)
+{
+  return o.floor.enabled || o.triangulated.enabled;
+}
+
 bool adjusting(const SurveyOptions& o)
 {
   return o.localization_sigma_m > 0.0 && o.localization_sigma_deg > 0.0;
@@ -65,7 +80,7 @@ Expected<bool> Survey::addRgbdFrame(const RgbdFrame& frame, const std::optional<
   if (!keyframes_.accept(frame.T_map_camera, frame.stamp))
     return false;
   std::vector<UnliftedSegment> unlifted;
-  const auto lines = extractor_.extract(frame, nullptr, options_.floor.enabled ? &unlifted : nullptr);
+  const auto lines = extractor_.extract(frame, nullptr, beyondDepth(options_) ? &unlifted : nullptr);
   if (!lines)
   {
     ++stats_.skipped;
@@ -79,6 +94,9 @@ Expected<bool> Survey::addRgbdFrame(const RgbdFrame& frame, const std::optional<
     surfaces_->insertDepth(frame);
   }
   keyframe_data_.push_back(toKeyframe(frame, *lines, floorObservations(frame, unlifted)));
+  if (options_.triangulated.enabled)
+    for (const auto& u : unlifted)
+      keyframe_data_.back().rgb.push_back({frame.camera.normalize(u.segment.a), frame.camera.normalize(u.segment.b)});
   keyframe_data_.back().has_odometry = T_odom_camera.has_value();
   if (T_odom_camera)
     keyframe_data_.back().T_odom_camera = *T_odom_camera;
@@ -126,13 +144,12 @@ std::vector<FloorObservation> Survey::floorObservations(const RgbdFrame& frame,
 
 const LineMap& Survey::unadjustedMap() const
 {
-  if (!options_.floor.enabled)
+  if (!beyondDepth(options_))
     return map_;
   if (unadjusted_generation_ != keyframe_generation_)
   {
     unadjusted_map_ = map_;
-    for (const auto& line : confirmFloorLines(keyframe_data_, {}, map_.lines(), options_.floor))
-      unadjusted_map_.add(line);
+    addLinesBeyondDepth(keyframe_data_, {}, options_, &unadjusted_map_);
     unadjusted_generation_ = keyframe_generation_;
   }
   return unadjusted_map_;
@@ -239,8 +256,7 @@ MapAdjustment Survey::computeAdjustment(const std::vector<Keyframe>& keyframes, 
     dropped = result->dropped;
   }
   MapAdjustment out{rebuildLineMap(keyframes, corrections, options.map), corrections, used, dropped, 0.0, generation};
-  for (const auto& line : confirmFloorLines(keyframes, corrections, out.map.lines(), options.floor))
-    out.map.add(line);
+  addLinesBeyondDepth(keyframes, corrections, options, &out.map);
   out.cpu_ms = cpuMsSince(start);
   return out;
 }

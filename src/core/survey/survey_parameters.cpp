@@ -40,6 +40,14 @@ void readFloorParameters(ParameterSource& read, FloorLineOptions& floor)
   floor.height_sigma_m = read.number("floor/height_sigma", floor.height_sigma_m, Range::closed(0.0, 1.0, "m"));
 }
 
+// Lines triangulated from the Xtion's RGB segments (map/triangulated_lines.h).
+void readTriangulationParameters(ParameterSource& read, TriangulatedLineOptions& t)
+{
+  t.enabled = read.flag("triangulated_lines", t.enabled);
+  t.max_range_m = read.number("triangulated/max_range", t.max_range_m, Range::positive(100.0, "m"));
+  t.max_sigma_m = read.number("triangulated/max_sigma", t.max_sigma_m, Range::positive(1.0, "m"));
+}
+
 // A fixed camera's calibration options set once at start-up (its median image, the prior search, the robust
 // estimation's switches); its thresholds are the table's (readFieldThresholds).
 void readCameraParameters(ParameterSource& read, FixedCameraOptions& camera)
@@ -59,6 +67,7 @@ SurveyOptions readSurveyParameters(ParameterSource& source, SurveyOptions option
 {
   readMapParameters(source, options);
   readFloorParameters(source, options.floor);
+  readTriangulationParameters(source, options.triangulated);
   options.occlusion.enabled = source.flag("occlusion_test", options.occlusion.enabled);
   readCameraParameters(source, options.cameras);
   FieldThresholds field = thresholds ? *thresholds : FieldThresholds{};
