@@ -25,8 +25,9 @@ def row(seed, directory, seconds):
         if failed or not result:
             reason = failed.group(1) if failed else "no result (see calibrate.log)"
             # With the truth, calibrate_survey says how far the refused result was: was the refusal needed?
-            truth = re.search(r"^%s: FAILED: .*\n  truth of the refused result: focal ([-+0-9.]+) %%, rotation "
-                              r"([0-9.]+) deg, position ([0-9.]+) mm" % name, log, re.M)
+            # (the camera's own lines, such as its survey hint, may come between)
+            truth = re.search(r"^%s: FAILED: .*\n(?:%s: .*\n)*  truth of the refused result: focal ([-+0-9.]+) %%, "
+                              r"rotation ([0-9.]+) deg, position ([0-9.]+) mm" % (name, name), log, re.M)
             refused = category(*(abs(float(x)) for x in truth.groups())) if truth else ""
             print("\t".join(cells + ["refused", "", "", "", reason, seconds, refused, "", ""]))
             continue
