@@ -605,6 +605,79 @@ Expected<Appearance> parseAppearance(const yaml_util::YamlNode& node, const std:
   return a;
 }
 
+// A fixed camera's division model: lambda or the corner displacement it makes, about the principal point unless
+// given; every pixel must keep a ray.
+Expected<DivisionModel> parseFixedDistortion(const MapReader& n, const std::string& where,
+                                             const Eigen::Vector2d& principal_point, int width, int height)
+{
+  DivisionModel dist;
+  dist.center = principal_point;
+  if (n.has("distortion_center"))
+    TRY_ASSIGN(dist.center, n.vector<2>("distortion_center"));
+  if (n.has("lambda") && n.has("corner_displacement_px"))
+    return parseError(where, "give 'lambda' or 'corner_displacement_px', not both");
+  if (n.has("lambda"))
+    TRY_ASSIGN(dist.lambda, n.number("lambda"));
+  else if (n.has("corner_displacement_px"))
+  {
+    double displacement = 0.0;
+    TRY_ASSIGN(displacement, n.number("corner_displacement_px"));
+    dist.lambda = lambdaForCornerDisplacement(dist.center, width, height, displacement);
+  }
+  // Every pixel must have a ray: 1 + lambda r^2 > 0 over the image.
+  for (double x : {0.0, width - 1.0})
+    for (double y : {0.0, height - 1.0})
+      if (!(1.0 + dist.lambda * (Eigen::Vector2d(x, y) - dist.center).squaredNorm() > 0.05))
+        return invalid(where, "lambda " + fmt(dist.lambda) + " is too strong: the image corners have no ray");
+  return dist;
+}
+
+// A fixed camera's rotation (world from optical frame): from look_at and roll_deg, or a quaternion.
+Expected<Eigen::Matrix3d> parseFixedOrientation(const MapReader& n, const std::string& where,
+                                                const Eigen::Vector3d& position)
+{
+  if (n.has("look_at") == n.has("orientation"))
+    return parseError(where, "give exactly one of 'look_at' ([x, y, z] in map) or 'orientation' ([qx, qy, qz, qw])");
+  if (n.has("look_at"))
+  {
+    Eigen::Vector3d target;
+    TRY_ASSIGN(target, n.vector<3>("look_at"));
+    double roll = 0.0;
+    TRY_ASSIGN(roll, n.number("roll_deg", 0.0));
+    const auto rotation = opticalRotationLookingAlong(target - position, roll * kDegToRad);
+    if (!((target - position).norm() > 1e-6) || !rotation)
+      return invalid(n.at("look_at"), "the camera must not look straight up or down (use 'orientation')");
+    return *rotation;
+  }
+  Eigen::Vector4d q;
+  TRY_ASSIGN(q, n.vector<4>("orientation"));
+  if (!(q.norm() > 1e-9))
+    return invalid(n.at("orientation"), "the quaternion is zero");
+  return Eigen::Matrix3d(Eigen::Quaterniond(q[3], q[0], q[1], q[2]).normalized().toRotationMatrix());
+}
+
+// When and how a fixed camera takes its images: rate, phase, supersampling, noise.
+Status parseFixedCapture(const MapReader& n, size_t index, SimulatedFixedCamera& c)
+{
+  TRY_ASSIGN(c.rate_hz, n.positive("rate", c.rate_hz));
+  TRY_ASSIGN(c.phase_s, n.number("phase", 0.05 * static_cast<double>(index + 1)));
+  if (c.phase_s < 0.0)
+    return invalid(n.at("phase"), "must not be negative");
+  TRY_ASSIGN(c.supersampling, n.integer("supersampling", c.supersampling));
+  if (c.supersampling < 1 || c.supersampling > 8)
+    return invalid(n.at("supersampling"), "must be 1..8");
+  if (n.has("noise"))
+  {
+    const MapReader z(n["noise"], n.at("noise"));
+    TRY(z.check({"read_sigma", "shot_gain"}));
+    TRY_ASSIGN(c.noise.read_sigma, z.number("read_sigma", c.noise.read_sigma));
+    TRY_ASSIGN(c.noise.shot_gain, z.number("shot_gain", c.noise.shot_gain));
+    if (c.noise.read_sigma < 0.0 || c.noise.shot_gain < 0.0)
+      return invalid(z.where(), "noise parameters must not be negative");
+  }
+  return Success{};
+}
+
 Expected<SimulatedFixedCamera> parseFixedCamera(const yaml_util::YamlNode& node, size_t index,
                                                 const std::string& source, const CameraAppearance& appearance)
 {
@@ -649,69 +722,16 @@ Expected<SimulatedFixedCamera> parseFixedCamera(const yaml_util::YamlNode& node,
   TRY_ASSIGN(in.cy, n.number("cy", 0.5 * c.height - 0.5));
   TRY_ASSIGN(in.skew, n.number("skew", 0.0));
   DivisionModel dist;
-  dist.center = in.principalPoint();
-  if (n.has("distortion_center"))
-    TRY_ASSIGN(dist.center, n.vector<2>("distortion_center"));
-  if (n.has("lambda") && n.has("corner_displacement_px"))
-    return parseError(where, "give 'lambda' or 'corner_displacement_px', not both");
-  if (n.has("lambda"))
-    TRY_ASSIGN(dist.lambda, n.number("lambda"));
-  else if (n.has("corner_displacement_px"))
-  {
-    double displacement = 0.0;
-    TRY_ASSIGN(displacement, n.number("corner_displacement_px"));
-    dist.lambda = lambdaForCornerDisplacement(dist.center, c.width, c.height, displacement);
-  }
-  // Every pixel must have a ray: 1 + lambda r^2 > 0 over the image.
-  for (double x : {0.0, c.width - 1.0})
-    for (double y : {0.0, c.height - 1.0})
-      if (!(1.0 + dist.lambda * (Eigen::Vector2d(x, y) - dist.center).squaredNorm() > 0.05))
-        return invalid(where, "lambda " + fmt(dist.lambda) + " is too strong: the image corners have no ray");
-
+  TRY_ASSIGN(dist, parseFixedDistortion(n, where, in.principalPoint(), c.width, c.height));
   Eigen::Vector3d position;
   TRY_ASSIGN(position, n.vector<3>("position"));
   Eigen::Matrix3d world_from_camera;
-  if (n.has("look_at") == n.has("orientation"))
-    return parseError(where, "give exactly one of 'look_at' ([x, y, z] in map) or 'orientation' ([qx, qy, qz, qw])");
-  if (n.has("look_at"))
-  {
-    Eigen::Vector3d target;
-    TRY_ASSIGN(target, n.vector<3>("look_at"));
-    double roll = 0.0;
-    TRY_ASSIGN(roll, n.number("roll_deg", 0.0));
-    const auto rotation = opticalRotationLookingAlong(target - position, roll * kDegToRad);
-    if (!((target - position).norm() > 1e-6) || !rotation)
-      return invalid(n.at("look_at"), "the camera must not look straight up or down (use 'orientation')");
-    world_from_camera = *rotation;
-  }
-  else
-  {
-    Eigen::Vector4d q;
-    TRY_ASSIGN(q, n.vector<4>("orientation"));
-    if (!(q.norm() > 1e-9))
-      return invalid(n.at("orientation"), "the quaternion is zero");
-    world_from_camera = Eigen::Quaterniond(q[3], q[0], q[1], q[2]).normalized().toRotationMatrix();
-  }
+  TRY_ASSIGN(world_from_camera, parseFixedOrientation(n, where, position));
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   pose.linear() = world_from_camera;
   pose.translation() = position;
   c.camera = CameraModel(in, dist, CameraPose::fromWorldFromCamera(pose));
-  TRY_ASSIGN(c.rate_hz, n.positive("rate", c.rate_hz));
-  TRY_ASSIGN(c.phase_s, n.number("phase", 0.05 * static_cast<double>(index + 1)));
-  if (c.phase_s < 0.0)
-    return invalid(n.at("phase"), "must not be negative");
-  TRY_ASSIGN(c.supersampling, n.integer("supersampling", c.supersampling));
-  if (c.supersampling < 1 || c.supersampling > 8)
-    return invalid(n.at("supersampling"), "must be 1..8");
-  if (n.has("noise"))
-  {
-    const MapReader z(n["noise"], n.at("noise"));
-    TRY(z.check({"read_sigma", "shot_gain"}));
-    TRY_ASSIGN(c.noise.read_sigma, z.number("read_sigma", c.noise.read_sigma));
-    TRY_ASSIGN(c.noise.shot_gain, z.number("shot_gain", c.noise.shot_gain));
-    if (c.noise.read_sigma < 0.0 || c.noise.shot_gain < 0.0)
-      return invalid(z.where(), "noise parameters must not be negative");
-  }
+  TRY(parseFixedCapture(n, index, c));
   TRY_ASSIGN(c.appearance, parseCameraAppearance(n["appearance"], n.at("appearance"), appearance));
   return c;
 }
