@@ -556,6 +556,7 @@ void CalibrationServer::calibrateOne(const std::string& name, const std::functio
       outcome->message += name + ": " + msg.message + "\n";
       return;
     }
+    camera->setOccluders(nullptr);  // its snapshot of the voxels is done with (a holder makes keyframes copy them)
     survey_->camera(name) = std::move(*camera);
     if (const Status saved = saveCalibration(name, &kept_as); !saved)
     {

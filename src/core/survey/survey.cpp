@@ -322,8 +322,10 @@ Expected<FixedCameraResult> Survey::calibrate(const std::string& name, const std
 {
   if (!hasCamera(name))
     return Error(ErrorCode::kInvalidInput, "unknown camera '" + name + "'");
+  // The camera holds the voxels only while it calibrates: a holder makes the next keyframe copy them.
   camera(name).setOccluders(surfaces_);
   auto result = camera(name).calibrate(mapSegments(), world_frame, mapLineSigmas());
+  camera(name).setOccluders(nullptr);
   if (!result)
     return result;
   if (addMapPlacement(&*result))
