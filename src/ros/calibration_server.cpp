@@ -495,6 +495,20 @@ void CalibrationServer::refreshMapAdjustment()
                                                                  << " ms of CPU");
 }
 
+void CalibrationServer::reportFailure(const std::string& name, const FixedCamera& camera,
+                                      const std::vector<Segment3d>& map, const Error& error,
+                                      CalibrationOutcome* outcome)
+{
+  insitu_calibration::CalibrationResult failed;
+  failed.camera_name = name;
+  failed.success = false;
+  failed.message = publishSurveyGuidance(name, camera, map, error);
+  outcome->results.push_back(failed);
+  outcome->success = false;
+  outcome->message += name + ": FAILED: " + failed.message + "\n";
+  ROS_WARN_STREAM("calibration_node: " << name << ": calibration failed: " << failed.message);
+}
+
 void CalibrationServer::calibrateOne(const std::string& name, const std::function<void(const std::string&)>& stage,
                                      CalibrationOutcome* outcome)
 {
@@ -519,14 +533,7 @@ void CalibrationServer::calibrateOne(const std::string& name, const std::functio
   if (!result)
   {
     stage("survey guidance");
-    insitu_calibration::CalibrationResult failed;
-    failed.camera_name = name;
-    failed.success = false;
-    failed.message = publishSurveyGuidance(name, *camera, map, result.error());
-    outcome->results.push_back(failed);
-    outcome->success = false;
-    outcome->message += name + ": FAILED: " + failed.message + "\n";
-    ROS_WARN_STREAM("calibration_node: " << name << ": calibration failed: " << failed.message);
+    reportFailure(name, *camera, map, result.error(), outcome);
     return;
   }
   forgetSurveyGuidance(name);

@@ -105,6 +105,9 @@ private:
                                       const std::function<bool()>& cancelled);
   void calibrateOne(const std::string& name, const std::function<void(const std::string&)>& stage,
                     CalibrationOutcome* outcome);
+  // A refused calibration: the survey guidance published and the refusal added to the outcome.
+  void reportFailure(const std::string& name, const FixedCamera& camera, const std::vector<Segment3d>& map,
+                     const Error& error, CalibrationOutcome* outcome);
   void executeCalibrateAction(const CalibrateGoalConstPtr& goal);
   // Adjusts the line map with the keyframe poses (seconds of CPU on a long survey) on a copy of the keyframes,
   // without mutex_, so that images, RGB-D frames and ~status go on meanwhile; no-op when the map is current.
