@@ -61,6 +61,69 @@ Status checkRanges(const CorrespondenceSet& set)
   return Success{};
 }
 
+// The optional `lines` list; an absent or null list leaves `lines` empty.
+Status parseLineList(const yaml_util::YamlNode& lines, std::vector<LineCorrespondence>& out)
+{
+  if (!lines || lines.IsNull())
+    return Success{};
+  if (!lines.IsSequence())
+    return Error(ErrorCode::kParseError, "lines: expected a list");
+  if (const Status s = yaml_util::checkCount(lines.size(), correspondence_limits::kMaxLines, "lines", "lines"); !s)
+    return s.error();
+  for (size_t i = 0; i < lines.size(); ++i)
+  {
+    const std::string where = "lines[" + std::to_string(i) + "]";
+    if (!lines[i].IsMap())
+      return Error(ErrorCode::kParseError, where + ": expected a map with image and world");
+    LineCorrespondence line;
+    auto image = toPointList<2>(lines[i]["image"], where + ".image");
+    if (!image)
+      return image.error();
+    auto world = toPointList<3>(lines[i]["world"], where + ".world");
+    if (!world)
+      return world.error();
+    line.image = std::move(*image);
+    line.world = std::move(*world);
+    // Optional: the noise of this line's world points, m per axis (0: exact, a BIM model's line).
+    if (const yaml_util::YamlNode sigma = lines[i]["world_sigma"]; sigma)
+    {
+      const auto value = yaml_util::toDouble(sigma, where + ".world_sigma");
+      if (!value)
+        return value.error();
+      if (!(*value >= 0.0))
+        return Error(ErrorCode::kInvalidInput, where + ".world_sigma: must be 0 or positive (m)");
+      line.world_point_sigma_m = *value;
+    }
+    out.push_back(std::move(line));
+  }
+  return Success{};
+}
+
+// The optional `points` list; an absent or null list leaves `points` empty.
+Status parsePointList(const yaml_util::YamlNode& points, std::vector<PointCorrespondence>& out)
+{
+  if (!points || points.IsNull())
+    return Success{};
+  if (!points.IsSequence())
+    return Error(ErrorCode::kParseError, "points: expected a list");
+  if (const Status s = yaml_util::checkCount(points.size(), correspondence_limits::kMaxPoints, "points", "points"); !s)
+    return s.error();
+  for (size_t i = 0; i < points.size(); ++i)
+  {
+    const std::string where = "points[" + std::to_string(i) + "]";
+    if (!points[i].IsMap())
+      return Error(ErrorCode::kParseError, where + ": expected a map with image and world");
+    const auto image = yaml_util::toVector<2>(points[i]["image"], where + ".image");
+    if (!image)
+      return image.error();
+    const auto world = yaml_util::toVector<3>(points[i]["world"], where + ".world");
+    if (!world)
+      return world.error();
+    out.push_back({*image, *world});
+  }
+  return Success{};
+}
+
 Expected<CorrespondenceSet> parseDocument(const std::string& yaml_text)
 {
   const auto root = yaml_util::parseYaml(yaml_text, "correspondence file");
@@ -82,60 +145,10 @@ Expected<CorrespondenceSet> parseDocument(const std::string& yaml_text)
   set.image_height = *height;
   if (!doc["lines"] && !doc["points"])
     return Error(ErrorCode::kParseError, "correspondence file: neither 'lines' nor 'points' is present");
-  if (const yaml_util::YamlNode lines = doc["lines"]; lines && !lines.IsNull())
-  {
-    if (!lines.IsSequence())
-      return Error(ErrorCode::kParseError, "lines: expected a list");
-    if (const Status s = yaml_util::checkCount(lines.size(), correspondence_limits::kMaxLines, "lines", "lines"); !s)
-      return s.error();
-    for (size_t i = 0; i < lines.size(); ++i)
-    {
-      const std::string where = "lines[" + std::to_string(i) + "]";
-      if (!lines[i].IsMap())
-        return Error(ErrorCode::kParseError, where + ": expected a map with image and world");
-      LineCorrespondence line;
-      auto image = toPointList<2>(lines[i]["image"], where + ".image");
-      if (!image)
-        return image.error();
-      auto world = toPointList<3>(lines[i]["world"], where + ".world");
-      if (!world)
-        return world.error();
-      line.image = std::move(*image);
-      line.world = std::move(*world);
-      // Optional: the noise of this line's world points, m per axis (0: exact, a BIM model's line).
-      if (const yaml_util::YamlNode sigma = lines[i]["world_sigma"]; sigma)
-      {
-        const auto value = yaml_util::toDouble(sigma, where + ".world_sigma");
-        if (!value)
-          return value.error();
-        if (!(*value >= 0.0))
-          return Error(ErrorCode::kInvalidInput, where + ".world_sigma: must be 0 or positive (m)");
-        line.world_point_sigma_m = *value;
-      }
-      set.lines.push_back(std::move(line));
-    }
-  }
-  if (const yaml_util::YamlNode points = doc["points"]; points && !points.IsNull())
-  {
-    if (!points.IsSequence())
-      return Error(ErrorCode::kParseError, "points: expected a list");
-    if (const Status s = yaml_util::checkCount(points.size(), correspondence_limits::kMaxPoints, "points", "points");
-        !s)
-      return s.error();
-    for (size_t i = 0; i < points.size(); ++i)
-    {
-      const std::string where = "points[" + std::to_string(i) + "]";
-      if (!points[i].IsMap())
-        return Error(ErrorCode::kParseError, where + ": expected a map with image and world");
-      const auto image = yaml_util::toVector<2>(points[i]["image"], where + ".image");
-      if (!image)
-        return image.error();
-      const auto world = yaml_util::toVector<3>(points[i]["world"], where + ".world");
-      if (!world)
-        return world.error();
-      set.points.push_back({*image, *world});
-    }
-  }
+  if (const Status lines = parseLineList(doc["lines"], set.lines); !lines)
+    return lines.error();
+  if (const Status points = parsePointList(doc["points"], set.points); !points)
+    return points.error();
   if (const Status valid = set.validate(); !valid)
     return valid.error();
   if (const Status in_range = checkRanges(set); !in_range)
