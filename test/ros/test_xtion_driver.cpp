@@ -259,6 +259,105 @@ void checkCameraInfo(const sensor_msgs::CameraInfo& info, const sensor_msgs::Ima
   EXPECT_DOUBLE_EQ(info.P[10], 1.0);
   EXPECT_EQ(info.distortion_model, "plumb_bob");
 }
+
+// One image stream (rgb or depth) of the node: rate, encoding, size, frame, stamps and its camera_info.
+void checkImageStream(Received& received, bool color)
+{
+  const double rate = received.rate();
+  std::printf("%s: %zu images, %.2f Hz\n", color ? "rgb/image_raw" : "depth_registered/image_raw", received.count(),
+              rate);
+  EXPECT_NEAR(rate, g_fps, 0.15 * g_fps) << (color ? "rgb" : "depth");
+  std::lock_guard<std::mutex> lock(received.mutex);
+  ASSERT_GT(received.images.size(), 10u);
+  ASSERT_GT(received.infos.size(), 10u);
+  std::map<double, const sensor_msgs::CameraInfo*> info_by_stamp;
+  for (const auto& info : received.infos)
+    info_by_stamp[info->header.stamp.toSec()] = info.get();
+  size_t with_info = 0;
+  for (const auto& image : received.images)
+  {
+    EXPECT_EQ(image->encoding, color ? "rgb8" : "16UC1");
+    EXPECT_EQ(image->width, static_cast<uint32_t>(g_width));
+    EXPECT_EQ(image->height, static_cast<uint32_t>(g_height));
+    EXPECT_EQ(image->step, image->width * (color ? 3u : 2u));
+    EXPECT_EQ(image->data.size(), static_cast<size_t>(image->step) * image->height);
+    // DummyDevice has no registration: depth stays in the depth camera's frame.
+    EXPECT_EQ(image->header.frame_id, color ? "camera_rgb_optical_frame" : "camera_depth_optical_frame");
+    EXPECT_NEAR(image->header.stamp.toSec(), ros::Time::now().toSec(), 5.0);
+    const auto info = info_by_stamp.find(image->header.stamp.toSec());
+    if (info != info_by_stamp.end())
+    {
+      ++with_info;
+      checkCameraInfo(*info->second, *image);
+    }
+  }
+  EXPECT_GE(with_info, received.images.size() * 8 / 10) << "camera_info shares its image's stamp";
+  if (!color)
+  {
+    // DummyDevice's depth: the first row is 2000 mm.
+    const auto& image = *received.images.back();
+    const auto* row = reinterpret_cast<const uint16_t*>(image.data.data());
+    EXPECT_EQ(row[0], 2000);
+    EXPECT_EQ(row[image.width - 1], 2000);
+  }
+}
+
+// Synchronised: colour and depth frames of a pair carry one stamp.
+void checkPairsShareStamps(CameraTopics& topics)
+{
+  std::lock_guard<std::mutex> lock_rgb(topics.rgb.mutex);
+  std::lock_guard<std::mutex> lock_depth(topics.depth.mutex);
+  std::set<double> rgb_stamps;
+  for (const auto& image : topics.rgb.images)
+    rgb_stamps.insert(image->header.stamp.toSec());
+  size_t shared = 0;
+  for (const auto& image : topics.depth.images)
+    shared += rgb_stamps.count(image->header.stamp.toSec());
+  EXPECT_GE(shared, topics.depth.images.size() * 8 / 10) << "paired colour/depth frames share a stamp";
+}
+
+// Points: organised, pcl::PointXYZRGB's layout, z = depth.
+void checkPointCloud(const std::vector<sensor_msgs::PointCloud2ConstPtr>& clouds,
+                     const std::vector<double>& cloud_arrivals)
+{
+  ASSERT_FALSE(clouds.empty()) << "no depth_registered/points";
+  const double rate =
+      cloud_arrivals.size() > 5 ? (cloud_arrivals.size() - 4) / (cloud_arrivals.back() - cloud_arrivals[3]) : 0.0;
+  std::printf("depth_registered/points: %.2f Hz\n", rate);
+  EXPECT_NEAR(rate, g_fps, 0.2 * g_fps);
+  const sensor_msgs::PointCloud2& cloud = *clouds.back();
+  EXPECT_EQ(cloud.width, static_cast<uint32_t>(g_width));
+  EXPECT_EQ(cloud.height, static_cast<uint32_t>(g_height));
+  EXPECT_EQ(cloud.header.frame_id, "camera_depth_optical_frame");
+  EXPECT_EQ(cloud.point_step, 32u);
+  std::set<std::string> names;
+  for (const auto& field : cloud.fields)
+    names.insert(field.name);
+  EXPECT_EQ(names, (std::set<std::string>{"x", "y", "z", "rgb"}));
+  sensor_msgs::PointCloud2ConstIterator<float> z(cloud, "z");
+  EXPECT_NEAR(*z, 2.0f, 1e-6f) << "first row of DummyDevice's depth is 2000 mm";
+}
+
+void checkOpticalFrames()
+{
+  // Static transforms camera_link -> optical frames (z forward = camera_link x, y down = -z).
+  tf2_ros::Buffer buffer;
+  tf2_ros::TransformListener listener(buffer);
+  for (const char* frame : {"camera_rgb_optical_frame", "camera_depth_optical_frame"})
+  {
+    std::string error;
+    ASSERT_TRUE(buffer.canTransform("camera_link", frame, ros::Time(0), ros::Duration(5.0), &error)) << error;
+    const auto t = buffer.lookupTransform("camera_link", frame, ros::Time(0));
+    const auto& q = t.transform.rotation;
+    // Rotate optical z (0,0,1) into camera_link: the third column of R(q).
+    const double zx = 2 * (q.x * q.z + q.w * q.y);
+    const double zy = 2 * (q.y * q.z - q.w * q.x);
+    const double zz = 1 - 2 * (q.x * q.x + q.y * q.y);
+    EXPECT_NEAR(zx, 1.0, 1e-9) << frame;
+    EXPECT_NEAR(zy, 0.0, 1e-9) << frame;
+    EXPECT_NEAR(zz, 0.0, 1e-9) << frame;
+  }
+}
 }  // namespace
 
 TEST(XtionNode, PublishesEveryTopicAtTheConfiguredRate)
@@ -282,99 +381,14 @@ TEST(XtionNode, PublishesEveryTopicAtTheConfiguredRate)
   topics.depth.clear();
   std::this_thread::sleep_for(std::chrono::seconds(4));
 
-  for (Received* received : {&topics.rgb, &topics.depth})
-  {
-    const bool color = received == &topics.rgb;
-    const double rate = received->rate();
-    std::printf("%s: %zu images, %.2f Hz\n", color ? "rgb/image_raw" : "depth_registered/image_raw", received->count(),
-                rate);
-    EXPECT_NEAR(rate, g_fps, 0.15 * g_fps) << (color ? "rgb" : "depth");
-    std::lock_guard<std::mutex> lock(received->mutex);
-    ASSERT_GT(received->images.size(), 10u);
-    ASSERT_GT(received->infos.size(), 10u);
-    std::map<double, const sensor_msgs::CameraInfo*> info_by_stamp;
-    for (const auto& info : received->infos)
-      info_by_stamp[info->header.stamp.toSec()] = info.get();
-    size_t with_info = 0;
-    for (const auto& image : received->images)
-    {
-      EXPECT_EQ(image->encoding, color ? "rgb8" : "16UC1");
-      EXPECT_EQ(image->width, static_cast<uint32_t>(g_width));
-      EXPECT_EQ(image->height, static_cast<uint32_t>(g_height));
-      EXPECT_EQ(image->step, image->width * (color ? 3u : 2u));
-      EXPECT_EQ(image->data.size(), static_cast<size_t>(image->step) * image->height);
-      // DummyDevice has no registration: depth stays in the depth camera's frame.
-      EXPECT_EQ(image->header.frame_id, color ? "camera_rgb_optical_frame" : "camera_depth_optical_frame");
-      EXPECT_NEAR(image->header.stamp.toSec(), ros::Time::now().toSec(), 5.0);
-      const auto info = info_by_stamp.find(image->header.stamp.toSec());
-      if (info != info_by_stamp.end())
-      {
-        ++with_info;
-        checkCameraInfo(*info->second, *image);
-      }
-    }
-    EXPECT_GE(with_info, received->images.size() * 8 / 10) << "camera_info shares its image's stamp";
-    if (!color)
-    {
-      // DummyDevice's depth: the first row is 2000 mm.
-      const auto& image = *received->images.back();
-      const auto* row = reinterpret_cast<const uint16_t*>(image.data.data());
-      EXPECT_EQ(row[0], 2000);
-      EXPECT_EQ(row[image.width - 1], 2000);
-    }
-  }
-
-  // Synchronised: colour and depth frames of a pair carry one stamp.
-  {
-    std::lock_guard<std::mutex> lock_rgb(topics.rgb.mutex);
-    std::lock_guard<std::mutex> lock_depth(topics.depth.mutex);
-    std::set<double> rgb_stamps;
-    for (const auto& image : topics.rgb.images)
-      rgb_stamps.insert(image->header.stamp.toSec());
-    size_t shared = 0;
-    for (const auto& image : topics.depth.images)
-      shared += rgb_stamps.count(image->header.stamp.toSec());
-    EXPECT_GE(shared, topics.depth.images.size() * 8 / 10) << "paired colour/depth frames share a stamp";
-  }
-
-  // Points: organised, pcl::PointXYZRGB's layout, z = depth.
+  checkImageStream(topics.rgb, true);
+  checkImageStream(topics.depth, false);
+  checkPairsShareStamps(topics);
   {
     std::lock_guard<std::mutex> lock(points_mutex);
-    ASSERT_FALSE(clouds.empty()) << "no depth_registered/points";
-    const double rate =
-        cloud_arrivals.size() > 5 ? (cloud_arrivals.size() - 4) / (cloud_arrivals.back() - cloud_arrivals[3]) : 0.0;
-    std::printf("depth_registered/points: %.2f Hz\n", rate);
-    EXPECT_NEAR(rate, g_fps, 0.2 * g_fps);
-    const sensor_msgs::PointCloud2& cloud = *clouds.back();
-    EXPECT_EQ(cloud.width, static_cast<uint32_t>(g_width));
-    EXPECT_EQ(cloud.height, static_cast<uint32_t>(g_height));
-    EXPECT_EQ(cloud.header.frame_id, "camera_depth_optical_frame");
-    EXPECT_EQ(cloud.point_step, 32u);
-    std::set<std::string> names;
-    for (const auto& field : cloud.fields)
-      names.insert(field.name);
-    EXPECT_EQ(names, (std::set<std::string>{"x", "y", "z", "rgb"}));
-    sensor_msgs::PointCloud2ConstIterator<float> z(cloud, "z");
-    EXPECT_NEAR(*z, 2.0f, 1e-6f) << "first row of DummyDevice's depth is 2000 mm";
+    checkPointCloud(clouds, cloud_arrivals);
   }
-
-  // Static transforms camera_link -> optical frames (z forward = camera_link x, y down = -z).
-  tf2_ros::Buffer buffer;
-  tf2_ros::TransformListener listener(buffer);
-  for (const char* frame : {"camera_rgb_optical_frame", "camera_depth_optical_frame"})
-  {
-    std::string error;
-    ASSERT_TRUE(buffer.canTransform("camera_link", frame, ros::Time(0), ros::Duration(5.0), &error)) << error;
-    const auto t = buffer.lookupTransform("camera_link", frame, ros::Time(0));
-    const auto& q = t.transform.rotation;
-    // Rotate optical z (0,0,1) into camera_link: the third column of R(q).
-    const double zx = 2 * (q.x * q.z + q.w * q.y);
-    const double zy = 2 * (q.y * q.z - q.w * q.x);
-    const double zz = 1 - 2 * (q.x * q.x + q.y * q.y);
-    EXPECT_NEAR(zx, 1.0, 1e-9) << frame;
-    EXPECT_NEAR(zy, 0.0, 1e-9) << frame;
-    EXPECT_NEAR(zz, 0.0, 1e-9) << frame;
-  }
+  checkOpticalFrames();
 }
 
 TEST(XtionNode, PlaysBackARecordingAsTheSameFramesAndStopsCleanly)
