@@ -125,21 +125,11 @@ protected:
 };
 }  // namespace
 
-TEST_F(CalibrationReportTest, ShowsTheResultsParametersAndLinesAndItsFiguresLoad)
+namespace
 {
-  const Calibrated c = calibrateSynthetic();
-  ASSERT_TRUE(c.result.uncertainty.available);
-  // The calibration itself found the truth and the wrong lines (else the report would show nothing of interest).
-  const ic::CameraErrors errors = ic::compareCameras(c.truth, c.result.camera);
-  EXPECT_LT(std::abs(errors.focal_relative), 0.01);
-  for (size_t i = 0; i < c.data.lines.size(); ++i)
-    EXPECT_EQ(c.result.inlier_lines[i], kWrongLines.count(i) == 0) << "line " << i;
-
-  const auto files = ic::writeCalibrationReport(directory_.string(), makeReport(c));
-  ASSERT_TRUE(files) << files.error().describe();
-  const std::string html = readText(files->html);
-  ASSERT_FALSE(html.empty());
-
+// The result's parameters and their sigmas, as the report shows them.
+void expectParametersShown(const std::string& html, const Calibrated& c)
+{
   const ic::Intrinsics& k = c.result.camera.intrinsics();
   const ic::CameraUncertainty& u = c.result.uncertainty;
   const std::vector<std::tuple<std::string, double, double>> scalars = {
@@ -167,8 +157,11 @@ TEST_F(CalibrationReportTest, ShowsTheResultsParametersAndLinesAndItsFiguresLoad
   expectSame(q.x(), rotation[0], "qx");
   expectSame(q.w(), rotation[3], "qw");
   expectSame(u.rotation_deg, rotation_sigma, "rotation sigma");
+}
 
-  // One row per line, in order, with the result's residuals; the wrong lines are the outliers.
+// One row per line, in order, with the result's residuals; the wrong lines are the outliers.
+void expectLineRows(const std::string& html, const Calibrated& c)
+{
   const std::regex line_row(
       "<tr id=\"line-(\\d+)\" class=\"(inlier|outlier)\"><td>\\d+</td><td>(\\d+)</td><td>(\\d+)</td><td>[a-z]+</td>"
       "<td>([^<]*)</td><td>([^<]*)</td><td>([^<]*)</td><td>([^<]*)</td>");
@@ -193,15 +186,18 @@ TEST_F(CalibrationReportTest, ShowsTheResultsParametersAndLinesAndItsFiguresLoad
     inlier_rank += inlier ? 1 : 0;
   }
   EXPECT_EQ(rows, c.data.lines.size());
+}
 
-  // Figures beside it, referred to by relative path, loading at their sizes.
+// Figures beside it, referred to by relative path, loading at their sizes.
+void expectFiguresBeside(const std::string& html, const ic::ReportFiles& files, const fs::path& directory)
+{
   for (const auto& [path, width, height] :
-       std::vector<std::tuple<std::string, int, int>>{{files->overlay, 1280, 960},
-                                                      {files->coverage, 1280, 960},
-                                                      {files->residuals, ic::kReportChartWidth, ic::kReportChartHeight},
-                                                      {files->lines, ic::kReportChartWidth, ic::kReportChartHeight}})
+       std::vector<std::tuple<std::string, int, int>>{{files.overlay, 1280, 960},
+                                                      {files.coverage, 1280, 960},
+                                                      {files.residuals, ic::kReportChartWidth, ic::kReportChartHeight},
+                                                      {files.lines, ic::kReportChartWidth, ic::kReportChartHeight}})
   {
-    EXPECT_EQ(fs::path(path).parent_path(), directory_);
+    EXPECT_EQ(fs::path(path).parent_path(), directory);
     const cv::Mat figure = cv::imread(path, cv::IMREAD_COLOR);
     ASSERT_FALSE(figure.empty()) << path;
     EXPECT_EQ(figure.cols, width) << path;
@@ -209,6 +205,27 @@ TEST_F(CalibrationReportTest, ShowsTheResultsParametersAndLinesAndItsFiguresLoad
     EXPECT_NE(html.find("<img src=\"" + ic::escapeHtml(fs::path(path).filename().string()) + "\""), std::string::npos)
         << path;
   }
+}
+}  // namespace
+
+TEST_F(CalibrationReportTest, ShowsTheResultsParametersAndLinesAndItsFiguresLoad)
+{
+  const Calibrated c = calibrateSynthetic();
+  ASSERT_TRUE(c.result.uncertainty.available);
+  // The calibration itself found the truth and the wrong lines (else the report would show nothing of interest).
+  const ic::CameraErrors errors = ic::compareCameras(c.truth, c.result.camera);
+  EXPECT_LT(std::abs(errors.focal_relative), 0.01);
+  for (size_t i = 0; i < c.data.lines.size(); ++i)
+    EXPECT_EQ(c.result.inlier_lines[i], kWrongLines.count(i) == 0) << "line " << i;
+
+  const auto files = ic::writeCalibrationReport(directory_.string(), makeReport(c));
+  ASSERT_TRUE(files) << files.error().describe();
+  const std::string html = readText(files->html);
+  ASSERT_FALSE(html.empty());
+
+  expectParametersShown(html, c);
+  expectLineRows(html, c);
+  expectFiguresBeside(html, *files, directory_);
   EXPECT_NE(html.find("No survey: calibrated from"), std::string::npos);
   // Exactly the five files: no temporary left.
   EXPECT_EQ(std::distance(fs::directory_iterator(directory_), fs::directory_iterator()), 5);

@@ -188,6 +188,47 @@ double floorCoverage(const ic::CameraModel& camera, int width, int height, const
   }
   return seen > 0 ? static_cast<double>(held) / seen : 0.0;
 }
+
+// The floor map lines counted by how far beyond the keyframes they reach and by their nearest parallel true edge.
+struct FloorLineCounts
+{
+  int floor_lines = 0, beyond = 0, within = 0, off_floor = 0;
+};
+
+void countFloorLine(const ic::MapLine& line, double sigma, const std::vector<ic::Keyframe>& keyframes,
+                    const std::vector<sim::TrueEdge>& edges, FloorLineCounts& count)
+{
+  ++count.floor_lines;
+  // How far it reaches: its farther end's distance from the nearest keyframe (the Xtion's depth: 5 m).
+  double reach = 0.0;
+  for (const Eigen::Vector3d& end : {line.a(), line.b()})
+  {
+    double nearest = 1e9;
+    for (const auto& kf : keyframes)
+      nearest = std::min(nearest, (end - kf.T_map_camera.translation()).head<2>().norm());
+    reach = std::max(reach, nearest);
+  }
+  count.beyond += reach > 5.0 ? 1 : 0;
+  // The nearest true edge (any kind) parallel to it: must be a floor edge, within 3 predicted sigmas.
+  double best = 1e9;
+  bool on_floor = false;
+  for (const auto& e : edges)
+  {
+    if (std::abs((e.end - e.start).normalized().dot(line.direction)) < std::cos(3.0 * M_PI / 180.0))
+      continue;
+    const double d = std::max(distanceToLine(line.a(), e.start, e.end), distanceToLine(line.b(), e.start, e.end));
+    if (d < best)
+    {
+      best = d;
+      on_floor = onFloor(e);
+    }
+  }
+  count.off_floor += on_floor ? 0 : 1;
+  if (getenv("FLOOR_VERBOSE"))
+    std::printf("  floor line %.2f m long, reaching %.1f m, support %d, sigma %.1f mm, error %.1f mm, %s\n",
+                line.length(), reach, line.support, 1000 * sigma, 1000 * best, on_floor ? "floor" : "OFF");
+  count.within += on_floor && best <= 3.0 * sigma ? 1 : 0;
+}
 }  // namespace
 
 TEST(FloorLines, SimulatedFloorHallGainsFloorLinesBeyondTheDepthRange)
@@ -212,54 +253,25 @@ TEST(FloorLines, SimulatedFloorHallGainsFloorLinesBeyondTheDepthRange)
   ASSERT_EQ(used.size(), sigmas.size());
   std::vector<ic::MapLine> depth_lines;
   std::vector<double> depth_sigmas;
-  int floor_lines = 0, beyond = 0, within = 0, off_floor = 0;
+  FloorLineCounts count;
   for (size_t i = 0; i < used.size(); ++i)
   {
     if (used[i].source == ic::MapLineSource::kDepth)
     {
       depth_lines.push_back(used[i]);
       depth_sigmas.push_back(sigmas[i]);
-      continue;
     }
-    ++floor_lines;
-    // How far it reaches: its farther end's distance from the nearest keyframe (the Xtion's depth: 5 m).
-    double reach = 0.0;
-    for (const Eigen::Vector3d& end : {used[i].a(), used[i].b()})
-    {
-      double nearest = 1e9;
-      for (const auto& kf : survey.keyframes())
-        nearest = std::min(nearest, (end - kf.T_map_camera.translation()).head<2>().norm());
-      reach = std::max(reach, nearest);
-    }
-    beyond += reach > 5.0 ? 1 : 0;
-    // The nearest true edge (any kind) parallel to it: must be a floor edge, within 3 predicted sigmas.
-    double best = 1e9;
-    bool on_floor = false;
-    for (const auto& e : edges)
-    {
-      if (std::abs((e.end - e.start).normalized().dot(used[i].direction)) < std::cos(3.0 * M_PI / 180.0))
-        continue;
-      const double d =
-          std::max(distanceToLine(used[i].a(), e.start, e.end), distanceToLine(used[i].b(), e.start, e.end));
-      if (d < best)
-      {
-        best = d;
-        on_floor = onFloor(e);
-      }
-    }
-    off_floor += on_floor ? 0 : 1;
-    if (getenv("FLOOR_VERBOSE"))
-      std::printf("  floor line %.2f m long, reaching %.1f m, support %d, sigma %.1f mm, error %.1f mm, %s\n",
-                  used[i].length(), reach, used[i].support, 1000 * sigmas[i], 1000 * best, on_floor ? "floor" : "OFF");
-    within += on_floor && best <= 3.0 * sigmas[i] ? 1 : 0;
+    else
+      countFloorLine(used[i], sigmas[i], survey.keyframes(), edges, count);
   }
   std::printf(
       "floor lines: %d used (%d reaching beyond 5 m of every keyframe), %d within 3 sigma of a true floor edge, %d "
       "nearest an edge off the floor; %zu candidates, %zu refused by depth\n",
-      floor_lines, beyond, within, off_floor, survey.stats().floor_candidates, survey.stats().floor_refused);
-  EXPECT_GE(beyond, 20);  // seed 4: 43 of 58
-  EXPECT_EQ(off_floor, 0);
-  EXPECT_GE(within, 0.95 * floor_lines);
+      count.floor_lines, count.beyond, count.within, count.off_floor, survey.stats().floor_candidates,
+      survey.stats().floor_refused);
+  EXPECT_GE(count.beyond, 20);  // seed 4: 43 of 58
+  EXPECT_EQ(count.off_floor, 0);
+  EXPECT_GE(count.within, 0.95 * count.floor_lines);
 
   // Coverage of each fixed camera's true floor edges: depth lines only vs with the floor lines (seed 4: +30, +23
   // and +6 percentage points; cam_north looks at floor the 40 s route sees little of).
