@@ -361,11 +361,13 @@ void reportCoverageAgainstTruth(const std::string& truth_dir, const ic::Survey& 
     diagnoseMissingEdges(world_file, survey, name, c);
 }
 
-// The triangulated map lines in use against the true edges: within 3 predicted sigmas, within 1 cm, on none.
-void reportTriangulatedAgainstTruth(const std::string& truth_dir, const ic::Survey& survey)
+// The map lines of one source beyond depth (triangulated, ceiling) in use against the true edges: within 3
+// predicted sigmas, within 1 cm, on none ("truth-<label>" lines).
+void reportSourceAgainstTruth(const std::string& truth_dir, const ic::Survey& survey, ic::MapLineSource source,
+                              const std::string& label)
 {
   const auto edges = ic::simulation::loadTrueEdges(truth_dir + "/edges.yaml");
-  if (!edges || !survey.options().triangulated.enabled)
+  if (!edges)
     return;
   std::vector<ic::Segment3d> segments;
   for (const auto& e : *edges)
@@ -373,18 +375,23 @@ void reportTriangulatedAgainstTruth(const std::string& truth_dir, const ic::Surv
   size_t lines = 0, within_sigmas = 0, within_cm = 0, none = 0;
   for (const auto& line : survey.usedMapLines())
   {
-    if (line.source != ic::MapLineSource::kTriangulated)
+    if (line.source != source)
       continue;
     ++lines;
     const ic::Line3dError e = ic::measureLine3d(line.a(), line.b(), segments, 0.1, 5.0);
     none += e.edge < 0 ? 1 : 0;
     within_sigmas += e.edge >= 0 && e.distance_m <= 3.0 * line.sigma() ? 1 : 0;
     within_cm += e.edge >= 0 && e.distance_m <= 0.01 ? 1 : 0;
+    std::printf(
+        "truth-%s-line %.2f m long, %.1f m from the keyframes' mean: off its edge %.2f mm, predicted sigma "
+        "%.2f mm\n",
+        label.c_str(), line.length(), (0.5 * (line.a() + line.b()) - survey.mapPlacement().centre).norm(),
+        e.edge >= 0 ? 1000.0 * e.distance_m : NAN, 1000.0 * line.sigma());
   }
   std::printf(
-      "truth-triangulated %zu lines: %zu within 3 predicted sigmas of a true edge, %zu within 1 cm, %zu on "
+      "truth-%s %zu lines: %zu within 3 predicted sigmas of a true edge, %zu within 1 cm, %zu on "
       "none (10 cm, 5 deg)\n",
-      lines, within_sigmas, within_cm, none);
+      label.c_str(), lines, within_sigmas, within_cm, none);
 }
 
 // The oracle's data: the image lines matched under the true camera and, as variants, the same matches with the
@@ -797,7 +804,10 @@ void printSurveySummary(const ic::Survey& survey, size_t frames_without_pose, do
     size_t ceiling = 0;
     for (const auto& line : survey.usedMapLines())
       ceiling += line.source == ic::MapLineSource::kCeiling ? 1 : 0;
-    std::printf("ceiling lines: %zu map lines used\n", ceiling);
+    const auto plane = ic::measureCeilingHeight(survey.keyframes(), survey.options().ceiling);
+    std::printf("ceiling lines: plane at %.4f m (sigma %.2f mm, %d depth lines), %zu map lines used\n",
+                plane ? plane->height_m : NAN, plane ? 1000.0 * plane->sigma_m : NAN, plane ? plane->lines : 0,
+                ceiling);
   }
   if (survey.options().triangulated.enabled)
   {
@@ -899,7 +909,10 @@ int calibrateCameras(const ic::CommandLine& cli, ic::Survey& survey)
     for (const auto& name : survey.cameraNames())
       if (selected(name))
         reportCoverageAgainstTruth(cli.value("truth-dir"), survey, name, map, cli.value("coverage-diagnosis"));
-    reportTriangulatedAgainstTruth(cli.value("truth-dir"), survey);
+    if (survey.options().triangulated.enabled)
+      reportSourceAgainstTruth(cli.value("truth-dir"), survey, ic::MapLineSource::kTriangulated, "triangulated");
+    if (survey.options().ceiling.enabled)
+      reportSourceAgainstTruth(cli.value("truth-dir"), survey, ic::MapLineSource::kCeiling, "ceiling");
     reportMapAgainstTruth(cli.value("truth-dir"), survey);
   }
   if (cli.flag("oracle") && cli.has("truth-dir"))
