@@ -5,6 +5,7 @@
 #include <chrono>
 #include <optional>
 #include <iostream>
+#include <map>
 #include <random>
 #include <sstream>
 
@@ -15,6 +16,7 @@
 #include "insitu_calibration/lines/line_evaluation.h"
 #include "insitu_calibration/metrics.h"
 #include "insitu_calibration/ros/survey_bag_reader.h"
+#include "insitu_calibration/simulation/edge_sightings.h"
 #include "insitu_calibration/simulation/survey.h"
 #include "insitu_calibration/simulation/true_edges.h"
 #include "insitu_calibration/survey/camera_config.h"
@@ -65,6 +67,9 @@ Options:
                         keyframes become map lines (default 0: off)
   --floor-height M      the floor plane's z in the world frame (default 0)
   --floor-max-range M   floor lines farther from the camera are not used (default 12)
+  --ceiling-lines 0|1   RGB lines on the ceiling (the horizontal plane above the Xtion that its depth lines
+                        measured) whose own depth is too poor for the map or missing, placed on it by ray-plane
+                        intersection and confirmed from several keyframes, become map lines (default 0: off)
   --triangulated-lines 0|1
                         RGB lines beyond the depth range (4 m) triangulated from five or more keyframes become map lines
                         (default 0: off)
@@ -78,6 +83,11 @@ Options:
                         limit (its error averaged over the keyframes, at the camera: "truth-limit" lines) and the
                         cameras' poses relative to each other against the truth ("truth-relative" lines) and
                         the map's coverage of each camera's image lines ("truth-coverage" lines)
+  --coverage-diagnosis WORLD
+                        with --truth-dir: per image line the map lacks, why (the simulator's WORLD file rendered
+                        at each keyframe: never in the Xtion's view, in view without depth, with depth but no 3D
+                        line, 3D lines too uncertain for the map, in the map but not used or off): "truth-missing"
+                        lines, the share of the image lines' length per cause
   --prior-from-truth P,D,F[,SEED]
                         with --truth-dir: replace every camera's prior by its true camera moved P m in a random
                         direction, its viewing direction turned D degrees (about a random axis across it; the
@@ -240,10 +250,89 @@ void reportMapAgainstTruth(const std::string& truth_dir, const ic::Survey& surve
     }
 }
 
+// Why the map lacks an edge a fixed camera shows (issue 11's diagnosis): never in the Xtion's view, in view without
+// depth (beyond its range, or grazing), or with depth and lost on the way to the map: no keyframe made a 3D line of
+// it, its keyframes' lines were all too uncertain for the map (LineMapOptions::max_sigma_m), or the map holds it
+// but leaves it out (support, spread) or holds it more than 1 cm off.
+std::string missingCause(const ic::simulation::EdgeSightings& sight, const ic::Survey& survey,
+                         const ic::Segment3d& part, double max_range_m)
+{
+  if (sight.in_view == 0)
+    return "never-in-view";
+  if (sight.with_depth == 0)
+    return sight.nearest_range_m > max_range_m ? "no-depth-range" : "no-depth-grazing";
+  const double length = part.length();
+  int observed = 0, certain = 0;
+  for (const auto& kf : survey.keyframes())
+    for (const auto& l : kf.lines)
+    {
+      const ic::Segment3d line{kf.T_map_camera * l.line.a, kf.T_map_camera * l.line.b};
+      if (!ic::segmentHoldsEdge(part, 0.0, length, line, 0.03))
+        continue;
+      ++observed;
+      certain += l.line.sigma_m <= survey.options().map.max_sigma_m ? 1 : 0;
+    }
+  if (observed == 0)
+    return "depth-not-extracted";
+  if (certain == 0)
+    return "depth-too-uncertain";
+  const auto& all = survey.lineMap().lines();
+  auto held = [&](double distance) {
+    return std::any_of(all.begin(), all.end(), [&](const ic::MapLine& m) {
+      return ic::segmentHoldsEdge(part, 0.0, length, {m.a(), m.b()}, distance);
+    });
+  };
+  return held(0.01) ? "map-not-used" : held(0.03) ? "map-off-1-3cm" : "map-merge-lost";
+}
+
+// Per missing image line its cause and per cause the share of the camera's image lines (truth-missing lines).
+void diagnoseMissingEdges(const std::string& world_file, const ic::Survey& survey, const std::string& name,
+                          const ic::MapCoverage& coverage)
+{
+  const auto world = ic::simulation::loadWorldFile(world_file);
+  if (!world)
+  {
+    std::fprintf(stderr, "calibrate_survey: %s\n", world.error().describe().c_str());
+    return;
+  }
+  std::vector<ic::Segment3d> parts;
+  std::vector<const ic::CoverageLine*> lines;
+  for (const auto& d : coverage.details)
+    if (d.edge >= 0 && !d.covered)
+    {
+      parts.push_back(d.shown);
+      lines.push_back(&d);
+    }
+  std::vector<Eigen::Isometry3d> poses;
+  for (const auto& kf : survey.keyframes())
+    poses.push_back(kf.T_map_camera);
+  const auto sightings = ic::simulation::sightSegments(*world, parts, poses);
+  std::map<std::string, double> by_cause;
+  for (size_t i = 0; i < parts.size(); ++i)
+  {
+    const std::string cause = missingCause(sightings[i], survey, parts[i], world->xtion.depth.max_range_m);
+    by_cause[cause] += lines[i]->length_px;
+    const auto& a = parts[i].a;
+    const auto& b = parts[i].b;
+    std::printf(
+        "truth-missing-line %s %.0f px [%.2f %.2f %.2f] -> [%.2f %.2f %.2f] in view %d with depth %d "
+        "nearest %.1f m: %s\n",
+        name.c_str(), lines[i]->length_px, a.x(), a.y(), a.z(), b.x(), b.y(), b.z(), sightings[i].in_view,
+        sightings[i].with_depth, sightings[i].nearest_range_m, cause.c_str());
+  }
+  std::printf("truth-missing %s (%% of %.0f px):", name.c_str(), coverage.total_px);
+  std::printf(" covered %.1f, on no true edge %.1f", 100.0 * coverage.covered_px / coverage.total_px,
+              100.0 * (coverage.total_px - coverage.on_edge_px) / coverage.total_px);
+  for (const auto& [cause, px] : by_cause)
+    std::printf(", %s %.1f", cause.c_str(), 100.0 * px / coverage.total_px);
+  std::printf("\n");
+}
+
 // Map coverage (line_evaluation.h): the camera's image lines, extracted from its median under the true distortion,
-// by length on a true edge the used map holds within 1 cm; whatever the calibration's outcome.
+// by length on a true edge the used map holds within 1 cm; whatever the calibration's outcome. With a world file,
+// also why the map lacks the others (diagnoseMissingEdges).
 void reportCoverageAgainstTruth(const std::string& truth_dir, const ic::Survey& survey, const std::string& name,
-                                const std::vector<ic::Segment3d>& map)
+                                const std::vector<ic::Segment3d>& map, const std::string& world_file)
 {
   const auto truth = ic::loadCalibrationFile(truth_dir + "/" + name + ".yaml");
   const auto edges = ic::simulation::loadTrueEdges(truth_dir + "/edges.yaml");
@@ -268,13 +357,17 @@ void reportCoverageAgainstTruth(const std::string& truth_dir, const ic::Survey& 
       "%.1f / %.1f %%)\n",
       name.c_str(), 100.0 * c.fraction(), c.total_px, c.covered_lines, c.lines,
       c.total_px > 0.0 ? 100.0 * c.on_edge_px / c.total_px : 0.0, 100.0 * c3, 100.0 * c10);
+  if (!world_file.empty() && c.total_px > 0.0)
+    diagnoseMissingEdges(world_file, survey, name, c);
 }
 
-// The triangulated map lines in use against the true edges: within 3 predicted sigmas, within 1 cm, on none.
-void reportTriangulatedAgainstTruth(const std::string& truth_dir, const ic::Survey& survey)
+// The map lines of one source beyond depth (triangulated, ceiling) in use against the true edges: within 3
+// predicted sigmas, within 1 cm, on none ("truth-<label>" lines).
+void reportSourceAgainstTruth(const std::string& truth_dir, const ic::Survey& survey, ic::MapLineSource source,
+                              const std::string& label)
 {
   const auto edges = ic::simulation::loadTrueEdges(truth_dir + "/edges.yaml");
-  if (!edges || !survey.options().triangulated.enabled)
+  if (!edges)
     return;
   std::vector<ic::Segment3d> segments;
   for (const auto& e : *edges)
@@ -282,18 +375,23 @@ void reportTriangulatedAgainstTruth(const std::string& truth_dir, const ic::Surv
   size_t lines = 0, within_sigmas = 0, within_cm = 0, none = 0;
   for (const auto& line : survey.usedMapLines())
   {
-    if (line.source != ic::MapLineSource::kTriangulated)
+    if (line.source != source)
       continue;
     ++lines;
     const ic::Line3dError e = ic::measureLine3d(line.a(), line.b(), segments, 0.1, 5.0);
     none += e.edge < 0 ? 1 : 0;
     within_sigmas += e.edge >= 0 && e.distance_m <= 3.0 * line.sigma() ? 1 : 0;
     within_cm += e.edge >= 0 && e.distance_m <= 0.01 ? 1 : 0;
+    std::printf(
+        "truth-%s-line %.2f m long, %.1f m from the keyframes' mean: off its edge %.2f mm, predicted sigma "
+        "%.2f mm\n",
+        label.c_str(), line.length(), (0.5 * (line.a() + line.b()) - survey.mapPlacement().centre).norm(),
+        e.edge >= 0 ? 1000.0 * e.distance_m : NAN, 1000.0 * line.sigma());
   }
   std::printf(
-      "truth-triangulated %zu lines: %zu within 3 predicted sigmas of a true edge, %zu within 1 cm, %zu on "
+      "truth-%s %zu lines: %zu within 3 predicted sigmas of a true edge, %zu within 1 cm, %zu on "
       "none (10 cm, 5 deg)\n",
-      lines, within_sigmas, within_cm, none);
+      label.c_str(), lines, within_sigmas, within_cm, none);
 }
 
 // The oracle's data: the image lines matched under the true camera and, as variants, the same matches with the
@@ -611,6 +709,7 @@ bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options)
   options->floor.enabled = cli.number("floor-lines", options->floor.enabled ? 1.0 : 0.0) != 0.0;
   options->floor.floor_height_m = cli.number("floor-height", options->floor.floor_height_m);
   options->floor.max_range_m = cli.number("floor-max-range", options->floor.max_range_m);
+  options->ceiling.enabled = cli.number("ceiling-lines", options->ceiling.enabled ? 1.0 : 0.0) != 0.0;
   options->triangulated.enabled = cli.number("triangulated-lines", options->triangulated.enabled ? 1.0 : 0.0) != 0.0;
   options->occlusion.enabled = cli.number("occlusion-test", options->occlusion.enabled ? 1.0 : 0.0) != 0.0;
   if (cli.flag("no-refine"))
@@ -699,6 +798,16 @@ void printSurveySummary(const ic::Survey& survey, size_t frames_without_pose, do
       floor_lines += line.source == ic::MapLineSource::kFloor ? 1 : 0;
     std::printf("floor lines: %zu candidates (%zu refused: depth off the floor), %zu floor map lines used\n",
                 stats.floor_candidates, stats.floor_refused, floor_lines);
+  }
+  if (survey.options().ceiling.enabled)
+  {
+    size_t ceiling = 0;
+    for (const auto& line : survey.usedMapLines())
+      ceiling += line.source == ic::MapLineSource::kCeiling ? 1 : 0;
+    const auto plane = ic::measureCeilingHeight(survey.keyframes(), survey.options().ceiling);
+    std::printf("ceiling lines: plane at %.4f m (sigma %.2f mm, %d depth lines), %zu map lines used\n",
+                plane ? plane->height_m : NAN, plane ? 1000.0 * plane->sigma_m : NAN, plane ? plane->lines : 0,
+                ceiling);
   }
   if (survey.options().triangulated.enabled)
   {
@@ -799,8 +908,11 @@ int calibrateCameras(const ic::CommandLine& cli, ic::Survey& survey)
   {
     for (const auto& name : survey.cameraNames())
       if (selected(name))
-        reportCoverageAgainstTruth(cli.value("truth-dir"), survey, name, map);
-    reportTriangulatedAgainstTruth(cli.value("truth-dir"), survey);
+        reportCoverageAgainstTruth(cli.value("truth-dir"), survey, name, map, cli.value("coverage-diagnosis"));
+    if (survey.options().triangulated.enabled)
+      reportSourceAgainstTruth(cli.value("truth-dir"), survey, ic::MapLineSource::kTriangulated, "triangulated");
+    if (survey.options().ceiling.enabled)
+      reportSourceAgainstTruth(cli.value("truth-dir"), survey, ic::MapLineSource::kCeiling, "ceiling");
     reportMapAgainstTruth(cli.value("truth-dir"), survey);
   }
   if (cli.flag("oracle") && cli.has("truth-dir"))
@@ -829,6 +941,7 @@ int main(int argc, char** argv)
        "search-starts",
        "hypothesis-starts",
        "truth-dir",
+       "coverage-diagnosis",
        "prior-from-truth",
        "prior-sigmas",
        "max-spread",
@@ -839,7 +952,8 @@ int main(int argc, char** argv)
        "floor-height",
        "floor-max-range",
        "occlusion-test",
-       "triangulated-lines"},
+       "triangulated-lines",
+       "ceiling-lines"},
       {"no-refine", "no-ransac", "no-report", "quiet", "oracle", "oracle-details", "trace", "no-odometry"});
   if (cli.help())
   {

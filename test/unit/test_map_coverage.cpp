@@ -50,6 +50,12 @@ TEST(MapCoverage, CountsTheImageLengthOnTrueEdgesTheMapHoldsWithinOneCentimetre)
   EXPECT_NEAR(half.fraction(), 0.5, 1e-3);
   EXPECT_EQ(half.covered_lines, 1u);
   EXPECT_NEAR(half.on_edge_px, half.total_px, 1e-9);
+  // Per line: its edge, whether the map holds it and the part of the edge it shows (here all of it).
+  ASSERT_EQ(half.details.size(), 2u);
+  EXPECT_TRUE(half.details[0].covered);
+  EXPECT_FALSE(half.details[1].covered);
+  EXPECT_GE(half.details[1].edge, 0);
+  EXPECT_LT((half.details[1].shown.a - kEdges[1].a).norm() + (half.details[1].shown.b - kEdges[1].b).norm(), 0.02);
 
   // A map line 5 mm off its edge counts; 2 cm off does not (across the view or along it, towards the camera).
   EXPECT_NEAR(ic::measureMapCoverage(lines, cam, kEdges, {kEdges[0], shifted(kEdges[1], {0, 0.005, 0})}).fraction(),

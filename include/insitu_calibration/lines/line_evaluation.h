@@ -69,11 +69,19 @@ Line3dError measureLine3d(const Eigen::Vector3d& a, const Eigen::Vector3d& b, co
 // which the map holds a line: both end points within max_distance_m of the edge's line, overlapping the part of it
 // the image line shows (a map line elsewhere on a long edge, a row of floor tiles, is out of the view).
 // Collinear true edges count as one edge (mergeCollinearSegments), as they do for the calibration.
+struct CoverageLine
+{
+  double length_px = 0.0;
+  int edge = -1;         // index into mergeCollinearSegments(true_edges), -1: on no true edge
+  Segment3d shown;       // the part of that edge the image line shows
+  bool covered = false;  // the map holds it
+};
 struct MapCoverage
 {
-  double total_px = 0.0;    // the image lines' length
-  double on_edge_px = 0.0;  // of it, on a true edge
-  double covered_px = 0.0;  // of it, on a true edge the map holds
+  std::vector<CoverageLine> details;  // per image line, in their order
+  double total_px = 0.0;              // the image lines' length
+  double on_edge_px = 0.0;            // of it, on a true edge
+  double covered_px = 0.0;            // of it, on a true edge the map holds
   size_t lines = 0;
   size_t covered_lines = 0;
   double fraction() const { return total_px > 0.0 ? covered_px / total_px : 0.0; }
@@ -81,6 +89,10 @@ struct MapCoverage
 MapCoverage measureMapCoverage(const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                const CameraModel& true_camera, const std::vector<Segment3d>& true_edges,
                                const std::vector<Segment3d>& map_lines, double max_distance_m = 0.01);
+
+// Whether a 3D segment lies on a true edge's (infinite) line within max_distance_m (both end points) and overlaps
+// the part [lo, hi] of it (arc length from edge.a towards edge.b): the test of measureMapCoverage.
+bool segmentHoldsEdge(const Segment3d& edge, double lo, double hi, const Segment3d& line, double max_distance_m);
 
 }  // namespace insitu_calibration
 

@@ -82,6 +82,7 @@ enum class MapLineSource
   kDepth,
   kFloor,
   kTriangulated,  // from RGB segments of three or more keyframes (map/triangulated_lines.h)
+  kCeiling,       // from RGB segments on a horizontal plane above the camera that depth measured (ceiling_lines.h)
 };
 
 struct MapLine

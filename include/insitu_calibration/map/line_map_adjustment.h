@@ -46,6 +46,16 @@ struct FloorObservation
   Eigen::Vector2d image_b = Eigen::Vector2d::Zero();
 };
 
+// A 2D line of a keyframe's RGB image above the horizon without a depth line fit for the map, a candidate for a
+// line on the ceiling (ceiling_lines.h), with the height (map z, under the tf pose) and range of its depth.
+struct CeilingObservation
+{
+  FloorObservation image;
+  bool has_depth = false;
+  double depth_height_m = 0.0;
+  double range_m = 0.0;
+};
+
 // What the adjustment keeps of a keyframe (no images: memory grows with keyframes and lines only).
 struct Keyframe
 {
@@ -57,8 +67,9 @@ struct Keyframe
   bool has_odometry = false;
   Eigen::Isometry3d T_odom_camera = Eigen::Isometry3d::Identity();
   std::vector<KeyframeLine> lines;
-  std::vector<FloorObservation> floor;  // not adjusted: placed on the floor under the corrected pose
-  std::vector<FloorObservation> rgb;    // every RGB segment without a depth line, when lines are triangulated
+  std::vector<FloorObservation> floor;      // not adjusted: placed on the floor under the corrected pose
+  std::vector<FloorObservation> rgb;        // every RGB segment without a depth line, when lines are triangulated
+  std::vector<CeilingObservation> ceiling;  // when ceiling lines are enabled
 };
 
 // A keyframe's correction: T_map_camera(corrected) = C * T_map_camera(tf), C a rotation by yaw about the vertical

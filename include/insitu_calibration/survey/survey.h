@@ -13,6 +13,7 @@
 
 #include "insitu_calibration/lines/line_map.h"
 #include "insitu_calibration/lines/rgbd_lines.h"
+#include "insitu_calibration/map/ceiling_lines.h"
 #include "insitu_calibration/map/floor_lines.h"
 #include "insitu_calibration/map/triangulated_lines.h"
 #include "insitu_calibration/map/line_map_adjustment.h"
@@ -44,6 +45,9 @@ struct SurveyOptions
   LineMapAdjustmentOptions adjustment;  // its localization sigmas are set from the two above
   // Lines on the floor beyond the depth range (map/floor_lines.h), added to the map in use (adjusted or not).
   FloorLineOptions floor;
+  // Lines on the ceiling (a horizontal plane above the Xtion that depth measured) whose own depth is too poor for
+  // the map, or missing (map/ceiling_lines.h), added after the floor lines.
+  CeilingLineOptions ceiling;
   // Lines beyond the depth range triangulated from RGB segments of five or more keyframes
   // (map/triangulated_lines.h), added to the map in use after the floor lines.
   TriangulatedLineOptions triangulated;

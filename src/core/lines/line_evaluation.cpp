@@ -204,11 +204,7 @@ Line3dError measureLine3d(const Eigen::Vector3d& a, const Eigen::Vector3d& b, co
   return best;
 }
 
-namespace
-{
-// Whether a map line lies on the edge's (infinite) line within max_distance_m and overlaps [lo, hi] along it
-// (from edge.a towards edge.b).
-bool holdsEdge(const Segment3d& edge, double lo, double hi, const Segment3d& line, double max_distance_m)
+bool segmentHoldsEdge(const Segment3d& edge, double lo, double hi, const Segment3d& line, double max_distance_m)
 {
   const Eigen::Vector3d u = (edge.b - edge.a).normalized();
   auto off = [&](const Eigen::Vector3d& p) { return ((p - edge.a) - (p - edge.a).dot(u) * u).norm(); };
@@ -217,6 +213,8 @@ bool holdsEdge(const Segment3d& edge, double lo, double hi, const Segment3d& lin
          std::min(sa, sb) < hi;
 }
 
+namespace
+{
 // The part of the edge an image line shows: where its end points' rays pass closest to the edge's line, from edge.a
 // towards edge.b (the whole edge when a ray cannot be formed).
 std::pair<double, double> shownPart(const CameraModel& camera, const std::vector<Eigen::Vector2d>& polyline,
@@ -261,14 +259,23 @@ MapCoverage measureMapCoverage(const std::vector<std::vector<Eigen::Vector2d>>& 
     const double length = polylineLength(polyline);
     coverage.total_px += length;
     ++coverage.lines;
+    coverage.details.emplace_back();
+    coverage.details.back().length_px = length;
     const ImageLineError on = measureImageLine(polyline, true_camera.distortion(), images, 3.0, 1.0, 0.6);
     if (on.edge < 0)
       continue;
     coverage.on_edge_px += length;
-    const auto [lo, hi] = shownPart(true_camera, polyline, edges[on.edge]);
+    const Segment3d& edge = edges[on.edge];
+    const auto [lo, hi] = shownPart(true_camera, polyline, edge);
+    const Eigen::Vector3d u = (edge.b - edge.a).normalized();
+    const double len = (edge.b - edge.a).norm();
+    CoverageLine& detail = coverage.details.back();
+    detail.edge = on.edge;
+    detail.shown = {edge.a + std::clamp(lo, 0.0, len) * u, edge.a + std::clamp(hi, 0.0, len) * u};
     const bool held = std::any_of(map_lines.begin(), map_lines.end(), [&](const Segment3d& m) {
-      return holdsEdge(edges[on.edge], lo, hi, m, max_distance_m);
+      return segmentHoldsEdge(edge, lo, hi, m, max_distance_m);
     });
+    detail.covered = held;
     if (held)
     {
       coverage.covered_px += length;

@@ -11,15 +11,16 @@ namespace insitu_calibration
 {
 namespace
 {
-// Where the ray through normalised point p from the camera meets the floor; false when it does not (at or above
-// the horizon) or beyond max_range_m horizontally.
+// Where the ray through normalised point p from the camera meets the plane z = floor_height_m (below the camera:
+// the floor; above: a ceiling, ceiling_lines.h); false when it does not (the ray runs away from the plane) or
+// beyond max_range_m horizontally.
 bool floorPoint(const Eigen::Vector2d& p, const Eigen::Isometry3d& T_map_camera, const FloorLineOptions& o,
                 Eigen::Vector3d* point)
 {
   const Eigen::Vector3d c = T_map_camera.translation();
   const Eigen::Vector3d r = T_map_camera.linear() * Eigen::Vector3d(p.x(), p.y(), 1.0);
   const double height = c.z() - o.floor_height_m;
-  if (!(height > 0.0) || !(r.z() < 0.0))
+  if (!(std::abs(height) > 0.0) || !(r.z() * height < 0.0))
     return false;
   const double t = -height / r.z();
   *point = c + t * r;
@@ -207,7 +208,7 @@ bool confirmed(const Cluster& k, const std::vector<FloorCandidate>& candidates, 
     sw += w;
     sx += w * c.sensor.dot(n);
     sy += w * (0.5 * (c.a + c.b)).dot(n);
-    height += (c.sensor.z() - o.floor_height_m) / static_cast<double>(k.members.size());
+    height += std::abs(c.sensor.z() - o.floor_height_m) / static_cast<double>(k.members.size());
   }
   if (static_cast<int>(keyframes.size()) < std::max(2, o.min_keyframes) || !(height > o.min_edge_height_m))
     return false;

@@ -32,11 +32,20 @@ Keyframe toKeyframe(const RgbdFrame& frame, const std::vector<Line3d>& lines, st
   return kf;
 }
 
-// The lines beyond the depth range (floor lines, then triangulated lines), added to a map of depth lines.
+// The lines beyond the depth range (floor lines, ceiling lines, then triangulated lines), added to a map of depth
+// lines.
 void addLinesBeyondDepth(const std::vector<Keyframe>& keyframes, const std::vector<PoseCorrection>& corrections,
                          const SurveyOptions& o, LineMap* map)
 {
   for (const auto& line : confirmFloorLines(keyframes, corrections, map->lines(), o.floor))
+    map->add(line);
+  // A ceiling line is left out only where a depth line the calibration will use holds it (a line seen once, or
+  // spread, would leave the edge to neither).
+  std::vector<MapLine> used;
+  for (const auto& line : map->lines(o.min_map_support))
+    if (line.spread() <= o.max_map_spread_m)  // as Survey::usedLinesOf
+      used.push_back(line);
+  for (const auto& line : confirmCeilingLines(keyframes, corrections, used, o.ceiling))
     map->add(line);
   for (const auto& line : triangulateLines(keyframes, corrections, map->lines(), o.triangulated))
     map->add(line);
@@ -44,7 +53,58 @@ void addLinesBeyondDepth(const std::vector<Keyframe>& keyframes, const std::vect
 
 bool beyondDepth(const SurveyOptions& o)
 {
-  return o.floor.enabled || o.triangulated.enabled;
+  return o.floor.enabled || o.ceiling.enabled || o.triangulated.enabled;
+}
+
+// Whether both end points' rays of a 2D segment (normalised coordinates) rise in the map frame.
+bool aboveHorizon(const FloorObservation& obs, const Eigen::Isometry3d& T_map_camera)
+{
+  auto rises = [&](const Eigen::Vector2d& p) {
+    return (T_map_camera.linear() * Eigen::Vector3d(p.x(), p.y(), 1.0)).z() > 0.0;
+  };
+  return rises(obs.image_a) && rises(obs.image_b);
+}
+
+// The frame's ceiling candidates (ceiling_lines.h): 2D segments above the horizon whose 3D line the map refuses as
+// too uncertain (its height and range from that line) or that have none (from their depth samples, if any).
+std::vector<CeilingObservation> ceilingObservations(const RgbdFrame& frame, const std::vector<Line3d>& lines,
+                                                    const std::vector<UnliftedSegment>& unlifted,
+                                                    const LineMapOptions& map)
+{
+  std::vector<CeilingObservation> out;
+  for (const auto& l : lines)
+  {
+    CeilingObservation c{{frame.camera.normalize(l.image.a), frame.camera.normalize(l.image.b)}};
+    if (l.sigma_m > map.max_sigma_m && aboveHorizon(c.image, frame.T_map_camera))
+    {
+      c.has_depth = true;
+      c.depth_height_m = 0.5 * (l.a.z() + l.b.z());
+      c.range_m = l.range_m;
+      out.push_back(c);
+    }
+  }
+  for (const auto& u : unlifted)
+  {
+    CeilingObservation c{{frame.camera.normalize(u.segment.a), frame.camera.normalize(u.segment.b)}};
+    if (!aboveHorizon(c.image, frame.T_map_camera))
+      continue;
+    std::vector<std::pair<double, double>> depths;  // (range, height) per sample
+    for (const auto& sample : u.samples)
+    {
+      const Eigen::Vector2d p = frame.camera.normalize(sample.pixel);
+      const Eigen::Vector3d point = frame.T_map_camera * (sample.depth_m * Eigen::Vector3d(p.x(), p.y(), 1.0));
+      depths.emplace_back(sample.depth_m, point.z());
+    }
+    if (depths.size() >= 5)
+    {
+      std::nth_element(depths.begin(), depths.begin() + depths.size() / 2, depths.end());
+      c.has_depth = true;
+      c.range_m = depths[depths.size() / 2].first;
+      c.depth_height_m = depths[depths.size() / 2].second;
+    }
+    out.push_back(c);
+  }
+  return out;
 }
 
 bool adjusting(const SurveyOptions& o)
@@ -94,6 +154,8 @@ Expected<bool> Survey::addRgbdFrame(const RgbdFrame& frame, const std::optional<
     surfaces_->insertDepth(frame);
   }
   keyframe_data_.push_back(toKeyframe(frame, *lines, floorObservations(frame, unlifted)));
+  if (options_.ceiling.enabled)
+    keyframe_data_.back().ceiling = ceilingObservations(frame, *lines, unlifted, options_.map);
   if (options_.triangulated.enabled)
     for (const auto& u : unlifted)
       keyframe_data_.back().rgb.push_back({frame.camera.normalize(u.segment.a), frame.camera.normalize(u.segment.b)});

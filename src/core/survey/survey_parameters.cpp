@@ -40,6 +40,14 @@ void readFloorParameters(ParameterSource& read, FloorLineOptions& floor)
   floor.height_sigma_m = read.number("floor/height_sigma", floor.height_sigma_m, Range::closed(0.0, 1.0, "m"));
 }
 
+// Lines on the ceiling that depth measured (map/ceiling_lines.h).
+void readCeilingParameters(ParameterSource& read, CeilingLineOptions& ceiling)
+{
+  ceiling.enabled = read.flag("ceiling_lines", ceiling.enabled);
+  ceiling.min_plane_lines = static_cast<int>(
+      read.number("ceiling/min_plane_lines", ceiling.min_plane_lines, Range::closed(3.0, 100000.0, "lines")));
+}
+
 // Lines triangulated from the Xtion's RGB segments (map/triangulated_lines.h).
 void readTriangulationParameters(ParameterSource& read, TriangulatedLineOptions& t)
 {
@@ -67,6 +75,7 @@ SurveyOptions readSurveyParameters(ParameterSource& source, SurveyOptions option
 {
   readMapParameters(source, options);
   readFloorParameters(source, options.floor);
+  readCeilingParameters(source, options.ceiling);
   readTriangulationParameters(source, options.triangulated);
   options.occlusion.enabled = source.flag("occlusion_test", options.occlusion.enabled);
   readCameraParameters(source, options.cameras);
