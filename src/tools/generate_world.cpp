@@ -33,10 +33,11 @@ Options:
   --max-route-s S          keep the drive under S seconds (lanes and look-arounds further apart, the route cut;
                            default 0: cover the floor in lanes 1.5 m apart)
   --look-around-spacing M  a look-around (the robot drives a 0.3 m square, turning in place at each corner, so the
-                           Xtion faces every wall) about every M metres along the lanes (default 3; 0: lanes only)
+                           Xtion faces every wall) about every M metres along the lanes (default 0: none; 3 is
+                           an operator's habit)
   --view-leg M             the route starts with a drive of up to M metres per camera from under its installer prior
                            along the prior's viewing direction, so the Xtion sees what the camera sees, as an operator
-                           surveying for the cameras would (default 4; 0: lanes only)
+                           surveying for the cameras would (default 0: none; try 4)
   --appearance A           realistic (default): sensor blur, vignetting, exposure and white balance differing per
                            camera, JPEG on the fixed cameras, Xtion RGB noise, flying pixels, low-frequency depth
                            error and RGB-to-depth misregistration (docs/simulator.md, "appearance"); plain: none of
