@@ -1,13 +1,15 @@
 // generate_world: a procedural building for the simulator (a world file) and its installer's camera priors.
 #include <cstdio>
-#include <fstream>
 #include <iostream>
 #include <sstream>
 
 #include "command_line.h"
+#include "insitu_calibration/io/atomic_file.h"
 #include "insitu_calibration/simulation/world_generator.h"
 
 namespace sim = insitu_calibration::simulation;
+using insitu_calibration::Status;
+using insitu_calibration::writeFileAtomically;
 
 namespace
 {
@@ -28,8 +30,14 @@ Options:
   --prior-error M,DEG,FOV  how far each prior is from the truth: position (m, random direction), viewing direction
                            (deg, random axis) and horizontal field of view (relative, random sign); the priors'
                            sigmas are the same sizes (default 0.5,10,0.2)
-  --max-route-s S          keep the drive under S seconds (lanes further apart, the route cut; default 0: cover
-                           the floor in lanes 1.5 m apart)
+  --max-route-s S          keep the drive under S seconds (lanes and look-arounds further apart, the route cut;
+                           default 0: cover the floor in lanes 1.5 m apart)
+  --look-around-spacing M  a look-around (the robot drives a 0.3 m square, turning in place at each corner, so the
+                           Xtion faces every wall) about every M metres along the lanes (default 0: none; 3 is
+                           an operator's habit)
+  --view-leg M             the route starts with a drive of up to M metres per camera from under its installer prior
+                           along the prior's viewing direction, so the Xtion sees what the camera sees, as an operator
+                           surveying for the cameras would (default 0: none; try 4)
   --appearance A           realistic (default): sensor blur, vignetting, exposure and white balance differing per
                            camera, JPEG on the fixed cameras, Xtion RGB noise, flying pixels, low-frequency depth
                            error and RGB-to-depth misregistration (docs/simulator.md, "appearance"); plain: none of
@@ -41,13 +49,6 @@ Example:
   simulate_survey --world /tmp/w.yaml --out /tmp/s.bag --duration 40
   calibrate_survey /tmp/s.bag --cameras /tmp/c.yaml --out-dir /tmp/out --truth-dir /tmp/s_truth
 )";
-
-bool writeFile(const std::string& path, const std::string& text)
-{
-  std::ofstream out(path);
-  out << text;
-  return static_cast<bool>(out);
-}
 
 bool parsePriorError(const std::string& text, sim::PriorError* error)
 {
@@ -62,8 +63,10 @@ bool parsePriorError(const std::string& text, sim::PriorError* error)
 
 int main(int argc, char** argv)
 {
-  insitu_calibration::CommandLine cli(
-      argc, argv, {"seed", "kind", "out", "cameras-out", "prior-error", "max-route-s", "appearance"}, {});
+  insitu_calibration::CommandLine cli(argc, argv,
+                                      {"seed", "kind", "out", "cameras-out", "prior-error", "max-route-s",
+                                       "look-around-spacing", "view-leg", "appearance"},
+                                      {});
   if (cli.help())
   {
     std::cout << kUsage;
@@ -72,6 +75,8 @@ int main(int argc, char** argv)
   sim::WorldGeneratorOptions options;
   options.seed = static_cast<uint64_t>(cli.number("seed", -1));
   options.max_route_s = cli.number("max-route-s", 0.0);
+  options.look_around_spacing_m = cli.number("look-around-spacing", options.look_around_spacing_m);
+  options.view_leg_m = cli.number("view-leg", options.view_leg_m);
   std::string problem = cli.error();
   if (problem.empty() && (!cli.has("seed") || !cli.has("out")))
     problem = "--seed and --out are required";
@@ -93,6 +98,8 @@ int main(int argc, char** argv)
   }
   if (problem.empty() && cli.has("prior-error") && !parsePriorError(cli.value("prior-error"), &options.prior_error))
     problem = "--prior-error needs three non-negative numbers M,DEG,FOV (FOV < 1), e.g. 0.5,10,0.2";
+  if (problem.empty() && (options.max_route_s < 0.0 || options.look_around_spacing_m < 0.0 || options.view_leg_m < 0.0))
+    problem = "--max-route-s, --look-around-spacing and --view-leg must be 0 or positive";
   if (!problem.empty())
   {
     std::cerr << "generate_world: " << problem << "\n\n" << kUsage;
@@ -104,12 +111,14 @@ int main(int argc, char** argv)
     std::cerr << "generate_world: " << world.error().describe() << "\n";
     return 1;
   }
-  if (!writeFile(cli.value("out"), world->world_yaml) ||
-      (cli.has("cameras-out") && !writeFile(cli.value("cameras-out"), world->cameras_yaml)))
-  {
-    std::cerr << "generate_world: cannot write " << cli.value("out") << " or " << cli.value("cameras-out") << "\n";
-    return 1;
-  }
+  // Each file whole or not at all (written beside its place, then renamed).
+  for (const auto& [option, text] : {std::pair{"out", &world->world_yaml}, {"cameras-out", &world->cameras_yaml}})
+    if (cli.has(option))
+      if (const Status written = writeFileAtomically(cli.value(option), *text); !written)
+      {
+        std::cerr << "generate_world: " << written.error().describe() << "\n";
+        return 1;
+      }
   std::printf("%s (seed %llu): %s; %zu surfaces, route %zu waypoints, %.1f s\n", world->world.name.c_str(),
               static_cast<unsigned long long>(options.seed), sim::buildingKindName(world->kind),
               world->world.surfaces.size(), world->world.route.waypoints.size(), world->route_duration_s);

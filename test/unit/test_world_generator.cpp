@@ -2,6 +2,7 @@
 // floor without touching anything, and the installer priors are off by exactly the requested amounts.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 #include <string>
@@ -228,4 +229,117 @@ TEST(RoutePlanner, LanesAcrossAnEmptyRoomAndAroundAnObstacle)
     }
   plan.walkable = Eigen::AlignedBox2d(Eigen::Vector2d(0, 0), Eigen::Vector2d(0.8, 6));
   EXPECT_FALSE(sim::planCoverageRoute(plan, {}));
+}
+
+namespace
+{
+// The 10-degree heading bins the robot faces (driving or turning in place) while within `radius` of `place`.
+std::set<int> headingsNear(const sim::RouteTrajectory& trajectory, const Eigen::Vector2d& place, double radius)
+{
+  std::set<int> bins;
+  for (double t = 0.0; t <= trajectory.lapDuration(); t += 0.02)
+  {
+    const sim::Pose2d pose = trajectory.at(t);
+    if ((Eigen::Vector2d(pose.x, pose.y) - place).norm() <= radius)
+      bins.insert(static_cast<int>(std::floor(std::remainder(pose.yaw, 2.0 * M_PI) * kRadToDeg + 180.0)) / 10 % 36);
+  }
+  return bins;
+}
+}  // namespace
+
+// Lanes alone never face the wall their connectors turn away from; look-arounds face every direction at places
+// spread over the room, and keep the clearance.
+TEST(RoutePlanner, LookAroundsFaceEveryDirectionAndKeepClear)
+{
+  sim::FloorPlan plan;
+  plan.walkable = Eigen::AlignedBox2d(Eigen::Vector2d(0, 0), Eigen::Vector2d(10, 6));
+  plan.obstacles.push_back(
+      {Eigen::Vector2d(4, 2), Eigen::Vector2d(6, 2), Eigen::Vector2d(6, 3), Eigen::Vector2d(4, 3)});
+  sim::RoutePlanOptions options;
+  const auto lanes = sim::planCoverageRoute(plan, options);
+  options.look_around_spacing_m = 3.0;
+  const auto looking = sim::planCoverageRoute(plan, options);
+  ASSERT_TRUE(lanes && looking);
+  const auto trajectoryOf = [](const std::vector<Eigen::Vector2d>& waypoints) {
+    sim::Route route;
+    route.waypoints = waypoints;
+    route.loop = false;
+    return sim::RouteTrajectory(route);
+  };
+  // Facing -y (the wall the connectors turn their back on): the bins of -100..-80 deg.
+  const auto facesMinusY = [](const std::set<int>& bins) { return bins.count(8) + bins.count(9) > 0; };
+  EXPECT_FALSE(facesMinusY(headingsNear(trajectoryOf(*lanes), Eigen::Vector2d(5, 3), 20.0)));
+  const sim::RouteTrajectory trajectory = trajectoryOf(*looking);
+  // Every full turn of the look-arounds, found where the robot faces all 36 bins within 0.5 m.
+  std::vector<Eigen::Vector2d> places;
+  for (const Eigen::Vector2d& w : *looking)
+  {
+    bool known = false;
+    for (const auto& p : places)
+      known = known || (p - w).norm() < 1.0;
+    if (!known && headingsNear(trajectory, w, 0.5).size() == 36)
+      places.push_back(w);
+  }
+  std::printf("%zu waypoints, %zu look-arounds facing every direction, lap %.0f s (lanes only: %.0f s)\n",
+              looking->size(), places.size(), trajectory.lapDuration(), trajectoryOf(*lanes).lapDuration());
+  EXPECT_TRUE(facesMinusY(headingsNear(trajectory, Eigen::Vector2d(5, 3), 20.0)));
+  EXPECT_GE(places.size(), 8u);  // 4 lanes of about 9 m, a look-around every 3 m where the square is free
+  double spread_x = 0.0, spread_y = 0.0;
+  for (const auto& p : places)
+  {
+    spread_x = std::max(spread_x, std::abs(p.x() - places.front().x()));
+    spread_y = std::max(spread_y, std::abs(p.y() - places.front().y()));
+  }
+  EXPECT_GT(spread_x, 5.0);
+  EXPECT_GT(spread_y, 3.0);
+  for (size_t k = 1; k < looking->size(); ++k)
+    for (double t = 0; t <= 1.0; t += 0.01)
+    {
+      const Eigen::Vector2d p = (*looking)[k - 1] + t * ((*looking)[k] - (*looking)[k - 1]);
+      EXPECT_GT(sim::distanceToFootprint(p, plan.obstacles[0]), 0.4);
+      EXPECT_TRUE(plan.walkable.contains(p));
+    }
+}
+
+// View legs come first: from the free cell nearest their start along their direction, as far as the floor is free
+// (here: up to the obstacle), then the lanes; a leg that starts far outside the floor is left out.
+TEST(RoutePlanner, ViewLegsAreDrivenFirstAlongTheirDirections)
+{
+  sim::FloorPlan plan;
+  plan.walkable = Eigen::AlignedBox2d(Eigen::Vector2d(0, 0), Eigen::Vector2d(10, 6));
+  plan.obstacles.push_back(
+      {Eigen::Vector2d(6, 2), Eigen::Vector2d(7, 2), Eigen::Vector2d(7, 4), Eigen::Vector2d(6, 4)});
+  sim::RoutePlanOptions options;
+  // A camera on the west wall looking east (its leg stops 0.45 m before the obstacle at x = 6), one in the north-east
+  // corner looking south-west, and one 8 m outside the building.
+  options.view_legs = {{Eigen::Vector2d(0.2, 3.0), Eigen::Vector2d(1, 0), 8.0},
+                       {Eigen::Vector2d(9.8, 5.8), Eigen::Vector2d(-1, -1), 3.0},
+                       {Eigen::Vector2d(-8.0, 3.0), Eigen::Vector2d(1, 0), 4.0}};
+  const auto route = sim::planCoverageRoute(plan, options);
+  ASSERT_TRUE(route);
+  ASSERT_GE(route->size(), 6u);
+  const auto& w = *route;
+  EXPECT_NEAR(w[0].x(), 0.45, 0.11);
+  EXPECT_NEAR(w[0].y(), 3.0, 0.11);
+  EXPECT_NEAR(w[1].y(), w[0].y(), 1e-9);
+  EXPECT_NEAR(w[1].x(), 6.0 - 0.45, 0.15);
+  // The second leg (after a way around the obstacle): from the free cell nearest the corner camera, 3 m towards the
+  // south-west.
+  const auto corner = std::find_if(w.begin() + 2, w.end(), [](const Eigen::Vector2d& p) {
+    return (p - Eigen::Vector2d(10.0 - 0.45, 6.0 - 0.45)).norm() < 0.11;
+  });
+  ASSERT_TRUE(corner != w.end() && corner + 1 != w.end());
+  const Eigen::Vector2d second = *(corner + 1) - *corner;
+  EXPECT_NEAR(second.norm(), 3.0, 0.15);
+  EXPECT_GT(second.normalized().dot(Eigen::Vector2d(-1, -1).normalized()), std::cos(3.0 * M_PI / 180.0));
+  // Then the lanes (the plan without view legs) from its first waypoint on; nothing of the far camera's leg.
+  options.view_legs.clear();
+  const auto lanes = sim::planCoverageRoute(plan, options);
+  ASSERT_TRUE(lanes);
+  const auto start =
+      std::find_if(corner + 2, w.end(), [&](const Eigen::Vector2d& p) { return (p - lanes->front()).norm() < 1e-9; });
+  ASSERT_NE(start, w.end());
+  EXPECT_EQ(static_cast<size_t>(w.end() - start), lanes->size());
+  for (const auto& p : w)
+    EXPECT_GT(p.x(), 0.4);
 }

@@ -94,6 +94,12 @@ struct LineMatcherOptions
   // Optional: receives a line per step of the search (starts, matching rounds, local moves), for diagnosis.
   std::function<void(const std::string&)> trace;
   double min_score_gain = 0.05;  // a result replaces the current one when its score is lower by more than this
+  // > 0 (matchAndCalibrate only): a result whose centre is farther than this many position sigmas from the prior
+  // ranks behind every nearer one, however well it explains the image. The final check refuses such a result
+  // (FixedCameraOptions::max_prior_distance_sigmas sets both), so choosing it would waste the nearer starts: in a
+  // corridor a camera metres back with a longer focal length can explain the far lines better than the true one
+  // explains them before its matches are complete.
+  double max_prior_distance_sigmas = 0.0;
   // The survey's calibration: as calibrateCamera's defaults, plus weak priors of square pixels (0.5 %) and a principal
   // point near the image centre (3 % of the width), which only matter for weakly constrained cameras.
   CalibrationOptions calibration;

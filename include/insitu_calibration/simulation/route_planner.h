@@ -24,18 +24,37 @@ struct FloorPlan
   std::vector<Footprint> obstacles;  // everything standing on the floor below the robot's height
 };
 
+// A straight drive the route makes first: from the free cell nearest `start` along `direction` (on the floor) for up
+// to `max_length_m`, as far as the floor stays free.
+struct ViewLeg
+{
+  Eigen::Vector2d start = Eigen::Vector2d::Zero();
+  Eigen::Vector2d direction = Eigen::Vector2d::UnitX();
+  double max_length_m = 4.0;
+};
+
 struct RoutePlanOptions
 {
   double clearance_m = 0.45;    // from walls and obstacles, for every cell the route passes
   double lane_spacing_m = 1.5;  // distance between the coverage lanes
   double cell_m = 0.1;          // occupancy grid resolution
   double max_length_m = 0.0;    // > 0: the route is cut at this length
+  // > 0: look-arounds about this far apart along the lanes (the first half that far from the start). A look-around
+  // drives a small square with a 90 deg turn in place at each corner, so the Xtion, which looks where the robot
+  // drives, faces every direction there: lanes alone show the walls along them only at grazing angles.
+  double look_around_spacing_m = 0.0;
+  double look_around_side_m = 0.3;
+  // Driven before the lanes, in this order, each joined to the next by the shortest free path (generate_world: one
+  // per fixed camera, along the installer's prior of its viewing direction, so the Xtion sees what it sees).
+  std::vector<ViewLeg> view_legs;
 };
 
 // Distance from a point to a convex quadrilateral (0 inside).
 double distanceToFootprint(const Eigen::Vector2d& p, const Footprint& quad);
 
-// Waypoints from a corner of the largest free region along lanes parallel to the walkable area's longer side.
+// Waypoints along the view legs, then from a corner of the largest free region along lanes parallel to the walkable
+// area's longer side, with look-arounds where the options ask for them and the square is free. A view leg whose
+// start has no free cell within 3 m or that is shorter than 0.5 m is left out.
 // Errors: no free cell (the space is narrower than twice the clearance or filled).
 Expected<std::vector<Eigen::Vector2d>> planCoverageRoute(const FloorPlan& plan, const RoutePlanOptions& options);
 

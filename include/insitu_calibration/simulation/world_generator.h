@@ -52,6 +52,13 @@ struct WorldGeneratorOptions
   PriorError prior_error;
   double max_route_s = 0.0;  // > 0: lanes further apart (and the route cut) to keep the drive this short
   double speed = 0.45;       // robot speed along the legs, m/s
+  // Look-arounds (the robot drives a 0.3 m square, turning in place at its corners) about this far apart along the
+  // lanes, spread with the lanes to fit max_route_s; 0: lanes only. An operator surveying for fixed cameras turns
+  // the Xtion to every wall: along lanes alone it sees the walls beside them only at grazing angles.
+  double look_around_spacing_m = 0.0;
+  // > 0: the route starts with a drive of up to this length per fixed camera, from under its installer prior along
+  // its prior viewing direction (what an operator surveying for the cameras does; the lanes follow); 0: lanes only.
+  double view_leg_m = 0.0;
   // Realistic sensors (the world file's appearance block: blur, vignetting, exposure and white balance drawn per
   // camera, JPEG on the fixed cameras, Xtion RGB noise, flying pixels, low-frequency depth error, RGB-to-depth
   // misregistration); false: the plain appearance of the hand-made worlds. Drawn from its own stream of the seed, so

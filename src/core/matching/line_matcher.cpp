@@ -55,7 +55,7 @@ Expected<Incumbent> bestOfStarts(const MatchingProblem& problem, const std::vect
       last_error = candidate.error().message();
       continue;
     }
-    const double score = explanationScore(candidate->calibration.camera, problem);
+    const double score = rankingScore(candidate->calibration.camera, problem);
     traceResult(problem.options, "start", *candidate, score);
     if (score < (best ? best->score : std::numeric_limits<double>::infinity()))
       best = Incumbent{std::move(*candidate), score, {}};
@@ -132,8 +132,9 @@ Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_li
     return Error(ErrorCode::kInvalidInput,
                  "the camera prior needs a finite position, a non-zero direction and a "
                  "horizontal field of view between 0 and 180 degrees");
-  const matching::MatchingProblem problem(map_lines, map_line_sigmas_m, image_lines, image_width, image_height,
-                                          options);
+  matching::MatchingProblem problem(map_lines, map_line_sigmas_m, image_lines, image_width, image_height, options);
+  problem.prior_position = prior.position;
+  problem.max_prior_distance_m = options.max_prior_distance_sigmas * prior.position_sigma_m;
   return matching::matchFromStarts(problem, matching::searchPrior(problem, prior), options.initial_max_distance_px,
                                    true);
 }

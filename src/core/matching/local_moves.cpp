@@ -108,7 +108,7 @@ bool hopRound(const MatchingProblem& problem, Incumbent* best)
     auto candidate = refineMatches(problem, camera, options.hop_max_distance_px, {}, best->score);
     if (!candidate)
       continue;
-    const double score = explanationScore(candidate->calibration.camera, problem);
+    const double score = rankingScore(candidate->calibration.camera, problem);
     traceResult(options, "hop", *candidate, score);
     if (score < best->score - options.min_score_gain)
     {
@@ -146,7 +146,7 @@ bool influenceRound(const MatchingProblem& problem, Incumbent* best)
     auto candidate = refineMatches(problem, best->result.calibration.camera, distance, trial);
     if (!candidate)
       continue;
-    const double score = explanationScore(candidate->calibration.camera, problem);
+    const double score = rankingScore(candidate->calibration.camera, problem);
     trace(options, "without image line %zu - map line %zu (influence %.3g):", m.image_line, m.map_line,
           influence(order[n]));
     traceResult(options, "  result", *candidate, score);

@@ -116,7 +116,7 @@ Expected<LineMatchResult> refineMatches(const MatchingProblem& problem, const Ca
           describeCamera(calibration->camera).c_str());
     // A start that still explains the image worse than a known result after a few rounds is abandoned (the local
     // moves try many starts, most of them in vain).
-    if (iteration + 1 >= options.abandon_after && explanationScore(calibration->camera, problem) > abandon_above)
+    if (iteration + 1 >= options.abandon_after && rankingScore(calibration->camera, problem) > abandon_above)
       return Error(ErrorCode::kNoSolution, "abandoned: explains the image worse than the current result");
     last = {matches, set, *calibration};
     camera = calibration->camera;

@@ -63,5 +63,13 @@ double explanationScore(const CameraModel& camera, const MatchingProblem& proble
   }
   return score;
 }
+
+double rankingScore(const CameraModel& camera, const MatchingProblem& problem)
+{
+  const double score = explanationScore(camera, problem);
+  const bool far = problem.prior_position && problem.max_prior_distance_m > 0.0 &&
+                   (camera.pose().center() - *problem.prior_position).norm() > problem.max_prior_distance_m;
+  return far ? score + kFarFromPriorPenalty : score;
+}
 }  // namespace matching
 }  // namespace insitu_calibration

@@ -3,6 +3,7 @@
 #ifndef INSITU_CALIBRATION_MATCHING_MATCHING_PROBLEM_H
 #define INSITU_CALIBRATION_MATCHING_MATCHING_PROBLEM_H
 
+#include <optional>
 #include <set>
 #include <utility>
 #include <vector>
@@ -36,7 +37,15 @@ struct MatchingProblem
   const int width;
   const int height;
   const LineMatcherOptions& options;
+  // With a prior and options.max_prior_distance_sigmas > 0: results farther from prior_position than this rank last.
+  std::optional<Eigen::Vector3d> prior_position;
+  double max_prior_distance_m = 0.0;
 };
+
+// The explanation score (below) plus kFarFromPriorPenalty when the camera is beyond the problem's prior distance:
+// what the matcher ranks its results by.
+constexpr double kFarFromPriorPenalty = 1e6;
+double rankingScore(const CameraModel& camera, const MatchingProblem& problem);
 
 // How badly a camera explains the image lines for the prior search: each line's distance to its nearest compatible
 // projection (2 samples), capped at cap_px, summed.

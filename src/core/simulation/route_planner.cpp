@@ -130,6 +130,20 @@ public:
   }
   int nx() const { return nx_; }
   int ny() const { return ny_; }
+  // The free cell nearest to p within max_distance, or -1.
+  int nearestFree(const Eigen::Vector2d& p, double max_distance) const
+  {
+    int best = -1;
+    double best_distance = max_distance;
+    for (int j = 0; j < ny_; ++j)
+      for (int i = 0; i < nx_; ++i)
+        if (free_[index(i, j)] && (center(i, j) - p).norm() <= best_distance)
+        {
+          best = index(i, j);
+          best_distance = (center(i, j) - p).norm();
+        }
+    return best;
+  }
 
 private:
   Eigen::Vector2d origin_;
@@ -179,6 +193,28 @@ std::vector<int> laneTargets(const Grid& grid, bool along_x, double spacing, dou
   return targets;
 }
 
+// Each view leg as its start and end cell: as far along its direction as the floor stays free.
+std::vector<int> viewLegTargets(const Grid& grid, const std::vector<ViewLeg>& legs, double cell)
+{
+  std::vector<int> targets;
+  for (const ViewLeg& leg : legs)
+  {
+    const int start = grid.nearestFree(leg.start, 3.0);
+    if (start < 0 || leg.direction.norm() < 1e-9)
+      continue;
+    const Eigen::Vector2d from = grid.center(start % grid.nx(), start / grid.nx());
+    const Eigen::Vector2d d = leg.direction.normalized();
+    double length = 0.0;
+    while (length + cell <= leg.max_length_m && grid.lineOfSight(from, from + (length + cell) * d))
+      length += cell;
+    if (length < 0.5)
+      continue;
+    targets.push_back(start);
+    targets.push_back(grid.nearestFree(from + length * d, 3.0 * cell));
+  }
+  return targets;
+}
+
 // The cell path as waypoints: from each point, straight to the farthest later point in line of sight.
 std::vector<Eigen::Vector2d> straighten(const Grid& grid, const std::vector<Eigen::Vector2d>& path)
 {
@@ -197,6 +233,71 @@ std::vector<Eigen::Vector2d> straighten(const Grid& grid, const std::vector<Eige
     i = j;
   }
   return out;
+}
+
+// The look-around square at p for a robot arriving along d: to the left if free, else to the right, else none.
+std::vector<Eigen::Vector2d> lookAroundSquare(const Grid& grid, const Eigen::Vector2d& p, const Eigen::Vector2d& d,
+                                              double side)
+{
+  for (const double turn : {1.0, -1.0})
+  {
+    const Eigen::Vector2d v = turn * Eigen::Vector2d(-d.y(), d.x());
+    const std::vector<Eigen::Vector2d> square{p + side * d, p + side * (d + v), p + side * v, p};
+    bool free = true;
+    for (size_t k = 0; free && k < square.size(); ++k)
+      free = grid.lineOfSight(k == 0 ? p : square[k - 1], square[k]);
+    if (free)
+      return square;
+  }
+  return {};
+}
+
+// The route with a look-around every `spacing` metres of driving (the first at half of it), where one fits.
+std::vector<Eigen::Vector2d> withLookArounds(const Grid& grid, const std::vector<Eigen::Vector2d>& route,
+                                             double spacing, double side)
+{
+  std::vector<Eigen::Vector2d> out{route.front()};
+  double next = 0.5 * spacing, driven = 0.0;
+  for (size_t k = 1; k < route.size(); ++k)
+  {
+    const Eigen::Vector2d a = route[k - 1], b = route[k];
+    const double leg = (b - a).norm();
+    const Eigen::Vector2d d = (b - a) / std::max(leg, 1e-9);
+    // A look-around needs room before the leg's end (the robot turns there anyway) and after its start.
+    for (; next < driven + leg - side; next += spacing)
+    {
+      if (next < driven + side)
+        continue;
+      const Eigen::Vector2d p = a + (next - driven) * d;
+      const std::vector<Eigen::Vector2d> square = lookAroundSquare(grid, p, d, side);
+      if (square.empty())
+        continue;
+      out.push_back(p);
+      out.insert(out.end(), square.begin(), square.end());
+    }
+    driven += leg;
+    out.push_back(b);
+  }
+  return out;
+}
+
+// Each leg between consecutive targets on its shortest free path, straightened on its own (a shortcut across targets
+// would skip lanes).
+std::vector<Eigen::Vector2d> joinTargets(const Grid& grid, const std::vector<int>& targets)
+{
+  std::vector<Eigen::Vector2d> route;
+  for (size_t k = 0; k + 1 < targets.size(); ++k)
+  {
+    std::vector<Eigen::Vector2d> cells;
+    for (const int c : grid.shortestPath(targets[k], targets[k + 1]))
+      cells.push_back(grid.center(c % grid.nx(), c / grid.nx()));
+    if (cells.empty())
+      continue;
+    for (const Eigen::Vector2d& p : straighten(grid, cells))
+      if (route.empty() || (p - route.back()).norm() > 1e-6)
+        route.push_back(p);
+  }
+  return route;
 }
 
 std::vector<Eigen::Vector2d> cutAtLength(const std::vector<Eigen::Vector2d>& points, double max_length)
@@ -253,24 +354,25 @@ Expected<std::vector<Eigen::Vector2d>> planCoverageRoute(const FloorPlan& plan, 
   Grid grid(plan, options.cell_m, options.clearance_m);
   grid.keepLargestRegion();
   const bool along_x = plan.walkable.sizes().x() >= plan.walkable.sizes().y();
-  const std::vector<int> targets = laneTargets(grid, along_x, options.lane_spacing_m, options.cell_m);
-  if (targets.size() < 2)
+  const std::vector<int> lanes = laneTargets(grid, along_x, options.lane_spacing_m, options.cell_m);
+  if (lanes.size() < 2)
     return Error(ErrorCode::kNoSolution, "the floor has no free lane " + std::to_string(options.clearance_m) +
                                              " m clear of walls and obstacles");
-  // Each leg between lane ends straightened on its own (a shortcut across targets would skip lanes).
-  std::vector<Eigen::Vector2d> route;
-  for (size_t k = 0; k + 1 < targets.size(); ++k)
+  const std::vector<int> legs = viewLegTargets(grid, options.view_legs, options.cell_m);
+  std::vector<Eigen::Vector2d> route = joinTargets(grid, legs);
+  // Look-arounds on the lanes only: the view legs already face where the cameras look.
+  std::vector<Eigen::Vector2d> lane_route = joinTargets(grid, lanes);
+  if (options.look_around_spacing_m > 0.0 && lane_route.size() >= 2)
+    lane_route = withLookArounds(grid, lane_route, options.look_around_spacing_m, options.look_around_side_m);
+  if (!legs.empty())
   {
-    std::vector<Eigen::Vector2d> cells;
-    for (const int c : grid.shortestPath(targets[k], targets[k + 1]))
-      cells.push_back(grid.center(c % grid.nx(), c / grid.nx()));
-    if (cells.empty())
-      continue;
-    const std::vector<Eigen::Vector2d> leg = straighten(grid, cells);
-    for (size_t i = 0; i < leg.size(); ++i)
-      if (route.empty() || (leg[i] - route.back()).norm() > 1e-6)
-        route.push_back(leg[i]);
+    // From the last view leg to the lanes' start.
+    std::vector<Eigen::Vector2d> transit = joinTargets(grid, {legs.back(), lanes.front()});
+    route.insert(route.end(), transit.begin() + (transit.empty() ? 0 : 1), transit.end());
   }
+  for (const Eigen::Vector2d& p : lane_route)
+    if (route.empty() || (p - route.back()).norm() > 1e-6)
+      route.push_back(p);
   if (options.max_length_m > 0.0 && polylineLength(route) > options.max_length_m)
     route = cutAtLength(route, options.max_length_m);
   if (route.size() < 2)

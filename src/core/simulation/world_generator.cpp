@@ -1,5 +1,6 @@
 #include "insitu_calibration/simulation/world_generator.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -111,27 +112,63 @@ std::vector<PlacedCamera> placeCameras(const generator::Layout& layout, Rng& rng
   return cameras;
 }
 
-// Lanes further apart until the drive fits the budget; cut the route if even that is too long.
-Expected<std::vector<V2>> planRoute(const FloorPlan& plan, const WorldGeneratorOptions& options)
+double routeDuration(const std::vector<V2>& waypoints, double speed)
+{
+  Route r;
+  r.waypoints = waypoints;
+  r.speed = speed;
+  r.turn_rate_deg = 40.0;
+  r.loop = false;
+  return RouteTrajectory(r).lapDuration();
+}
+
+// The route up to where its drive takes `budget` seconds (the last leg shortened to fill it).
+std::vector<V2> cutToDuration(std::vector<V2> route, double budget, double speed)
+{
+  V2 removed = route.back();
+  while (route.size() > 2 && routeDuration(route, speed) > budget - 0.05)
+  {
+    removed = route.back();
+    route.pop_back();
+  }
+  if (routeDuration(route, speed) <= budget - 0.05 && removed == route.back())
+    return route;  // nothing to cut
+  if (routeDuration(route, speed) > budget - 0.05)
+  {
+    removed = route.back();
+    route.pop_back();
+  }
+  // Along the removed leg as far as the budget goes (bisection: the turn at its start counts too).
+  double lo = 0.0, hi = 1.0;
+  for (int k = 0; k < 30; ++k)
+  {
+    const double mid = 0.5 * (lo + hi);
+    std::vector<V2> trial = route;
+    trial.push_back(route.back() + mid * (removed - route.back()));
+    // A margin for the waypoints' rounding in the world file.
+    (routeDuration(trial, speed) <= budget - 0.05 ? lo : hi) = mid;
+  }
+  if (route.size() == 1 || lo * (removed - route.back()).norm() > 0.3)
+    route.push_back(route.back() + lo * (removed - route.back()));
+  return route;
+}
+
+// Lanes further apart until the drive fits the budget; if even the widest do not, the route cut where the budget
+// ends: the cameras' view legs come first, then the lanes with their look-arounds.
+Expected<std::vector<V2>> planRoute(const FloorPlan& plan, const WorldGeneratorOptions& options,
+                                    const std::vector<ViewLeg>& view_legs)
 {
   RoutePlanOptions route;
-  Expected<std::vector<V2>> best = Error(ErrorCode::kNoSolution, "no route");
-  for (int round = 0; round < 8; ++round)
+  route.look_around_spacing_m = options.look_around_spacing_m;
+  route.view_legs = view_legs;
+  Expected<std::vector<V2>> planned = Error(ErrorCode::kNoSolution, "no route");
+  for (int round = 0; round < 8; ++round, route.lane_spacing_m *= 1.35)
   {
-    best = planCoverageRoute(plan, route);
-    if (!best || options.max_route_s <= 0.0)
-      return best;
-    Route r;
-    r.waypoints = *best;
-    r.speed = options.speed;
-    r.turn_rate_deg = 40.0;
-    r.loop = false;
-    if (RouteTrajectory(r).lapDuration() <= options.max_route_s)
-      return best;
-    route.lane_spacing_m *= 1.35;
+    planned = planCoverageRoute(plan, route);
+    if (!planned || options.max_route_s <= 0.0 || routeDuration(*planned, options.speed) <= options.max_route_s)
+      return planned;
   }
-  route.max_length_m = 0.75 * options.max_route_s * options.speed;
-  return planCoverageRoute(plan, route);
+  return cutToDuration(*planned, options.max_route_s, options.speed);
 }
 
 std::string cameraYaml(const PlacedCamera& c)
@@ -146,24 +183,63 @@ std::string cameraYaml(const PlacedCamera& c)
 }
 
 // The installer's prior: the truth moved, turned and its field of view scaled by the requested errors.
-std::string priorYaml(const PlacedCamera& c, const PriorError& error, Rng& rng)
+struct DrawnPrior
+{
+  std::string name;
+  int width = 0, height = 0;
+  V3 position, direction;
+  double horizontal_fov_deg = 0.0;
+};
+
+DrawnPrior drawPrior(const PlacedCamera& c, const PriorError& error, Rng& rng)
 {
   V3 shift(rng.gaussian(), rng.gaussian(), rng.gaussian());
-  const V3 position = c.position + error.position_m * shift.normalized();
   const V3 direction = (c.target - c.position).normalized();
   V3 across = direction.cross(V3(rng.gaussian(), rng.gaussian(), rng.gaussian())).normalized();
-  const V3 turned = Eigen::AngleAxisd(error.direction_deg * kPi / 180.0, across) * direction;
   const double fov = 2.0 * std::atan(0.5 * c.width / c.fx) * 180.0 / kPi;
   const double scaled = fov * (1.0 + (rng.chance(0.5) ? 1.0 : -1.0) * error.fov_relative);
+  return {c.name,
+          c.width,
+          c.height,
+          c.position + error.position_m * shift.normalized(),
+          Eigen::AngleAxisd(error.direction_deg * kPi / 180.0, across) * direction,
+          std::min(170.0, scaled)};
+}
+
+std::string priorYaml(const DrawnPrior& p, const PriorError& error)
+{
   std::ostringstream out;
-  out << "  - name: " << c.name << "\n    image_topic: /fixed/" << c.name << "/image_raw\n    image_width: " << c.width
-      << "\n    image_height: " << c.height << "\n    prior:\n      position: " << vec3(position)
+  out << "  - name: " << p.name << "\n    image_topic: /fixed/" << p.name << "/image_raw\n    image_width: " << p.width
+      << "\n    image_height: " << p.height << "\n    prior:\n      position: " << vec3(p.position)
       << "\n      position_sigma_m: " << num(std::max(0.05, error.position_m))
-      << "\n      direction: " << vec({turned.x(), turned.y(), turned.z()})
+      << "\n      direction: " << vec({p.direction.x(), p.direction.y(), p.direction.z()})
       << "\n      direction_sigma_deg: " << num(std::max(1.0, error.direction_deg))
-      << "\n      horizontal_fov_deg: " << num(std::min(170.0, scaled))
+      << "\n      horizontal_fov_deg: " << num(p.horizontal_fov_deg)
       << "\n      fov_sigma_relative: " << num(std::max(0.02, error.fov_relative)) << "\n";
   return out.str();
+}
+
+// An operator surveying for the cameras drives where each looks, in its direction, so that the Xtion sees what the
+// camera sees: a view leg per camera from under its prior position along its prior viewing direction, the nearest
+// camera next.
+std::vector<ViewLeg> cameraViewLegs(const std::vector<DrawnPrior>& priors, double max_length_m)
+{
+  std::vector<ViewLeg> legs;
+  for (const DrawnPrior& p : priors)
+  {
+    const V2 d = p.direction.head<2>();
+    if (d.norm() > 1e-3)
+      legs.push_back({p.position.head<2>() + 0.5 * d.normalized(), d.normalized(), max_length_m});
+  }
+  for (size_t k = 1; k < legs.size(); ++k)
+  {
+    const V2 from = legs[k - 1].start + max_length_m * legs[k - 1].direction;
+    std::swap(legs[k], *std::min_element(legs.begin() + static_cast<long>(k), legs.end(),
+                                         [&](const ViewLeg& a, const ViewLeg& b) {
+                                           return (a.start - from).norm() < (b.start - from).norm();
+                                         }));
+  }
+  return legs;
 }
 
 std::string cameraAppearanceYaml(Rng& rng, double blur_lo, double blur_hi, double vignetting_hi, double exposure,
@@ -261,18 +337,23 @@ Expected<GeneratedWorld> generateWorld(const WorldGeneratorOptions& options)
   out.kind = options.kind ? *options.kind : static_cast<BuildingKind>(rng.integer(0, 3));
   const generator::Layout layout = generator::buildLayout(out.kind, rng);
   const auto cameras = placeCameras(layout, rng);
-  const auto route = planRoute(layout.scene.plan, options);
+  std::vector<DrawnPrior> priors;
+  for (const auto& c : cameras)
+    priors.push_back(drawPrior(c, options.prior_error, prior_rng));
+  const auto route =
+      planRoute(layout.scene.plan, options,
+                options.view_leg_m > 0.0 ? cameraViewLegs(priors, options.view_leg_m) : std::vector<ViewLeg>{});
   if (!route)
     return Error(route.error().code(), std::string("generate_world: ") + route.error().message());
   out.world_yaml = worldYaml(options, out.kind, layout, *route, cameras, rng);
-  std::ostringstream priors;
-  priors << "# Installer priors for the fixed cameras of generate_world --seed " << options.seed << " --kind "
-         << buildingKindName(out.kind) << ": each off by " << num(options.prior_error.position_m) << " m, "
-         << num(options.prior_error.direction_deg) << " deg and " << num(100.0 * options.prior_error.fov_relative)
-         << " % field of view (format: config/cameras.yaml).\ncameras:\n";
-  for (const auto& c : cameras)
-    priors << priorYaml(c, options.prior_error, prior_rng);
-  out.cameras_yaml = priors.str();
+  std::ostringstream prior_text;
+  prior_text << "# Installer priors for the fixed cameras of generate_world --seed " << options.seed << " --kind "
+             << buildingKindName(out.kind) << ": each off by " << num(options.prior_error.position_m) << " m, "
+             << num(options.prior_error.direction_deg) << " deg and " << num(100.0 * options.prior_error.fov_relative)
+             << " % field of view (format: config/cameras.yaml).\ncameras:\n";
+  for (const auto& p : priors)
+    prior_text << priorYaml(p, options.prior_error);
+  out.cameras_yaml = prior_text.str();
   auto world = parseWorld(out.world_yaml, "generated world (seed " + std::to_string(options.seed) + ")");
   if (!world)
     return world.error();

@@ -322,11 +322,14 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
     std::vector<std::vector<Eigen::Vector2d>> polylines;
     for (const auto& l : *lines)
       polylines.push_back(l.points);
-    // The prior search once; the later loops start from the camera found.
+    // The prior search once; the later loops start from the camera found. The search ranks results the final check
+    // would refuse for their distance to the prior behind the others.
+    LineMatcherOptions matcher = options_.matcher;
+    matcher.max_prior_distance_sigmas = options_.max_prior_distance_sigmas;
     auto matched = best ? matchAndCalibrateFrom(map_lines, polylines, best->calibration.camera, config_.image_width,
-                                                config_.image_height, options_.matcher, map_line_sigmas_m)
+                                                config_.image_height, matcher, map_line_sigmas_m)
                         : matchAndCalibrate(map_lines, polylines, *config_.prior, config_.image_width,
-                                            config_.image_height, options_.matcher, map_line_sigmas_m);
+                                            config_.image_height, matcher, map_line_sigmas_m);
     if (!matched)
     {
       if (best)
