@@ -3,6 +3,7 @@
 // medians, and every configured camera is calibrated and written like the node writes it.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <optional>
 #include <iostream>
 #include <map>
@@ -63,6 +64,11 @@ Options:
   --odometry-sigma M,PER_M,DEG,PER_DEG
                         odometry's error between consecutive keyframes: M + PER_M times the distance, DEG + PER_DEG
                         times the turn (default 0.0005,0.01,0.02,0.01: good wheel odometry)
+  --depth-registration X,Y
+                        the Xtion's depth image misregistered with its RGB image: the depth pixel (u, v) measures
+                        the RGB pixel (u + X, v + Y) (default 0,0; parameters depth_registration/x_px, y_px): the
+                        edges' depth is read where it belongs (a surface seen at a grazing angle otherwise puts the
+                        map lines millimetres to centimetres off, README "Generalisation")
   --floor-lines 0|1     RGB lines beyond the depth range placed on the floor plane and confirmed from several
                         keyframes become map lines (default 0: off)
   --floor-height M      the floor plane's z in the world frame (default 0)
@@ -665,6 +671,21 @@ double seconds(std::chrono::steady_clock::time_point start)
 
 // The survey's parameters as calibration_node reads them (survey/survey_parameters.h), from --params or else the
 // --cameras file, then the command line's flags, which win; false (after saying why) on a malformed value.
+// --depth-registration X,Y; false (after saying why) when malformed.
+bool parseDepthRegistration(const ic::CommandLine& cli, ic::SurveyOptions* options)
+{
+  if (!cli.has("depth-registration"))
+    return true;
+  const std::vector<double> v = numbers(cli.value("depth-registration"));
+  if (v.size() != 2 || !(std::abs(v[0]) <= 10.0 && std::abs(v[1]) <= 10.0))
+  {
+    std::cerr << "calibrate_survey: --depth-registration takes X,Y (px, each within +-10)\n";
+    return false;
+  }
+  options->rgbd.sampler.registration_offset_px = Eigen::Vector2d(v[0], v[1]);
+  return true;
+}
+
 bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options)
 {
   auto parameters = ic::YamlParameterSource::load(cli.value("params", cli.value("cameras")));
@@ -677,6 +698,8 @@ bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options)
   for (const std::string& error : parameters->errors())
     std::cerr << "calibrate_survey: " << error << "\n";
   if (!parameters->ok())
+    return false;
+  if (!parseDepthRegistration(cli, options))
     return false;
   options->min_map_support = static_cast<int>(cli.number("min-support", options->min_map_support));
   options->max_map_spread_m = cli.number("max-spread", options->max_map_spread_m);
@@ -949,6 +972,7 @@ int main(int argc, char** argv)
        "odom-frame",
        "odometry-sigma",
        "floor-lines",
+       "depth-registration",
        "floor-height",
        "floor-max-range",
        "occlusion-test",

@@ -259,6 +259,63 @@ TEST(DepthSampler, FindsASmallStepOverTheWholeSegment)
   EXPECT_GT(halfway.front().depth_m, 2.002);
 }
 
+// A near rectangle slanted like a wall seen at a grazing angle (1 cm deeper per px in x) before a background at 3.2 m,
+// its depth image misregistered: the reading at pixel (x, y) is the scene at (x + 0.7, y - 0.4). Sampled with that
+// offset, the contours' edge depth is the true one (at ten sub-pixel positions of the contour); without it the
+// slant puts it millimetres off.
+TEST(DepthSampler, RemovesTheDepthImagesMisregistration)
+{
+  auto inverse_depth = [](double x) { return 1.0 / 1.5 - 0.01 / 2.25 * (x - 100.0); };
+  const Eigen::Vector2d truth_offset(0.7, -0.4);
+  ic::DepthSamplerOptions registered;
+  registered.registration_offset_px = truth_offset;
+  double error_with = 0.0, top_error_with = 0.0, error_without = 0.0;
+  size_t without_count = 0;
+  for (int k = 0; k < 10; ++k)
+  {
+    const double lo = 60.05 + 0.1 * k, hi = 140.05 + 0.1 * k;
+    cv::Mat depth(200, 200, CV_32FC1);
+    for (int y = 0; y < 200; ++y)
+      for (int x = 0; x < 200; ++x)
+      {
+        const double sx = x + truth_offset.x(), sy = y + truth_offset.y();
+        const bool near = sx > lo && sx < hi && sy > lo && sy < hi;
+        depth.at<float>(y, x) = static_cast<float>(near ? 1.0 / inverse_depth(sx) : 3.2);
+      }
+    // The left contour (x = lo, both directions): across it the slant, along it none, so every sample's depth is the
+    // plane's at the edge. The top one (y = lo): the band's pixels are rounded along it, where the slant is, so only
+    // its mean over the sub-pixel positions is exact.
+    for (const auto& s : {ic::Segment2d{{lo, lo + 5}, {lo, hi - 5}}, ic::Segment2d{{lo, hi - 5}, {lo, lo + 5}},
+                          ic::Segment2d{{lo + 5, lo}, {hi - 5, lo}}})
+    {
+      const bool top = s.a.y() == s.b.y();
+      const auto with = ic::sampleDepthAlongSegment(depth, s, registered);
+      ASSERT_GT(with.size(), 30u);
+      for (const auto& sample : with)
+      {
+        const double error = sample.depth_m - 1.0 / inverse_depth(sample.pixel.x());
+        if (top)
+          top_error_with += error / with.size();
+        else
+          error_with = std::max(error_with, std::abs(error));
+      }
+      for (const auto& sample : ic::sampleDepthAlongSegment(depth, s))
+      {
+        error_without += std::abs(sample.depth_m - 1.0 / inverse_depth(sample.pixel.x()));
+        ++without_count;
+      }
+    }
+  }
+  top_error_with /= 10.0;
+  ASSERT_GT(without_count, 100u);
+  error_without /= without_count;
+  std::cout << "edge depth error: at most " << 1000.0 * error_with << " mm with the offset (top contour: mean "
+            << 1000.0 * top_error_with << " mm), mean " << 1000.0 * error_without << " mm without" << std::endl;
+  EXPECT_LT(error_with, 1e-3);
+  EXPECT_LT(std::abs(top_error_with), 1e-3);
+  EXPECT_GT(error_without, 3e-3);
+}
+
 TEST(DepthSampler, MillimetresAndMetresAgree)
 {
   std::mt19937 rng(kSeed);

@@ -43,6 +43,11 @@ struct DepthSamplerOptions
   // nearer side's depth. 0 sigmas: off.
   double small_step_sigmas = 5.0;
   double small_step_min_m = 0.004;
+  // The depth image's misregistration with the RGB image: the reading at depth pixel q measures the ray of RGB pixel
+  // q + registration_offset_px (a few tenths of a pixel to a few pixels on a registered Xtion / Kinect image). A
+  // reading taken at the wrong ray puts an edge's depth where the surface is seen at that offset: on a surface seen
+  // at a grazing angle centimetres off, the same for every frame, so the map does not average it out. Zero: none.
+  Eigen::Vector2d registration_offset_px = Eigen::Vector2d::Zero();
 };
 
 struct DepthSample

@@ -47,7 +47,7 @@ bool occludedBySurfaceBeyondGap(const cv::Mat& depth_m, const Eigen::Vector2d& p
 // The valid depth readings in a band of +-band pixels across the edge at p: each pixel's signed offset from the edge
 // (its centre, across it) and its depth. Returns the smallest depth (infinity when none).
 double readBand(const cv::Mat& depth_m, const Eigen::Vector2d& p, const Eigen::Vector2d& n, int band,
-                std::vector<double>* offsets, std::vector<double>* depths)
+                const Eigen::Vector2d& registration_offset, std::vector<double>* offsets, std::vector<double>* depths)
 {
   offsets->clear();
   depths->clear();
@@ -62,7 +62,7 @@ double readBand(const cv::Mat& depth_m, const Eigen::Vector2d& p, const Eigen::V
     const float z = depth_m.at<float>(y, x);
     if (!std::isfinite(z))
       continue;
-    offsets->push_back((Eigen::Vector2d(x, y) - p).dot(n));
+    offsets->push_back((Eigen::Vector2d(x, y) + registration_offset - p).dot(n));
     depths->push_back(z);
     z_min = std::min(z_min, static_cast<double>(z));
   }
@@ -266,7 +266,7 @@ std::vector<DepthSample> sampleDepthAlongSegment(const cv::Mat& depth_m, const S
   {
     const double s = start + i * options.step_px;
     const Eigen::Vector2d p = segment.a + s * d;
-    const double z_min = readBand(depth_m, p, n, band, &offsets, &depths);
+    const double z_min = readBand(depth_m, p, n, band, options.registration_offset_px, &offsets, &depths);
     if (depths.empty())
       continue;
     const double jump = std::max(options.jump_min_m, options.jump_ratio * z_min);
@@ -279,8 +279,10 @@ std::vector<DepthSample> sampleDepthAlongSegment(const cv::Mat& depth_m, const S
     if (!edge)
       continue;
     DepthSample sample;
-    sample.pixel = p;
-    sample.t = s / length;
+    // The readings measure the rays through their pixels moved by the registration offset: along the edge too.
+    const double along = options.registration_offset_px.dot(d);
+    sample.pixel = p + along * d;
+    sample.t = (s + along) / length;
     sample.depth_m = edge->depth_m;
     sample.discontinuity = edge->far_seen;
     out.push_back(sample);
