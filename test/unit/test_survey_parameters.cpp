@@ -33,6 +33,7 @@ TEST(SurveyParameters, UnsetParametersKeepTheStructsDefaults)
   EXPECT_EQ(read.keyframes.min_translation_m, defaults.keyframes.min_translation_m);
   EXPECT_EQ(read.localization_sigma_m, defaults.localization_sigma_m);
   EXPECT_EQ(read.adjustment.odometry_sigma_per_deg, defaults.adjustment.odometry_sigma_per_deg);
+  EXPECT_EQ(read.rgbd.sampler.registration_offset_px, defaults.rgbd.sampler.registration_offset_px);
   EXPECT_EQ(read.floor.enabled, defaults.floor.enabled);
   EXPECT_EQ(read.floor.max_range_m, defaults.floor.max_range_m);
   EXPECT_EQ(read.cameras.max_rms_px, defaults.cameras.max_rms_px);
@@ -53,6 +54,7 @@ localization_sigma_m: 0.05
 localization_sigma_deg: 1.5
 localization_correlation_s: 8
 odometry: {sigma_m: 0.001, sigma_per_m: 0.02, sigma_deg: 0.1, sigma_per_deg: 0.03}
+depth_registration: {x_px: 0.7, y_px: -0.25}
 floor_lines: true
 floor: {height: 0.05, max_range: 8, tilt_sigma_deg: 0.1, height_sigma: 0.01}
 median_images: 9
@@ -80,6 +82,7 @@ cameras: []
   EXPECT_EQ(o.adjustment.odometry_sigma_per_m, 0.02);
   EXPECT_EQ(o.adjustment.odometry_sigma_deg, 0.1);
   EXPECT_EQ(o.adjustment.odometry_sigma_per_deg, 0.03);
+  EXPECT_EQ(o.rgbd.sampler.registration_offset_px, Eigen::Vector2d(0.7, -0.25));
   EXPECT_TRUE(o.floor.enabled);
   EXPECT_EQ(o.floor.floor_height_m, 0.05);
   EXPECT_EQ(o.floor.max_range_m, 8.0);
@@ -107,6 +110,7 @@ ransac: 1
 min_focal_ratio: 4
 max_focal_ratio: 3
 median_images: [1, 2]
+depth_registration: {x_px: 12}
 )");
   const ic::SurveyOptions o = ic::readSurveyParameters(source);
   const ic::SurveyOptions defaults;
@@ -115,6 +119,7 @@ median_images: [1, 2]
       "params.yaml: parameter ~min_map_support is 2.5, allowed: an integer in [1, 1000]",
       "params.yaml: parameter ~keyframe/min_translation is -1, allowed: a number in [0, 100] m",
       "params.yaml: parameter ~localization_sigma_m is nan, allowed: a number in [0, 10] m",
+      "params.yaml: parameter ~depth_registration/x_px is 12, allowed: a number in [-10, 10] px",
       "params.yaml: parameter ~median_images is a list of 2, allowed: an integer in [1, 255]",
       "params.yaml: parameter ~ransac is the number 1, allowed: true or false",
       "params.yaml: parameter ~max_rms_px is the string 'fast', allowed: a number in (0, 100] px",
@@ -127,6 +132,7 @@ median_images: [1, 2]
   EXPECT_EQ(o.localization_sigma_m, defaults.localization_sigma_m);
   EXPECT_EQ(o.cameras.median_images, defaults.cameras.median_images);
   EXPECT_EQ(o.cameras.matcher.calibration.ransac, defaults.cameras.matcher.calibration.ransac);
+  EXPECT_EQ(o.rgbd.sampler.registration_offset_px, defaults.rgbd.sampler.registration_offset_px);
 }
 
 TEST(SurveyParameters, MalformedParameterFilesAreRefused)
