@@ -52,8 +52,8 @@ struct DepthSamplerOptions
 
 struct DepthSample
 {
-  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();  // on the segment, px
-  double t = 0.0;                                   // (pixel - a) . (b - a) / |b - a|^2, in [0, 1]
+  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();  // on the segment (the ray its depth measures), px
+  double t = 0.0;                                   // (pixel - a) . (b - a) / |b - a|^2, about [0, 1]
   double depth_m = 0.0;                             // optical-frame z of the front surface at the edge
   bool discontinuity = false;                       // far readings were present and ignored
 };
