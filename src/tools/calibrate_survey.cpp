@@ -70,6 +70,9 @@ Options:
                         (default 0: off)
   --occlusion-test 0|1  the final check leaves out map lines that surfaces the survey's depth measured hide from
                         the camera (default 1)
+  --occluders-follow-adjustment 0|1
+                        those surfaces are inserted again under the map adjustment's corrected keyframe poses
+                        (default 0: at tf's poses)
   --camera NAME         calibrate only this camera
   --search-starts N     distinct results of the prior search refined per camera (default 4)
   --hypothesis-starts N extra starts from line-correspondence hypotheses in the prior's 3-sigma cone (default 0)
@@ -613,6 +616,8 @@ bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options)
   options->floor.max_range_m = cli.number("floor-max-range", options->floor.max_range_m);
   options->triangulated.enabled = cli.number("triangulated-lines", options->triangulated.enabled ? 1.0 : 0.0) != 0.0;
   options->occlusion.enabled = cli.number("occlusion-test", options->occlusion.enabled ? 1.0 : 0.0) != 0.0;
+  options->occlusion.follow_adjustment =
+      cli.number("occluders-follow-adjustment", options->occlusion.follow_adjustment ? 1.0 : 0.0) != 0.0;
   if (cli.flag("no-refine"))
     options->cameras.matcher.calibration.refine = false;
   if (cli.flag("no-ransac"))
@@ -839,6 +844,7 @@ int main(int argc, char** argv)
        "floor-height",
        "floor-max-range",
        "occlusion-test",
+       "occluders-follow-adjustment",
        "triangulated-lines"},
       {"no-refine", "no-ransac", "no-report", "quiet", "oracle", "oracle-details", "trace", "no-odometry"});
   if (cli.help())

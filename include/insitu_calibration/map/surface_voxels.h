@@ -37,9 +37,15 @@ struct SurfaceVoxelOptions
   double target_margin_per_m = 0.08;  // plus this times the range
   int min_hits = 2;
   double sample_step_m = 0.1;  // along a map line, where its visibility is tested (at most 100 samples per line)
-  // A keyframe keeps its depth samples thinned to one per cell of this size (camera frame), so that its surfaces can
-  // be inserted again under the map adjustment's corrected pose (Survey; about 0.1 MB per keyframe).
+  // With follow_adjustment a keyframe keeps its depth samples thinned to one per cell of this size (camera frame), so
+  // that its surfaces can be inserted again under the map adjustment's corrected pose (Survey; 12 bytes a sample, at
+  // most 19200 samples, 0.23 MB, per keyframe of a 640x480 depth image at pixel_step 4; fewer where the surfaces are
+  // near).
   double kept_cell_m = 0.025;
+  // Whether the surfaces follow the map adjustment (keyframes keep their samples, kept_cell_m); off by default: on
+  // the default world it rescued one of the four cameras refused at 2 cm / 0.5 deg (seed 2, tuned on), none of the
+  // three held out (README, "Survey calibration on the default world").
+  bool follow_adjustment = false;
 };
 
 class SurfaceVoxels

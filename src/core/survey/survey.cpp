@@ -93,7 +93,7 @@ Expected<bool> Survey::addRgbdFrame(const RgbdFrame& frame, const std::optional<
     if (surfaces_.use_count() > 1)  // a calibration holds these (the node's, running unlocked): copy on write
       surfaces_ = std::make_shared<SurfaceVoxels>(*surfaces_);
     surfaces_->insertDepth(frame);
-    if (insitu_calibration::adjusting(options_))  // inserted again under the corrected pose (computeAdjustment)
+    if (options_.occlusion.follow_adjustment && insitu_calibration::adjusting(options_))  // see computeAdjustment
       depth_samples = surfaces_->depthSamples(frame, options_.occlusion.kept_cell_m);
   }
   keyframe_data_.push_back(toKeyframe(frame, *lines, floorObservations(frame, unlifted)));
@@ -262,7 +262,7 @@ MapAdjustment Survey::computeAdjustment(const std::vector<Keyframe>& keyframes, 
   MapAdjustment out{
       rebuildLineMap(keyframes, corrections, options.map), corrections, used, dropped, 0.0, generation, nullptr};
   addLinesBeyondDepth(keyframes, corrections, options, &out.map);
-  if (options.occlusion.enabled)
+  if (options.occlusion.enabled && options.occlusion.follow_adjustment)
     out.surfaces = std::make_shared<SurfaceVoxels>(rebuildSurfaces(keyframes, corrections, options.occlusion));
   out.cpu_ms = cpuMsSince(start);
   return out;
