@@ -81,6 +81,9 @@ Options:
                         (default 0: off)
   --occlusion-test 0|1  the final check leaves out map lines that surfaces the survey's depth measured hide from
                         the camera (default 1)
+  --occluders-follow-adjustment 0|1
+                        those surfaces are inserted again under the map adjustment's corrected keyframe poses
+                        (default 0: at tf's poses)
   --camera NAME         calibrate only this camera
   --search-starts N     distinct results of the prior search refined per camera (default 4)
   --hypothesis-starts N extra starts from line-correspondence hypotheses in the prior's 3-sigma cone (default 0)
@@ -735,6 +738,8 @@ bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options)
   options->ceiling.enabled = cli.number("ceiling-lines", options->ceiling.enabled ? 1.0 : 0.0) != 0.0;
   options->triangulated.enabled = cli.number("triangulated-lines", options->triangulated.enabled ? 1.0 : 0.0) != 0.0;
   options->occlusion.enabled = cli.number("occlusion-test", options->occlusion.enabled ? 1.0 : 0.0) != 0.0;
+  options->occlusion.follow_adjustment =
+      cli.number("occluders-follow-adjustment", options->occlusion.follow_adjustment ? 1.0 : 0.0) != 0.0;
   if (cli.flag("no-refine"))
     options->cameras.matcher.calibration.refine = false;
   if (cli.flag("no-ransac"))
@@ -976,6 +981,7 @@ int main(int argc, char** argv)
        "floor-height",
        "floor-max-range",
        "occlusion-test",
+       "occluders-follow-adjustment",
        "triangulated-lines",
        "ceiling-lines"},
       {"no-refine", "no-ransac", "no-report", "quiet", "oracle", "oracle-details", "trace", "no-odometry"});

@@ -211,7 +211,9 @@ TEST(SurveyLocalization, AdjustmentComputedApartIsInstalledUnlessReset)
   ASSERT_TRUE(simulator) << simulator.error().describe();
   const std::vector<ic::FixedCameraConfig> cameras = defaultCameras();
   ASSERT_FALSE(cameras.empty());
-  ic::Survey survey(cameras);
+  ic::SurveyOptions options;
+  options.occlusion.follow_adjustment = true;
+  ic::Survey survey(cameras, options);
   std::vector<double> stamps;
   std::vector<Eigen::Vector3d> pivots;
   feedSurvey(*simulator, &survey, &stamps, &pivots);
@@ -227,7 +229,12 @@ TEST(SurveyLocalization, AdjustmentComputedApartIsInstalledUnlessReset)
   ASSERT_EQ(adjustment.corrections.size(), survey.keyframes().size());
   EXPECT_GT(adjustment.observations, 0u);
   const double cpu_ms = adjustment.cpu_ms;
+  // The surfaces come with it, inserted again under the corrected poses (the keyframes' depth samples).
+  ASSERT_TRUE(adjustment.surfaces);
+  EXPECT_GT(adjustment.surfaces->size(), survey.surfaces()->size() / 2);
+  const ic::SurfaceVoxels* corrected_surfaces = adjustment.surfaces.get();
   ASSERT_TRUE(survey.installAdjustment(std::move(adjustment)));
+  EXPECT_EQ(survey.surfaces().get(), corrected_surfaces);
   EXPECT_FALSE(survey.adjustmentDue());
   EXPECT_EQ(survey.stats().adjustment_cpu_ms, cpu_ms);
   // Installed is current: the lazy accessors use it as it is (no second adjustment) and agree with latest*().

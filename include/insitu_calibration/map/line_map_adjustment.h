@@ -27,6 +27,7 @@
 #include "insitu_calibration/error.h"
 #include "insitu_calibration/lines/line3d_fitter.h"
 #include "insitu_calibration/lines/line_map.h"
+#include "insitu_calibration/map/surface_voxels.h"
 
 namespace insitu_calibration
 {
@@ -70,6 +71,9 @@ struct Keyframe
   std::vector<FloorObservation> floor;      // not adjusted: placed on the floor under the corrected pose
   std::vector<FloorObservation> rgb;        // every RGB segment without a depth line, when lines are triangulated
   std::vector<CeilingObservation> ceiling;  // when ceiling lines are enabled
+  // Its depth samples in the camera frame (SurfaceVoxels::depthSamples, thinned), when the survey tests occlusion
+  // and adjusts the map: the surfaces are inserted again under the corrected pose.
+  std::vector<Eigen::Vector3f> surface;
 };
 
 // A keyframe's correction: T_map_camera(corrected) = C * T_map_camera(tf), C a rotation by yaw about the vertical
@@ -148,6 +152,12 @@ Line3d lineInMap(const Keyframe& keyframe, const KeyframeLine& line, const PoseC
 // The line map rebuilt from every keyframe's lines under the corrected poses (corrections: one per keyframe).
 LineMap rebuildLineMap(const std::vector<Keyframe>& keyframes, const std::vector<PoseCorrection>& corrections,
                        const LineMapOptions& options);
+
+// The surfaces the keyframes' depth samples (Keyframe::surface) measured, under the corrected poses (corrections: one
+// per keyframe): where a localiser's error smears them at tf's poses, a wall grows thick enough to hide the lines on it
+// from a camera that sees it at a grazing angle.
+SurfaceVoxels rebuildSurfaces(const std::vector<Keyframe>& keyframes, const std::vector<PoseCorrection>& corrections,
+                              const SurfaceVoxelOptions& options);
 
 // Each keyframe line's map line under the corrected poses: the closest of the compatible ones (direction within
 // max_angle_deg, end points within the map's lateral and depth limits of it, extents overlapping or at most

@@ -89,6 +89,9 @@ struct MapAdjustment
   size_t dropped = 0;
   double cpu_ms = 0.0;
   uint64_t generation = 0;  // Survey::keyframeGeneration() of its keyframes
+  // The keyframes' depth under the corrected poses (when the survey tests occlusion): at tf's poses a localiser's
+  // error smears the surfaces, and a smeared wall hides the lines on it from a camera that sees it at a grazing angle.
+  std::shared_ptr<SurfaceVoxels> surfaces;
 };
 
 class Survey
@@ -182,7 +185,8 @@ private:
   std::map<std::string, std::unique_ptr<FixedCamera>> cameras_;
   std::map<std::string, double> last_fixed_stamp_;
   std::vector<Keyframe> keyframe_data_;
-  std::shared_ptr<SurfaceVoxels> surfaces_;  // the keyframes' depth (options_.occlusion), none when disabled
+  // The keyframes' depth (options_.occlusion), none when disabled; replaced by the adjustment's (corrected poses).
+  mutable std::shared_ptr<SurfaceVoxels> surfaces_;
   // The adjusted map and corrections, a cache of keyframes_ (current while adjusted_ is true; has_adjustment_: one
   // was computed, perhaps before the newest keyframes).
   mutable LineMap adjusted_map_;

@@ -345,6 +345,17 @@ LineMap rebuildLineMap(const std::vector<Keyframe>& keyframes, const std::vector
   return map;
 }
 
+SurfaceVoxels rebuildSurfaces(const std::vector<Keyframe>& keyframes, const std::vector<PoseCorrection>& corrections,
+                              const SurfaceVoxelOptions& options)
+{
+  SurfaceVoxels surfaces(options);
+  for (size_t k = 0; k < keyframes.size(); ++k)
+    surfaces.insertSamples(
+        (k < corrections.size() ? corrections[k] : PoseCorrection()).apply(keyframes[k].T_map_camera),
+        keyframes[k].surface);
+  return surfaces;
+}
+
 namespace
 {
 // How far the observation o is from the map line (its larger end-point offset), or a negative value when it is not

@@ -15,6 +15,16 @@ double depthAt(const cv::Mat& depth, int row, int col)
     return depth.at<float>(row, col);
   return 0.0;
 }
+
+// The cell of a cubic grid of the given size holding the point; 21 bits per axis: +-52 km at 5 cm (points beyond
+// wrap: harmless, a building is far smaller).
+uint64_t cellKey(const Eigen::Vector3d& point, double size)
+{
+  const auto cell = [&](double v) {
+    return static_cast<uint64_t>(static_cast<int64_t>(std::floor(v / size)) & 0x1FFFFF);
+  };
+  return cell(point.x()) | (cell(point.y()) << 21) | (cell(point.z()) << 42);
+}
 }  // namespace
 
 SurfaceVoxels::SurfaceVoxels(const SurfaceVoxelOptions& options) : options_(options)
@@ -26,11 +36,7 @@ SurfaceVoxels::SurfaceVoxels(const SurfaceVoxelOptions& options) : options_(opti
 
 uint64_t SurfaceVoxels::key(const Eigen::Vector3d& point) const
 {
-  // 21 bits per axis: +-52 km at 5 cm; points beyond wrap (harmless: a building is far smaller).
-  const auto cell = [&](double v) {
-    return static_cast<uint64_t>(static_cast<int64_t>(std::floor(v / options_.voxel_m)) & 0x1FFFFF);
-  };
-  return cell(point.x()) | (cell(point.y()) << 21) | (cell(point.z()) << 42);
+  return cellKey(point, options_.voxel_m);
 }
 
 void SurfaceVoxels::insert(const Eigen::Vector3d& point)
@@ -46,8 +52,14 @@ bool SurfaceVoxels::occupied(const Eigen::Vector3d& point) const
 
 void SurfaceVoxels::insertDepth(const RgbdFrame& frame)
 {
+  insertSamples(frame.T_map_camera, depthSamples(frame));
+}
+
+std::vector<Eigen::Vector3f> SurfaceVoxels::depthSamples(const RgbdFrame& frame, double cell_m) const
+{
   const cv::Mat& depth = frame.depth;
-  const Eigen::Vector3d sensor = frame.T_map_camera.translation();
+  std::vector<Eigen::Vector3f> out;
+  std::unordered_set<uint64_t> cells;
   for (int row = options_.pixel_step / 2; row < depth.rows; row += options_.pixel_step)
     for (int col = options_.pixel_step / 2; col < depth.cols; col += options_.pixel_step)
     {
@@ -55,12 +67,25 @@ void SurfaceVoxels::insertDepth(const RgbdFrame& frame)
       if (!(z > 0.0 && z <= options_.max_range_m))
         continue;
       const Eigen::Vector2d ray = frame.camera.normalize(Eigen::Vector2d(col, row));
-      const Eigen::Vector3d point = frame.T_map_camera * Eigen::Vector3d(z * ray.x(), z * ray.y(), z);
-      // A layer 1.5 voxels deep behind the surface: a sight line crossing it meets two voxels at any angle.
-      const Eigen::Vector3d behind = 0.5 * options_.voxel_m * (point - sensor).normalized();
-      for (int k = 0; k < 4; ++k)
-        insert(point + k * behind);
+      const Eigen::Vector3d point(z * ray.x(), z * ray.y(), z);
+      if (cell_m > 0.0 && !cells.insert(cellKey(point, cell_m)).second)
+        continue;
+      out.push_back(point.cast<float>());
     }
+  return out;
+}
+
+void SurfaceVoxels::insertSamples(const Eigen::Isometry3d& T_map_camera, const std::vector<Eigen::Vector3f>& samples)
+{
+  for (const Eigen::Vector3f& sample : samples)
+  {
+    const Eigen::Vector3d local = sample.cast<double>();
+    const Eigen::Vector3d point = T_map_camera * local;
+    // A layer 1.5 voxels deep behind the surface: a sight line crossing it meets two voxels at any angle.
+    const Eigen::Vector3d behind = 0.5 * options_.voxel_m * (T_map_camera.linear() * local.normalized());
+    for (int k = 0; k < 4; ++k)
+      insert(point + k * behind);
+  }
 }
 
 bool SurfaceVoxels::blocks(const Eigen::Vector3d& from, const Eigen::Vector3d& to) const

@@ -147,15 +147,19 @@ Expected<bool> Survey::addRgbdFrame(const RgbdFrame& frame, const std::optional<
     return lines.error();
   }
   map_.insert(*lines);
+  std::vector<Eigen::Vector3f> depth_samples;
   if (surfaces_)
   {
     if (surfaces_.use_count() > 1)  // a calibration holds these (the node's, running unlocked): copy on write
       surfaces_ = std::make_shared<SurfaceVoxels>(*surfaces_);
     surfaces_->insertDepth(frame);
+    if (options_.occlusion.follow_adjustment && insitu_calibration::adjusting(options_))  // see computeAdjustment
+      depth_samples = surfaces_->depthSamples(frame, options_.occlusion.kept_cell_m);
   }
   keyframe_data_.push_back(toKeyframe(frame, *lines, floorObservations(frame, unlifted)));
   if (options_.ceiling.enabled)
     keyframe_data_.back().ceiling = ceilingObservations(frame, *lines, unlifted, options_.map);
+  keyframe_data_.back().surface = std::move(depth_samples);
   if (options_.triangulated.enabled)
     for (const auto& u : unlifted)
       keyframe_data_.back().rgb.push_back({frame.camera.normalize(u.segment.a), frame.camera.normalize(u.segment.b)});
@@ -317,8 +321,11 @@ MapAdjustment Survey::computeAdjustment(const std::vector<Keyframe>& keyframes, 
     used = observations.size();
     dropped = result->dropped;
   }
-  MapAdjustment out{rebuildLineMap(keyframes, corrections, options.map), corrections, used, dropped, 0.0, generation};
+  MapAdjustment out{
+      rebuildLineMap(keyframes, corrections, options.map), corrections, used, dropped, 0.0, generation, nullptr};
   addLinesBeyondDepth(keyframes, corrections, options, &out.map);
+  if (options.occlusion.enabled && options.occlusion.follow_adjustment)
+    out.surfaces = std::make_shared<SurfaceVoxels>(rebuildSurfaces(keyframes, corrections, options.occlusion));
   out.cpu_ms = cpuMsSince(start);
   return out;
 }
@@ -348,6 +355,12 @@ void Survey::cacheAdjustment(MapAdjustment adjustment) const
   adjusted_ = adjustment.generation == keyframe_generation_;
   has_adjustment_ = true;
   adjusted_map_ = std::move(adjustment.map);
+  if (adjustment.surfaces)
+  {  // keyframes that came after the adjustment's, at tf's poses
+    for (size_t k = adjustment.corrections.size(); k < keyframe_data_.size(); ++k)
+      adjustment.surfaces->insertSamples(keyframe_data_[k].T_map_camera, keyframe_data_[k].surface);
+    surfaces_ = std::move(adjustment.surfaces);
+  }
   corrections_ = std::move(adjustment.corrections);
 }
 
@@ -384,6 +397,7 @@ Expected<FixedCameraResult> Survey::calibrate(const std::string& name, const std
 {
   if (!hasCamera(name))
     return Error(ErrorCode::kInvalidInput, "unknown camera '" + name + "'");
+  lineMap();  // adjusts the map (and the surfaces with it) if new keyframes came
   // The camera holds the voxels only while it calibrates: a holder makes the next keyframe copy them.
   camera(name).setOccluders(surfaces_);
   auto result = camera(name).calibrate(mapSegments(), world_frame, mapLineSigmas());

@@ -82,6 +82,8 @@ SurveyOptions readSurveyParameters(ParameterSource& source, SurveyOptions option
   readCeilingParameters(source, options.ceiling);
   readTriangulationParameters(source, options.triangulated);
   options.occlusion.enabled = source.flag("occlusion_test", options.occlusion.enabled);
+  options.occlusion.follow_adjustment =
+      source.flag("occlusion_follows_adjustment", options.occlusion.follow_adjustment);
   readCameraParameters(source, options.cameras);
   FieldThresholds field = thresholds ? *thresholds : FieldThresholds{};
   field.cameras = options.cameras;
