@@ -8,24 +8,12 @@
 #include <random>
 
 #include "insitu_calibration/map/line_map_adjustment.h"
+#include "insitu_calibration/test_support/test_helpers.h"
 
 namespace ic = insitu_calibration;
 
 namespace
 {
-// A camera at (x, y, 1.2) looking horizontally at yaw (optical z forward, x right, y down).
-Eigen::Isometry3d cameraPose(double x, double y, double yaw)
-{
-  Eigen::Matrix3d base_from_optical;
-  base_from_optical.col(0) = -Eigen::Vector3d::UnitY();
-  base_from_optical.col(1) = -Eigen::Vector3d::UnitZ();
-  base_from_optical.col(2) = Eigen::Vector3d::UnitX();
-  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-  t.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() * base_from_optical;
-  t.translation() = Eigen::Vector3d(x, y, 1.2);
-  return t;
-}
-
 // The depth a camera at the true pose measures of the wall y = 0 (exact, 0 where the ray misses it), posed at tf.
 ic::RgbdFrame wallFrame(const Eigen::Isometry3d& truth, const Eigen::Isometry3d& tf)
 {
@@ -63,7 +51,7 @@ WallSurvey makeWallSurvey(const ic::SurfaceVoxels& sampler)
   WallSurvey s;
   for (int k = 0; k < 12; ++k)
   {
-    const Eigen::Isometry3d truth = cameraPose(0.25 * k, 1.5, -40.0 * M_PI / 180.0);
+    const Eigen::Isometry3d truth = ic::test::levelCameraPose(0.25 * k, 1.5, -40.0 * M_PI / 180.0);
     const ic::PoseCorrection error{0.02 * n(rng), 0.02 * n(rng), 0.5 * M_PI / 180.0 * n(rng)};
     ic::Keyframe kf;
     kf.T_map_camera = error.apply(truth);
@@ -89,7 +77,7 @@ int occupiedOnlyIn(const ic::SurfaceVoxels& a, const ic::SurfaceVoxels& b)
 
 TEST(AdjustedSurfaces, SamplesInsertedUnderThePoseAreTheDepthInsertedThere)
 {
-  const Eigen::Isometry3d pose = cameraPose(0.3, 1.5, -0.7);
+  const Eigen::Isometry3d pose = ic::test::levelCameraPose(0.3, 1.5, -0.7);
   const ic::RgbdFrame frame = wallFrame(pose, pose);
   ic::SurfaceVoxelOptions every_pixel;
   every_pixel.pixel_step = 1;  // samples 0.7 cm apart per metre of range: up to 3.5 m, several in a 2.5 cm cell

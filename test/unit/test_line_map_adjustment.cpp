@@ -6,6 +6,7 @@
 #include <random>
 
 #include "insitu_calibration/map/line_map_adjustment.h"
+#include "insitu_calibration/test_support/test_helpers.h"
 
 namespace ic = insitu_calibration;
 
@@ -24,19 +25,6 @@ struct Scene
   std::vector<ic::LineObservation> observations;
 };
 
-// A camera at (x, y, 1.2) looking horizontally at yaw (optical z forward, x right, y down).
-Eigen::Isometry3d cameraPose(double x, double y, double yaw)
-{
-  Eigen::Matrix3d base_from_optical;
-  base_from_optical.col(0) = -Eigen::Vector3d::UnitY();
-  base_from_optical.col(1) = -Eigen::Vector3d::UnitZ();
-  base_from_optical.col(2) = Eigen::Vector3d::UnitX();
-  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-  t.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() * base_from_optical;
-  t.translation() = Eigen::Vector3d(x, y, 1.2);
-  return t;
-}
-
 // Edges 3-6 m ahead of the route (x), keyframes in twins at the same true pose with opposite localiser errors (so
 // that the priors' average, which fixes the gauge, is the truth). Noise: 2D end points (px) and depth along the
 // line of sight (m, times z^2).
@@ -54,7 +42,7 @@ Scene makeScene(double pixel_noise, double depth_noise_per_m2, std::mt19937& rng
   }
   for (int k = 0; k < 10; ++k)
   {
-    const Eigen::Isometry3d pose = cameraPose(0.2 * k - 1.0, 0.1 * u(rng), 0.15 * u(rng));
+    const Eigen::Isometry3d pose = ic::test::levelCameraPose(0.2 * k - 1.0, 0.1 * u(rng), 0.15 * u(rng));
     const ic::PoseCorrection e{0.02 * n(rng), 0.02 * n(rng), 0.5 * M_PI / 180.0 * n(rng)};
     for (const double sign : {1.0, -1.0})
     {

@@ -233,6 +233,15 @@ TEST(RoutePlanner, LanesAcrossAnEmptyRoomAndAroundAnObstacle)
 
 namespace
 {
+// A 10 x 6 m room with one rectangular block standing on its floor.
+sim::FloorPlan roomWithBlock(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi)
+{
+  sim::FloorPlan plan;
+  plan.walkable = Eigen::AlignedBox2d(Eigen::Vector2d(0, 0), Eigen::Vector2d(10, 6));
+  plan.obstacles.push_back({lo, Eigen::Vector2d(hi.x(), lo.y()), hi, Eigen::Vector2d(lo.x(), hi.y())});
+  return plan;
+}
+
 // The 10-degree heading bins the robot faces (driving or turning in place) while within `radius` of `place`.
 std::set<int> headingsNear(const sim::RouteTrajectory& trajectory, const Eigen::Vector2d& place, double radius)
 {
@@ -251,10 +260,7 @@ std::set<int> headingsNear(const sim::RouteTrajectory& trajectory, const Eigen::
 // spread over the room, and keep the clearance.
 TEST(RoutePlanner, LookAroundsFaceEveryDirectionAndKeepClear)
 {
-  sim::FloorPlan plan;
-  plan.walkable = Eigen::AlignedBox2d(Eigen::Vector2d(0, 0), Eigen::Vector2d(10, 6));
-  plan.obstacles.push_back(
-      {Eigen::Vector2d(4, 2), Eigen::Vector2d(6, 2), Eigen::Vector2d(6, 3), Eigen::Vector2d(4, 3)});
+  const sim::FloorPlan plan = roomWithBlock(Eigen::Vector2d(4, 2), Eigen::Vector2d(6, 3));
   sim::RoutePlanOptions options;
   const auto lanes = sim::planCoverageRoute(plan, options);
   options.look_around_spacing_m = 3.0;
@@ -305,10 +311,7 @@ TEST(RoutePlanner, LookAroundsFaceEveryDirectionAndKeepClear)
 // (here: up to the obstacle), then the lanes; a leg that starts far outside the floor is left out.
 TEST(RoutePlanner, ViewLegsAreDrivenFirstAlongTheirDirections)
 {
-  sim::FloorPlan plan;
-  plan.walkable = Eigen::AlignedBox2d(Eigen::Vector2d(0, 0), Eigen::Vector2d(10, 6));
-  plan.obstacles.push_back(
-      {Eigen::Vector2d(6, 2), Eigen::Vector2d(7, 2), Eigen::Vector2d(7, 4), Eigen::Vector2d(6, 4)});
+  const sim::FloorPlan plan = roomWithBlock(Eigen::Vector2d(6, 2), Eigen::Vector2d(7, 4));
   sim::RoutePlanOptions options;
   // A camera on the west wall looking east (its leg stops 0.45 m before the obstacle at x = 6), one in the north-east
   // corner looking south-west, and one 8 m outside the building.

@@ -4,6 +4,8 @@
 
 #include <cmath>
 
+#include <Eigen/Geometry>
+
 #include "insitu_calibration/camera/camera_model.h"
 
 namespace insitu_calibration
@@ -27,6 +29,18 @@ inline double lambdaDifference(double a, double b, double corner_radius_px)
   return std::abs(a - b) * corner_radius_px * corner_radius_px;
 }
 
+// An optical frame (z forward, x right, y down) at (x, y, height) looking horizontally towards yaw about world z.
+inline Eigen::Isometry3d levelCameraPose(double x, double y, double yaw, double height = 1.2)
+{
+  Eigen::Matrix3d base_from_optical;
+  base_from_optical.col(0) = -Eigen::Vector3d::UnitY();
+  base_from_optical.col(1) = -Eigen::Vector3d::UnitZ();
+  base_from_optical.col(2) = Eigen::Vector3d::UnitX();
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() * base_from_optical;
+  t.translation() = Eigen::Vector3d(x, y, height);
+  return t;
+}
 }  // namespace test
 }  // namespace insitu_calibration
 
