@@ -32,6 +32,10 @@ struct CameraPrior
   double fov_sigma_relative = 0.2;
 };
 
+// Whether a camera centre lies more than max_sigmas position sigmas from the prior's position (the final check's
+// limit, FixedCameraOptions::max_prior_distance_sigmas; max_sigmas <= 0: never).
+bool beyondPriorDistance(const Eigen::Vector3d& centre, const CameraPrior& prior, double max_sigmas);
+
 // The pin-hole camera the prior describes, optionally perturbed (yaw about world z, pitch about the camera's x
 // axis, field of view scaled).
 CameraModel cameraFromPrior(const CameraPrior& prior, int image_width, int image_height, double yaw_deg = 0.0,

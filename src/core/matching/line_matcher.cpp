@@ -133,8 +133,7 @@ Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_li
                  "the camera prior needs a finite position, a non-zero direction and a "
                  "horizontal field of view between 0 and 180 degrees");
   matching::MatchingProblem problem(map_lines, map_line_sigmas_m, image_lines, image_width, image_height, options);
-  problem.prior_position = prior.position;
-  problem.max_prior_distance_m = options.max_prior_distance_sigmas * prior.position_sigma_m;
+  problem.prior = &prior;
   return matching::matchFromStarts(problem, matching::searchPrior(problem, prior), options.initial_max_distance_px,
                                    true);
 }
@@ -150,6 +149,11 @@ Expected<LineMatchResult> matchAndCalibrateFrom(const std::vector<Segment3d>& ma
   const matching::MatchingProblem problem(map_lines, map_line_sigmas_m, image_lines, image_width, image_height,
                                           options);
   return matching::matchFromStarts(problem, {start}, options.known_camera_max_distance_px, false);
+}
+
+bool beyondPriorDistance(const Eigen::Vector3d& centre, const CameraPrior& prior, double max_sigmas)
+{
+  return max_sigmas > 0.0 && (centre - prior.position).norm() > max_sigmas * prior.position_sigma_m;
 }
 
 double explanationScore(const std::vector<Segment3d>& map_lines,

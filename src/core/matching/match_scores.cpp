@@ -67,8 +67,8 @@ double explanationScore(const CameraModel& camera, const MatchingProblem& proble
 double rankingScore(const CameraModel& camera, const MatchingProblem& problem)
 {
   const double score = explanationScore(camera, problem);
-  const bool far = problem.prior_position && problem.max_prior_distance_m > 0.0 &&
-                   (camera.pose().center() - *problem.prior_position).norm() > problem.max_prior_distance_m;
+  const bool far = problem.prior && beyondPriorDistance(camera.pose().center(), *problem.prior,
+                                                        problem.options.max_prior_distance_sigmas);
   return far ? score + kFarFromPriorPenalty : score;
 }
 }  // namespace matching

@@ -3,7 +3,6 @@
 #ifndef INSITU_CALIBRATION_MATCHING_MATCHING_PROBLEM_H
 #define INSITU_CALIBRATION_MATCHING_MATCHING_PROBLEM_H
 
-#include <optional>
 #include <set>
 #include <utility>
 #include <vector>
@@ -37,9 +36,9 @@ struct MatchingProblem
   const int width;
   const int height;
   const LineMatcherOptions& options;
-  // With a prior and options.max_prior_distance_sigmas > 0: results farther from prior_position than this rank last.
-  std::optional<Eigen::Vector3d> prior_position;
-  double max_prior_distance_m = 0.0;
+  // With a prior (matchAndCalibrate's, outliving the problem): results beyondPriorDistance of it by
+  // options.max_prior_distance_sigmas rank last.
+  const CameraPrior* prior = nullptr;
 };
 
 // The explanation score (below) plus kFarFromPriorPenalty when the camera is beyond the problem's prior distance:

@@ -134,14 +134,14 @@ Status FixedCamera::check(const CameraCalibration& c, size_t matched_lines, bool
     return Error(ErrorCode::kNotEnoughData, "only " + std::to_string(matched_lines) + " lines matched (" +
                                                 std::to_string(options_.min_matched_lines) +
                                                 " needed); survey more of the camera's view");
-  if (config_.prior && check_prior)
+  if (config_.prior && check_prior &&
+      beyondPriorDistance(c.camera.pose().center(), *config_.prior, options_.max_prior_distance_sigmas))
   {
     const double distance = (c.camera.pose().center() - config_.prior->position).norm();
     const double limit = options_.max_prior_distance_sigmas * config_.prior->position_sigma_m;
-    if (distance > limit)
-      return Error(ErrorCode::kNoSolution, "the camera came out " + std::to_string(distance) +
-                                               " m from its prior position (more than " + std::to_string(limit) +
-                                               " m); the matches are probably wrong, or the prior is");
+    return Error(ErrorCode::kNoSolution, "the camera came out " + std::to_string(distance) +
+                                             " m from its prior position (more than " + std::to_string(limit) +
+                                             " m); the matches are probably wrong, or the prior is");
   }
   if (c.refinement)
   {
@@ -191,7 +191,7 @@ bool FixedCamera::priorRulesOut(const CameraModel& alternative, const CameraMode
   const CameraPrior& p = *config_.prior;
   const double d_alternative = (alternative.pose().center() - p.position).norm();
   const double d_accepted = (accepted.pose().center() - p.position).norm();
-  return d_alternative > options_.max_prior_distance_sigmas * p.position_sigma_m &&
+  return beyondPriorDistance(alternative.pose().center(), p, options_.max_prior_distance_sigmas) &&
          d_alternative - d_accepted > options_.ambiguity.prior_margin_sigmas * p.position_sigma_m;
 }
 
