@@ -86,6 +86,9 @@ Options:
                         (default 0: at tf's poses)
   --camera NAME         calibrate only this camera
   --search-starts N     distinct results of the prior search refined per camera (default 4)
+  --local-search-starts N
+                        the local moves (basin hopping, influence check) run from this many of the best refined
+                        starts, the best result wins (default 1: from the best start only)
   --hypothesis-starts N extra starts from line-correspondence hypotheses in the prior's 3-sigma cone (default 0)
   --truth-dir DIR       the simulator's truth folder (<bag>_truth): also report, per camera, how many matches pair
                         the wrong edges and how far the matched map lines are from the true edges, the localiser's
@@ -569,6 +572,11 @@ void calibrateOracleVariants(const OracleData& d, const ic::FixedCameraOptions& 
   const std::vector<std::pair<const char*, const ic::CorrespondenceSet*>> variants = {
       {"oracle", &d.set}, {"  true 3D", &d.true_world}, {"  true 2D", &d.true_image}, {"  both true", &d.true_both}};
   const ic::CameraModel& t = d.truth.camera;
+  const int w = d.truth.image_width, h = d.truth.image_height;
+  // The matcher's explanation score (lower is better) of the true camera: a pipeline result that scores lower than
+  // it is one the matcher cannot tell from the truth by its score.
+  std::printf("  explanation score of the true camera %.2f\n",
+              ic::explanationScore(d.map, d.polylines, t, w, h, options.matcher));
   for (const auto& [label, data] : variants)
   {
     const auto calibration = ic::calibrateCamera(*data, options.matcher.calibration);
@@ -582,11 +590,12 @@ void calibrateOracleVariants(const OracleData& d, const ic::FixedCameraOptions& 
     const ic::CameraUncertainty& u = calibration->uncertainty;
     std::printf(
         "  %s: %zu matches (%zu inliers): focal %+.4f %%, pp %.2f px, lambda %.2f %%, rotation %.4f deg, position "
-        "%.2f mm, RMS %.3f px; 1 sigma fx %.4f %%, lambda %.2f %%, rotation %.4f deg, position %.2f mm\n",
+        "%.2f mm, RMS %.3f px; 1 sigma fx %.4f %%, lambda %.2f %%, rotation %.4f deg, position %.2f mm; explanation "
+        "score %.2f\n",
         label, d.matches.size(), calibration->inlier_count, 100.0 * e.focal_relative, e.principal_point_px,
         100.0 * e.lambda_relative, e.rotation_rad * 180.0 / M_PI, 1000.0 * e.center_m, calibration->reprojection.rms_px,
         100.0 * u.fx / t.intrinsics().fx, 100.0 * u.lambda / std::abs(t.distortion().lambda), u.rotation_deg,
-        1000.0 * u.position_m);
+        1000.0 * u.position_m, ic::explanationScore(d.map, d.polylines, calibration->camera, w, h, options.matcher));
   }
 }
 
@@ -746,6 +755,8 @@ bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options)
     options->cameras.matcher.calibration.ransac = false;
   options->cameras.matcher.search_starts =
       static_cast<int>(cli.number("search-starts", options->cameras.matcher.search_starts));
+  options->cameras.matcher.local_search_starts =
+      static_cast<int>(cli.number("local-search-starts", options->cameras.matcher.local_search_starts));
   options->cameras.matcher.hypothesis_starts =
       static_cast<int>(cli.number("hypothesis-starts", options->cameras.matcher.hypothesis_starts));
   if (cli.flag("trace"))
@@ -967,6 +978,7 @@ int main(int argc, char** argv)
        "min-support",
        "camera",
        "search-starts",
+       "local-search-starts",
        "hypothesis-starts",
        "truth-dir",
        "coverage-diagnosis",

@@ -38,6 +38,7 @@ TEST(SurveyParameters, UnsetParametersKeepTheStructsDefaults)
   EXPECT_EQ(read.floor.max_range_m, defaults.floor.max_range_m);
   EXPECT_EQ(read.cameras.max_rms_px, defaults.cameras.max_rms_px);
   EXPECT_EQ(read.cameras.matcher.search_starts, defaults.cameras.matcher.search_starts);
+  EXPECT_EQ(read.cameras.matcher.local_search_starts, defaults.cameras.matcher.local_search_starts);
   EXPECT_EQ(read.cameras.matcher.calibration.ransac_options.inlier_threshold_px,
             defaults.cameras.matcher.calibration.ransac_options.inlier_threshold_px);
   EXPECT_EQ(read.cameras.matcher.calibration.refine, defaults.cameras.matcher.calibration.refine);
@@ -63,6 +64,8 @@ min_focal_ratio: 0.3
 max_focal_ratio: 5
 min_matched_lines: 12
 search_starts: 6
+hypothesis_starts: 3
+local_search_starts: 2
 ransac_threshold_px: 4.5
 ransac: false
 refine: no
@@ -94,6 +97,8 @@ cameras: []
   EXPECT_EQ(o.cameras.max_focal_ratio, 5.0);
   EXPECT_EQ(o.cameras.min_matched_lines, 12u);
   EXPECT_EQ(o.cameras.matcher.search_starts, 6);
+  EXPECT_EQ(o.cameras.matcher.hypothesis_starts, 3);
+  EXPECT_EQ(o.cameras.matcher.local_search_starts, 2);
   EXPECT_EQ(o.cameras.matcher.calibration.ransac_options.inlier_threshold_px, 4.5);
   EXPECT_FALSE(o.cameras.matcher.calibration.ransac);
   EXPECT_FALSE(o.cameras.matcher.calibration.refine);

@@ -86,6 +86,9 @@ struct LineMatcherOptions
   // - influence check: the influence_candidates most influential matches (Cook's distance at least min_influence)
   //   each banned in turn and the matching redone.
   int max_local_rounds = 6;
+  // The local moves run from this many of the best refined starts (each to its own local optimum); the result
+  // explaining the image best wins. 1: from the best start only.
+  int local_search_starts = 1;
   bool basin_hopping = true;
   double hop_position_m = 0.15;
   double hop_focal_relative = 0.04;

@@ -3,6 +3,7 @@
 // match_refinement: step 3 from one start; local_moves: basin hopping and the influence check).
 #include "insitu_calibration/matching/line_matcher.h"
 
+#include <algorithm>
 #include <limits>
 #include <optional>
 #include <string>
@@ -40,11 +41,11 @@ Status checkMatchInputs(const std::vector<Segment3d>& map_lines,
   return Success{};
 }
 
-// Each start refined (match, calibrate, re-match); the one that explains the image best.
-Expected<Incumbent> bestOfStarts(const MatchingProblem& problem, const std::vector<CameraModel>& starts,
-                                 double initial_max_distance_px)
+// Each start refined (match, calibrate, re-match), best explanation first.
+Expected<std::vector<Incumbent>> refinedStarts(const MatchingProblem& problem, const std::vector<CameraModel>& starts,
+                                               double initial_max_distance_px)
 {
-  std::optional<Incumbent> best;
+  std::vector<Incumbent> refined;
   std::string last_error = "no start camera";
   for (const CameraModel& start : starts)
   {
@@ -57,12 +58,25 @@ Expected<Incumbent> bestOfStarts(const MatchingProblem& problem, const std::vect
     }
     const double score = rankingScore(candidate->calibration.camera, problem);
     traceResult(problem.options, "start", *candidate, score);
-    if (score < (best ? best->score : std::numeric_limits<double>::infinity()))
-      best = Incumbent{std::move(*candidate), score, {}};
+    refined.push_back(Incumbent{std::move(*candidate), score, {}});
   }
-  if (!best)
+  if (refined.empty())
     return Error(ErrorCode::kNoSolution, "no start of the prior search led to a calibration: " + last_error);
-  return std::move(*best);
+  std::stable_sort(refined.begin(), refined.end(),
+                   [](const Incumbent& a, const Incumbent& b) { return a.score < b.score; });
+  return refined;
+}
+
+// The local moves (local_moves.h) alternated while either explains the image better, at most max_local_rounds times.
+void improveLocally(const MatchingProblem& problem, bool hop, Incumbent* incumbent)
+{
+  for (int round = 0; round < problem.options.max_local_rounds; ++round)
+  {
+    const bool hopped = hop && problem.options.basin_hopping && hopRound(problem, incumbent);
+    const bool pruned = influenceRound(problem, incumbent);
+    if (!hopped && !pruned)
+      break;
+  }
 }
 
 // The chosen result calibrated once more with the unmatched image lines as plumb lines (only here: each adds two
@@ -88,25 +102,28 @@ void calibrateWithPlumbLines(const MatchingProblem& problem, LineMatchResult* be
       best->matches.push_back(best->candidate_matches[k]);
 }
 
-// The best start, then the local moves (local_moves.h) alternated while either explains the image better, at most
-// max_local_rounds times, then the plumb lines.
+// The local moves from each of the local_search_starts best starts (a wrong local optimum found from one start is
+// often beaten by the moves from another), the result that explains the image best, then the plumb lines.
 Expected<LineMatchResult> matchFromStarts(const MatchingProblem& problem, const std::vector<CameraModel>& starts,
                                           double initial_max_distance_px, bool hop)
 {
-  Expected<Incumbent> best = bestOfStarts(problem, starts, initial_max_distance_px);
-  if (!best)
-    return best.error();
-  const LineMatcherOptions& options = problem.options;
-  for (int round = 0; round < options.max_local_rounds; ++round)
+  Expected<std::vector<Incumbent>> refined = refinedStarts(problem, starts, initial_max_distance_px);
+  if (!refined)
+    return refined.error();
+  const size_t explored =
+      std::min(refined->size(), static_cast<size_t>(std::max(1, problem.options.local_search_starts)));
+  size_t best = 0;
+  for (size_t k = 0; k < explored; ++k)
   {
-    const bool hopped = hop && options.basin_hopping && hopRound(problem, &*best);
-    const bool pruned = influenceRound(problem, &*best);
-    if (!hopped && !pruned)
-      break;
+    trace(problem.options, "local moves from start %zu (score %.3f)", k + 1, (*refined)[k].score);
+    improveLocally(problem, hop, &(*refined)[k]);
+    if ((*refined)[k].score < (*refined)[best].score)
+      best = k;
   }
-  if (options.min_straight_line_px > 0.0)
-    calibrateWithPlumbLines(problem, &best->result);
-  return std::move(best->result);
+  LineMatchResult result = std::move((*refined)[best].result);
+  if (problem.options.min_straight_line_px > 0.0)
+    calibrateWithPlumbLines(problem, &result);
+  return result;
 }
 }  // namespace
 }  // namespace matching

@@ -69,6 +69,8 @@ void readCameraParameters(ParameterSource& read, FixedCameraOptions& camera)
   camera.matcher.search_starts = read.integer("search_starts", camera.matcher.search_starts, Range::integers(1, 64));
   camera.matcher.hypothesis_starts =
       read.integer("hypothesis_starts", camera.matcher.hypothesis_starts, Range::integers(0, 16));
+  camera.matcher.local_search_starts =
+      read.integer("local_search_starts", camera.matcher.local_search_starts, Range::integers(1, 32));
   CalibrationOptions& calibration = camera.matcher.calibration;
   calibration.refine = read.flag("refine", calibration.refine);
   calibration.ransac = read.flag("ransac", calibration.ransac);
