@@ -9,7 +9,9 @@
 // seen from height h lands on the floor shifted by e / (h - e) times the camera's move across it, so the slope of
 // that regression tells an edge min_edge_height_m above the floor (a table's edge, a skirting board's top) from the
 // floor at confirm_sigmas. Candidates whose segment has depth that disagrees with the floor are refused at
-// extraction, and a floor line that a depth map line already holds (over half its extent) is left out.
+// extraction, and a floor line that a depth map line already holds (over half its extent) is left out. A line seen
+// only from one offset across it (along a straight leg of the route) leaves the slope unresolved: optionally
+// (depth_confirmation, extend_confirmed) its depth or a confirmed floor line it continues confirms it instead.
 #ifndef INSITU_CALIBRATION_MAP_FLOOR_LINES_H
 #define INSITU_CALIBRATION_MAP_FLOOR_LINES_H
 
