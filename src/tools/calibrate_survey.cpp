@@ -73,6 +73,10 @@ Options:
                         keyframes become map lines (default 0: off)
   --floor-height M      the floor plane's z in the world frame (default 0)
   --floor-max-range M   floor lines farther from the camera are not used (default 12)
+  --floor-extended 0|1  with --floor-lines 1: floor lines seen only along the route (their slope test
+                        unresolved) are confirmed by depth that put them on the floor in 2 or more keyframes or as
+                        the continuation of a confirmed floor line, and depth lines on the floor too uncertain for
+                        the map become floor candidates (default 0: off)
   --ceiling-lines 0|1   RGB lines on the ceiling (the horizontal plane above the Xtion that its depth lines
                         measured) whose own depth is too poor for the map or missing, placed on it by ray-plane
                         intersection and confirmed from several keyframes, become map lines (default 0: off)
@@ -396,9 +400,10 @@ void reportSourceAgainstTruth(const std::string& truth_dir, const ic::Survey& su
     within_cm += e.edge >= 0 && e.distance_m <= 0.01 ? 1 : 0;
     std::printf(
         "truth-%s-line %.2f m long, %.1f m from the keyframes' mean: off its edge %.2f mm, predicted sigma "
-        "%.2f mm\n",
+        "%.2f mm, [%.2f %.2f %.2f] -> [%.2f %.2f %.2f], support %d\n",
         label.c_str(), line.length(), (0.5 * (line.a() + line.b()) - survey.mapPlacement().centre).norm(),
-        e.edge >= 0 ? 1000.0 * e.distance_m : NAN, 1000.0 * line.sigma());
+        e.edge >= 0 ? 1000.0 * e.distance_m : NAN, 1000.0 * line.sigma(), line.a().x(), line.a().y(), line.a().z(),
+        line.b().x(), line.b().y(), line.b().z(), line.support);
   }
   std::printf(
       "truth-%s %zu lines: %zu within 3 predicted sigmas of a true edge, %zu within 1 cm, %zu on "
@@ -744,6 +749,9 @@ bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options)
   options->floor.enabled = cli.number("floor-lines", options->floor.enabled ? 1.0 : 0.0) != 0.0;
   options->floor.floor_height_m = cli.number("floor-height", options->floor.floor_height_m);
   options->floor.max_range_m = cli.number("floor-max-range", options->floor.max_range_m);
+  const bool extended = cli.number("floor-extended", options->floor.depth_confirmation ? 1.0 : 0.0) != 0.0;
+  options->floor.depth_confirmation = options->floor.extend_confirmed = extended;
+
   options->ceiling.enabled = cli.number("ceiling-lines", options->ceiling.enabled ? 1.0 : 0.0) != 0.0;
   options->triangulated.enabled = cli.number("triangulated-lines", options->triangulated.enabled ? 1.0 : 0.0) != 0.0;
   options->occlusion.enabled = cli.number("occlusion-test", options->occlusion.enabled ? 1.0 : 0.0) != 0.0;
@@ -952,6 +960,8 @@ int calibrateCameras(const ic::CommandLine& cli, ic::Survey& survey)
       reportSourceAgainstTruth(cli.value("truth-dir"), survey, ic::MapLineSource::kTriangulated, "triangulated");
     if (survey.options().ceiling.enabled)
       reportSourceAgainstTruth(cli.value("truth-dir"), survey, ic::MapLineSource::kCeiling, "ceiling");
+    if (survey.options().floor.enabled)
+      reportSourceAgainstTruth(cli.value("truth-dir"), survey, ic::MapLineSource::kFloor, "floor");
     reportMapAgainstTruth(cli.value("truth-dir"), survey);
   }
   if (cli.flag("oracle") && cli.has("truth-dir"))
@@ -992,6 +1002,7 @@ int main(int argc, char** argv)
        "depth-registration",
        "floor-height",
        "floor-max-range",
+       "floor-extended",
        "occlusion-test",
        "occluders-follow-adjustment",
        "triangulated-lines",

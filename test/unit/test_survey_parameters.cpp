@@ -36,6 +36,7 @@ TEST(SurveyParameters, UnsetParametersKeepTheStructsDefaults)
   EXPECT_EQ(read.rgbd.sampler.registration_offset_px, defaults.rgbd.sampler.registration_offset_px);
   EXPECT_EQ(read.floor.enabled, defaults.floor.enabled);
   EXPECT_EQ(read.floor.max_range_m, defaults.floor.max_range_m);
+  EXPECT_EQ(read.floor.depth_confirmation, defaults.floor.depth_confirmation);
   EXPECT_EQ(read.cameras.max_rms_px, defaults.cameras.max_rms_px);
   EXPECT_EQ(read.cameras.matcher.search_starts, defaults.cameras.matcher.search_starts);
   EXPECT_EQ(read.cameras.matcher.local_search_starts, defaults.cameras.matcher.local_search_starts);
@@ -57,7 +58,7 @@ localization_correlation_s: 8
 odometry: {sigma_m: 0.001, sigma_per_m: 0.02, sigma_deg: 0.1, sigma_per_deg: 0.03}
 depth_registration: {x_px: 0.7, y_px: -0.25}
 floor_lines: true
-floor: {height: 0.05, max_range: 8, tilt_sigma_deg: 0.1, height_sigma: 0.01}
+floor: {height: 0.05, max_range: 8, tilt_sigma_deg: 0.1, height_sigma: 0.01, extended: true}
 median_images: 9
 max_rms_px: 2.5
 min_focal_ratio: 0.3
@@ -91,6 +92,8 @@ cameras: []
   EXPECT_EQ(o.floor.max_range_m, 8.0);
   EXPECT_EQ(o.floor.tilt_sigma_deg, 0.1);
   EXPECT_EQ(o.floor.height_sigma_m, 0.01);
+  EXPECT_TRUE(o.floor.depth_confirmation);
+  EXPECT_TRUE(o.floor.extend_confirmed);
   EXPECT_EQ(o.cameras.median_images, 9u);
   EXPECT_EQ(o.cameras.max_rms_px, 2.5);
   EXPECT_EQ(o.cameras.min_focal_ratio, 0.3);

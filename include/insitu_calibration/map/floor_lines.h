@@ -9,7 +9,9 @@
 // seen from height h lands on the floor shifted by e / (h - e) times the camera's move across it, so the slope of
 // that regression tells an edge min_edge_height_m above the floor (a table's edge, a skirting board's top) from the
 // floor at confirm_sigmas. Candidates whose segment has depth that disagrees with the floor are refused at
-// extraction, and a floor line that a depth map line already holds (over half its extent) is left out.
+// extraction, and a floor line that a depth map line already holds (over half its extent) is left out. A line seen
+// only from one offset across it (along a straight leg of the route) leaves the slope unresolved: optionally
+// (depth_confirmation, extend_confirmed) its depth or a confirmed floor line it continues confirms it instead.
 #ifndef INSITU_CALIBRATION_MAP_FLOOR_LINES_H
 #define INSITU_CALIBRATION_MAP_FLOOR_LINES_H
 
@@ -52,6 +54,17 @@ struct FloorLineOptions
   double min_edge_height_m = 0.1;
   double confirm_sigmas = 3.0;
   double max_sigma_m = 0.1;  // confirmed lines predicted to be worse are dropped
+  // Confirmation by depth (off by default, see README): a line seen only from about one offset across it (along a
+  // straight leg of the route) leaves the slope unresolved; it is confirmed when the depth of its segment put it on
+  // the floor in at least min_depth_keyframes keyframes (depth samples along an unlifted segment that agree with
+  // the floor, or a depth line too uncertain for the map with both ends within min_edge_height_m / 2 of the floor)
+  // and the slope is not off the floor's 0 by more than confirm_sigmas. Such depth lines become candidates too.
+  bool depth_confirmation = false;
+  int min_depth_keyframes = 2;
+  // An unresolved line that is not clearly off the floor and continues a confirmed one (parallel, both ends within
+  // merge_sigmas of it) is confirmed too: the part of a long floor edge seen only along the route beside the part
+  // seen across it (off by default).
+  bool extend_confirmed = false;
 };
 
 // A candidate on the floor plane (map frame).
@@ -63,12 +76,26 @@ struct FloorCandidate
   double sigma_random_m = 0.0;      // pixel noise, across the line (differs between keyframes)
   double sigma_systematic_m = 0.0;  // tilt and height, across the line (shared by nearby keyframes)
   int keyframe = 0;
+  bool depth_on_floor = false;  // its observation's depth put it on the floor
 };
 
-// Whether a segment's depth (samples along it, in the camera's optical frame) agrees with the floor, or has too few
-// samples to tell.
+// What a segment's depth (samples along it, in the camera's optical frame) says: on the floor (at least
+// min_depth_samples samples, half of them within the depth tolerance of the floor), off it, or too few samples.
+enum class FloorDepth
+{
+  kUnknown,
+  kOnFloor,
+  kOffFloor
+};
+FloorDepth floorDepthOf(const std::vector<DepthSample>& samples, const RgbdCamera& camera,
+                        const Eigen::Isometry3d& T_map_camera, const FloorLineOptions& options);
+
+// Whether a segment's depth agrees with the floor, or has too few samples to tell (floorDepthOf is not kOffFloor).
 bool depthAgreesWithFloor(const std::vector<DepthSample>& samples, const RgbdCamera& camera,
                           const Eigen::Isometry3d& T_map_camera, const FloorLineOptions& options);
+
+// Whether a depth line (map frame) lies on the floor: both ends within min_edge_height_m / 2 of it.
+bool depthLineOnFloor(const Line3d& line, const FloorLineOptions& options);
 
 // The candidate of one observation under a camera pose; false when a ray misses the floor within max_range_m or the
 // segment is shorter than min_length_m on the floor.

@@ -39,12 +39,14 @@ struct KeyframeLine
   Eigen::Vector2d image_b = Eigen::Vector2d::Zero();  // coordinates (x / z, y / z)
 };
 
-// A 2D line of a keyframe's RGB image without a depth-based 3D line, a candidate for a line on the floor
-// (floor_lines.h): undistorted normalised coordinates of its end points (the ray is (x, y, 1)).
+// A 2D line of a keyframe's RGB image without a depth-based 3D line fit for the map, a candidate for a line on the
+// floor (floor_lines.h): undistorted normalised coordinates of its end points (the ray is (x, y, 1)), and whether
+// its own depth put it on the floor (FloorLineOptions::depth_confirmation).
 struct FloorObservation
 {
   Eigen::Vector2d image_a = Eigen::Vector2d::Zero();
   Eigen::Vector2d image_b = Eigen::Vector2d::Zero();
+  bool depth_on_floor = false;
 };
 
 // A 2D line of a keyframe's RGB image above the horizon without a depth line fit for the map, a candidate for a

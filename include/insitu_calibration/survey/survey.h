@@ -176,7 +176,8 @@ private:
   std::vector<double> sigmasOf(const std::vector<MapLine>& used) const;
   // The map as inserted with the lines beyond the depth range (cached per keyframe generation).
   const LineMap& unadjustedMap() const;
-  std::vector<FloorObservation> floorObservations(const RgbdFrame& frame, const std::vector<UnliftedSegment>& unlifted);
+  std::vector<FloorObservation> floorObservations(const RgbdFrame& frame, const std::vector<Line3d>& lines,
+                                                  const std::vector<UnliftedSegment>& unlifted);
 
   SurveyOptions options_;
   RgbdLineExtractor extractor_;

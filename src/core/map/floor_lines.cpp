@@ -191,27 +191,41 @@ std::vector<Cluster> clusterCandidates(const std::vector<FloorCandidate>& candid
 
 // An edge at height e seen by a camera at height h lands on the floor at p' = k p + (1 - k) s across the line (p its
 // true offset, s the camera's, k = h / (h - e)): the candidates' offsets regressed on their cameras' offsets have
-// the slope beta = -e / (h - e), 0 on the floor. Confirmed: seen from min_keyframes keyframes, the slope resolved
-// well enough to tell the floor from an edge min_edge_height_m above it (beta_min) at confirm_sigmas, and nearer
-// the floor's 0 than beta_min (|beta| <= beta_min / 2 and its standard error at most beta_min / (2 confirm_sigmas):
-// both mistakes are confirm_sigmas deviations).
-bool confirmed(const Cluster& k, const std::vector<FloorCandidate>& candidates, const FloorLineOptions& o)
+// the slope beta = -e / (h - e), 0 on the floor. The slope resolves the floor from an edge min_edge_height_m above it
+// (beta_min) when its standard error is at most beta_min / (2 confirm_sigmas); it is on the floor when |beta| <=
+// beta_min / 2 (both mistakes are confirm_sigmas deviations), and not clearly off it when |beta| - confirm_sigmas
+// times its standard error is at most beta_min / 2.
+struct SlopeTest
 {
-  std::set<int> keyframes;
+  int keyframes = 0;
+  int depth_keyframes = 0;  // whose observation's depth put it on the floor
+  bool resolved = false;
+  bool on_floor = false;
+  bool not_off = false;
+};
+
+SlopeTest slopeTest(const Cluster& k, const std::vector<FloorCandidate>& candidates, const FloorLineOptions& o)
+{
+  std::set<int> keyframes, depth_keyframes;
   const Eigen::Vector3d n = normalOf(k.direction);
   double sw = 0.0, sx = 0.0, sy = 0.0, height = 0.0;
   for (const int m : k.members)
   {
     const auto& c = candidates[m];
     keyframes.insert(c.keyframe);
+    if (c.depth_on_floor)
+      depth_keyframes.insert(c.keyframe);
     const double w = 1.0 / (c.sigma_random_m * c.sigma_random_m);
     sw += w;
     sx += w * c.sensor.dot(n);
     sy += w * (0.5 * (c.a + c.b)).dot(n);
     height += std::abs(c.sensor.z() - o.floor_height_m) / static_cast<double>(k.members.size());
   }
-  if (static_cast<int>(keyframes.size()) < std::max(2, o.min_keyframes) || !(height > o.min_edge_height_m))
-    return false;
+  SlopeTest t;
+  if (!(height > o.min_edge_height_m))
+    return t;
+  t.keyframes = static_cast<int>(keyframes.size());
+  t.depth_keyframes = static_cast<int>(depth_keyframes.size());
   const double mx = sx / sw, my = sy / sw;
   double sxx = 0.0, sxy = 0.0;
   for (const int m : k.members)
@@ -222,11 +236,71 @@ bool confirmed(const Cluster& k, const std::vector<FloorCandidate>& candidates, 
     sxx += w * x * x;
     sxy += w * x * ((0.5 * (c.a + c.b)).dot(n) - my);
   }
-  if (!(sxx > 0.0))
-    return false;
-  const double beta = sxy / sxx, beta_sigma = 1.0 / std::sqrt(sxx);
   const double beta_min = o.min_edge_height_m / (height - o.min_edge_height_m);
-  return std::abs(beta) <= 0.5 * beta_min && o.confirm_sigmas * beta_sigma <= 0.5 * beta_min;
+  if (!(sxx > 0.0))
+  {
+    t.not_off = true;
+    return t;
+  }
+  const double beta = sxy / sxx, beta_sigma = 1.0 / std::sqrt(sxx);
+  t.resolved = o.confirm_sigmas * beta_sigma <= 0.5 * beta_min;
+  t.on_floor = t.resolved && std::abs(beta) <= 0.5 * beta_min;
+  t.not_off = std::abs(beta) - o.confirm_sigmas * beta_sigma <= 0.5 * beta_min;
+  return t;
+}
+
+// Confirmed: seen from min_keyframes keyframes and on the floor by the slope test, or, with depth_confirmation and
+// the slope unresolved (keyframes at one offset across the line), put on the floor by the depth of
+// min_depth_keyframes keyframes and not clearly off by the slope.
+bool confirmed(const SlopeTest& t, const FloorLineOptions& o)
+{
+  if (t.keyframes < std::max(2, o.min_keyframes))
+    return false;
+  if (t.resolved)
+    return t.on_floor;
+  return o.depth_confirmation && t.not_off && t.depth_keyframes >= std::max(1, o.min_depth_keyframes);
+}
+
+// Whether an unresolved cluster continues a confirmed one (extend_confirmed): parallel, both its end points within
+// merge_sigmas of the confirmed line (their random errors, plus merge_floor_m).
+bool extendsConfirmed(const Cluster& k, const Cluster& confirmed_line, const FloorLineOptions& o)
+{
+  if (std::abs(k.direction.dot(confirmed_line.direction)) < std::cos(o.max_angle_deg * M_PI / 180.0))
+    return false;
+  const double limit =
+      o.merge_sigmas * std::hypot(1.0 / std::sqrt(k.information), 1.0 / std::sqrt(confirmed_line.information)) +
+      o.merge_floor_m;
+  const Eigen::Vector3d n = normalOf(confirmed_line.direction);
+  for (const double s : {k.s_min, k.s_max})
+    if (std::abs((k.point + s * k.direction - confirmed_line.point).dot(n)) > limit)
+      return false;
+  return true;
+}
+
+// Which clusters are confirmed: by confirmed() and, with extend_confirmed, unresolved clusters that are not
+// clearly off the floor and continue a cluster confirmed so (no chains).
+std::vector<bool> confirmClusters(const std::vector<Cluster>& clusters, const std::vector<FloorCandidate>& candidates,
+                                  const FloorLineOptions& o)
+{
+  std::vector<SlopeTest> tests;
+  std::vector<bool> ok;
+  for (const auto& k : clusters)
+  {
+    tests.push_back(slopeTest(k, candidates, o));
+    ok.push_back(confirmed(tests.back(), o));
+  }
+  if (!o.extend_confirmed)
+    return ok;
+  std::vector<bool> out = ok;
+  for (size_t i = 0; i < clusters.size(); ++i)
+  {
+    const SlopeTest& t = tests[i];
+    if (ok[i] || t.resolved || !t.not_off || t.keyframes < std::max(2, o.min_keyframes))
+      continue;
+    for (size_t j = 0; j < clusters.size() && !out[i]; ++j)
+      out[i] = ok[j] && extendsConfirmed(clusters[i], clusters[j], o);
+  }
+  return out;
 }
 
 MapLine toMapLine(const Cluster& k, const std::vector<FloorCandidate>& candidates,
@@ -259,25 +333,36 @@ MapLine toMapLine(const Cluster& k, const std::vector<FloorCandidate>& candidate
 }
 }  // namespace
 
-bool depthAgreesWithFloor(const std::vector<DepthSample>& samples, const RgbdCamera& camera,
-                          const Eigen::Isometry3d& T_map_camera, const FloorLineOptions& o)
+FloorDepth floorDepthOf(const std::vector<DepthSample>& samples, const RgbdCamera& camera,
+                        const Eigen::Isometry3d& T_map_camera, const FloorLineOptions& o)
 {
   if (static_cast<int>(samples.size()) < std::max(1, o.min_depth_samples))
-    return true;
+    return FloorDepth::kUnknown;
+  FloorLineOptions unlimited = o;
+  unlimited.max_range_m = std::numeric_limits<double>::infinity();
   int agree = 0;
   for (const auto& s : samples)
   {
     Eigen::Vector3d on_floor;
-    const Eigen::Vector2d p = camera.normalize(s.pixel);
-    FloorLineOptions unlimited = o;
-    unlimited.max_range_m = std::numeric_limits<double>::infinity();
-    if (!floorPoint(p, T_map_camera, unlimited, &on_floor))
+    if (!floorPoint(camera.normalize(s.pixel), T_map_camera, unlimited, &on_floor))
       continue;
     const double z = (T_map_camera.inverse() * on_floor).z();
     if (std::abs(s.depth_m - z) <= o.depth_tolerance_m + o.depth_tolerance_per_m2 * z * z)
       ++agree;
   }
-  return 2 * agree >= static_cast<int>(samples.size());
+  return 2 * agree >= static_cast<int>(samples.size()) ? FloorDepth::kOnFloor : FloorDepth::kOffFloor;
+}
+
+bool depthAgreesWithFloor(const std::vector<DepthSample>& samples, const RgbdCamera& camera,
+                          const Eigen::Isometry3d& T_map_camera, const FloorLineOptions& o)
+{
+  return floorDepthOf(samples, camera, T_map_camera, o) != FloorDepth::kOffFloor;
+}
+
+bool depthLineOnFloor(const Line3d& line, const FloorLineOptions& o)
+{
+  const double limit = 0.5 * o.min_edge_height_m;
+  return std::abs(line.a.z() - o.floor_height_m) <= limit && std::abs(line.b.z() - o.floor_height_m) <= limit;
 }
 
 bool intersectFloor(const FloorObservation& observation, const Eigen::Isometry3d& T_map_camera, double focal_px,
@@ -333,14 +418,17 @@ std::vector<MapLine> confirmFloorLines(const std::vector<Keyframe>& keyframes,
       if (!intersectFloor(obs, pose, keyframes[k].focal_px, options, &c))
         continue;
       c.keyframe = static_cast<int>(k);
+      c.depth_on_floor = obs.depth_on_floor;
       candidates.push_back(c);
     }
   }
-  for (const auto& k : clusterCandidates(candidates, options))
+  const std::vector<Cluster> clusters = clusterCandidates(candidates, options);
+  const std::vector<bool> ok = confirmClusters(clusters, candidates, options);
+  for (size_t i = 0; i < clusters.size(); ++i)
   {
-    if (!confirmed(k, candidates, options))
+    if (!ok[i])
       continue;
-    const MapLine line = toMapLine(k, candidates, keyframes);
+    const MapLine line = toMapLine(clusters[i], candidates, keyframes);
     if (line.sigma() <= options.max_sigma_m && line.length() >= options.min_length_m &&
         !heldByMapLine(line, depth_lines, options.max_angle_deg))
       out.push_back(line);

@@ -156,7 +156,7 @@ Expected<bool> Survey::addRgbdFrame(const RgbdFrame& frame, const std::optional<
     if (options_.occlusion.follow_adjustment && insitu_calibration::adjusting(options_))  // see computeAdjustment
       depth_samples = surfaces_->depthSamples(frame, options_.occlusion.kept_cell_m);
   }
-  keyframe_data_.push_back(toKeyframe(frame, *lines, floorObservations(frame, unlifted)));
+  keyframe_data_.push_back(toKeyframe(frame, *lines, floorObservations(frame, *lines, unlifted)));
   if (options_.ceiling.enabled)
     keyframe_data_.back().ceiling = ceilingObservations(frame, *lines, unlifted, options_.map);
   keyframe_data_.back().surface = std::move(depth_samples);
@@ -187,23 +187,35 @@ Expected<bool> Survey::addFixedImage(const std::string& camera, const cv::Mat& i
   return true;
 }
 
-std::vector<FloorObservation> Survey::floorObservations(const RgbdFrame& frame,
+std::vector<FloorObservation> Survey::floorObservations(const RgbdFrame& frame, const std::vector<Line3d>& lines,
                                                         const std::vector<UnliftedSegment>& unlifted)
 {
   std::vector<FloorObservation> out;
+  FloorCandidate candidate;
   for (const auto& u : unlifted)
   {
-    const FloorObservation obs{frame.camera.normalize(u.segment.a), frame.camera.normalize(u.segment.b)};
-    FloorCandidate candidate;
+    FloorObservation obs{frame.camera.normalize(u.segment.a), frame.camera.normalize(u.segment.b)};
     if (!intersectFloor(obs, frame.T_map_camera, frame.camera.intrinsics.fx, options_.floor, &candidate))
       continue;
-    if (!depthAgreesWithFloor(u.samples, frame.camera, frame.T_map_camera, options_.floor))
+    const FloorDepth depth = floorDepthOf(u.samples, frame.camera, frame.T_map_camera, options_.floor);
+    if (depth == FloorDepth::kOffFloor)
     {
       ++stats_.floor_refused;
       continue;
     }
+    obs.depth_on_floor = depth == FloorDepth::kOnFloor;
     out.push_back(obs);
   }
+  // Depth lines on the floor too uncertain for the map (the floor at a slant): placed by the ray-plane intersection,
+  // their depth confirming them.
+  if (options_.floor.depth_confirmation)
+    for (const auto& l : lines)
+    {
+      const FloorObservation obs{frame.camera.normalize(l.image.a), frame.camera.normalize(l.image.b), true};
+      if (l.sigma_m > options_.map.max_sigma_m && depthLineOnFloor(l, options_.floor) &&
+          intersectFloor(obs, frame.T_map_camera, frame.camera.intrinsics.fx, options_.floor, &candidate))
+        out.push_back(obs);
+    }
   stats_.floor_candidates += out.size();
   return out;
 }

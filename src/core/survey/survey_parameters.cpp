@@ -38,6 +38,7 @@ void readMapParameters(ParameterSource& read, SurveyOptions& options)
 void readFloorParameters(ParameterSource& read, FloorLineOptions& floor)
 {
   floor.enabled = read.flag("floor_lines", floor.enabled);
+  floor.depth_confirmation = floor.extend_confirmed = read.flag("floor/extended", floor.depth_confirmation);
   floor.floor_height_m = read.number("floor/height", floor.floor_height_m, Range::closed(-100.0, 100.0, "m"));
   floor.max_range_m = read.number("floor/max_range", floor.max_range_m, Range::positive(100.0, "m"));
   floor.tilt_sigma_deg = read.number("floor/tilt_sigma_deg", floor.tilt_sigma_deg, Range::closed(0.0, 10.0, "deg"));
