@@ -259,6 +259,11 @@ SurveyOptions CalibrationServer::readParameters(ParameterReader& read)
   // dynamic_reconfigure, from one table): the defaults are the option structs' own.
   const SurveyOptions options = readSurveyParameters(read, SurveyOptions{}, &thresholds_);
   write_report_ = read.flag("write_report", write_report_);
+  if (read.flag("depth_registration/estimate", false))
+  {
+    registration_estimator_ = std::make_unique<DepthRegistrationEstimator>();
+    registration_extractor_ = std::make_unique<RgbdLineExtractor>(options.rgbd);
+  }
   return options;
 }
 
@@ -362,10 +367,30 @@ void CalibrationServer::rgbdCallback(const sensor_msgs::ImageConstPtr& rgb, cons
   if (!odom_frame_.empty() && tf_buffer_.canTransform(odom_frame_, rgb->header.frame_id, rgb->header.stamp))
     odometry = tf2::transformToEigen(tf_buffer_.lookupTransform(odom_frame_, rgb->header.frame_id, rgb->header.stamp));
 
-  std::lock_guard<std::mutex> lock(mutex_);
-  const auto used = survey_->addRgbdFrame(frame, odometry);
+  Expected<bool> used = false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    used = survey_->addRgbdFrame(frame, odometry);
+  }
   if (!used)
     ROS_WARN_THROTTLE(5.0, "calibration_node: skipping an RGB-D frame: %s", used.error().message().c_str());
+  else if (*used && registration_estimator_)
+    estimateDepthRegistration(frame);
+}
+
+void CalibrationServer::estimateDepthRegistration(const RgbdFrame& keyframe)
+{
+  std::lock_guard<std::mutex> lock(registration_mutex_);
+  if (!registration_estimator_->addFrame(keyframe, *registration_extractor_))
+    return;
+  const auto e = registration_estimator_->estimate();
+  if (!e || e->creases < 2 * registration_logged_creases_)
+    return;
+  registration_logged_creases_ = e->creases;
+  ROS_INFO(
+      "calibration_node: depth registration estimated %.3f, %.3f px (1 sigma %.3f, %.3f px) from %zu creases in "
+      "%zu keyframes; not applied to this survey: set depth_registration/x_px, y_px to it for the next",
+      e->offset_px.x(), e->offset_px.y(), e->sigma_px.x(), e->sigma_px.y(), e->creases, e->frames);
 }
 
 void CalibrationServer::publishCalibratedInfo(const std::string& name, const sensor_msgs::ImageConstPtr& image)

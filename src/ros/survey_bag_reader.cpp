@@ -1,6 +1,7 @@
 #include "insitu_calibration/ros/survey_bag_reader.h"
 
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -79,12 +80,15 @@ std::optional<Eigen::Isometry3d> odometryPose(const tf2::BufferCore& tf, const s
   }
 }
 
-// The Xtion's RGB, depth and camera info, matched by stamp; each complete frame goes to the survey, posed by tf.
+// Where an assembled RGB-D frame goes: the frame and its odometry pose, when there is one.
+using RgbdFrameSink = std::function<void(const RgbdFrame&, const std::optional<Eigen::Isometry3d>&)>;
+
+// The Xtion's RGB, depth and camera info, matched by stamp; each complete frame goes to the sink, posed by tf.
 class RgbdFrameAssembler
 {
 public:
-  RgbdFrameAssembler(const tf2::BufferCore& tf, const SurveyBagOptions& options, Survey* survey)
-      : tf_(tf), options_(options), survey_(survey)
+  RgbdFrameAssembler(const tf2::BufferCore& tf, const SurveyBagOptions& options, RgbdFrameSink sink)
+      : tf_(tf), options_(options), sink_(std::move(sink))
   {}
 
   void addRgb(const sensor_msgs::ImageConstPtr& image) { offer(image->header.stamp, &rgbs_, image); }
@@ -117,27 +121,30 @@ private:
     }
     const auto frame = toRgbdFrame(*rgb, *depths_[stamp], *infos_[stamp], toEigen(pose.transform));
     if (frame)
-      survey_->addRgbdFrame(*frame, odometryPose(tf_, options_.odom_frame, rgb->header.frame_id, stamp));
+      sink_(*frame, odometryPose(tf_, options_.odom_frame, rgb->header.frame_id, stamp));
     depths_.erase(stamp);
     infos_.erase(stamp);
   }
 
   const tf2::BufferCore& tf_;
   const SurveyBagOptions& options_;
-  Survey* survey_;
+  RgbdFrameSink sink_;
   std::map<ros::Time, sensor_msgs::ImageConstPtr> rgbs_;
   std::map<ros::Time, sensor_msgs::ImageConstPtr> depths_;
   std::map<ros::Time, sensor_msgs::CameraInfoConstPtr> infos_;
   size_t no_pose_ = 0;
 };
 
-// The Xtion's frames and the fixed cameras' images, in the bag's order.
-size_t readImages(rosbag::Bag& bag, const tf2::BufferCore& tf, const SurveyBagOptions& options, Survey* survey)
+// The Xtion's frames (to the sink) and the fixed cameras' images (to the survey, when there is one), in the bag's
+// order.
+size_t readImages(rosbag::Bag& bag, const tf2::BufferCore& tf, const SurveyBagOptions& options, RgbdFrameSink sink,
+                  Survey* survey)
 {
   std::vector<std::string> topics = {options.rgb_topic, options.depth_topic, options.info_topic};
-  for (const auto& [topic, name] : options.camera_of_topic)
-    topics.push_back(topic);
-  RgbdFrameAssembler frames(tf, options, survey);
+  if (survey)
+    for (const auto& [topic, name] : options.camera_of_topic)
+      topics.push_back(topic);
+  RgbdFrameAssembler frames(tf, options, std::move(sink));
   for (const auto& m : rosbag::View(bag, rosbag::TopicQuery(topics)))
   {
     if (const auto info = m.instantiate<sensor_msgs::CameraInfo>())
@@ -152,15 +159,17 @@ size_t readImages(rosbag::Bag& bag, const tf2::BufferCore& tf, const SurveyBagOp
       frames.addRgb(image);
     else if (m.getTopic() == options.depth_topic)
       frames.addDepth(image);
-    else if (const auto camera = options.camera_of_topic.find(m.getTopic()); camera != options.camera_of_topic.end())
+    else if (const auto camera = options.camera_of_topic.find(m.getTopic());
+             survey && camera != options.camera_of_topic.end())
       if (const auto grey = toGrey(*image))
         survey->addFixedImage(camera->second, *grey, image->header.stamp.toSec());
   }
   return frames.framesWithoutPose();
 }
-}  // namespace
 
-Expected<SurveyBagReport> readSurveyBag(const std::string& path, const SurveyBagOptions& options, Survey* survey)
+// Both readers: the transforms, then the images.
+Expected<SurveyBagReport> readBag(const std::string& path, const SurveyBagOptions& options, RgbdFrameSink sink,
+                                  Survey* survey)
 {
   rosbag::Bag bag;
   if (const std::string problem = openBag(bag, path); !problem.empty())
@@ -169,7 +178,7 @@ Expected<SurveyBagReport> readSurveyBag(const std::string& path, const SurveyBag
   {
     const std::unique_ptr<tf2::BufferCore> tf = readTransforms(bag);
     SurveyBagReport report;
-    report.frames_without_pose = readImages(bag, *tf, options, survey);
+    report.frames_without_pose = readImages(bag, *tf, options, std::move(sink), survey);
     return report;
   }
   catch (const rosbag::BagException& e)
@@ -177,6 +186,26 @@ Expected<SurveyBagReport> readSurveyBag(const std::string& path, const SurveyBag
     // A bag cut short (a recording killed before it closed the file) fails while it is read.
     return Error(ErrorCode::kInvalidInput, path + ": the bag cannot be read to its end: " + e.what() + kReindexHint);
   }
+}
+
+}  // namespace
+
+Expected<SurveyBagReport> readSurveyBag(const std::string& path, const SurveyBagOptions& options, Survey* survey)
+{
+  return readBag(
+      path, options,
+      [survey](const RgbdFrame& frame, const std::optional<Eigen::Isometry3d>& odometry) {
+        survey->addRgbdFrame(frame, odometry);
+      },
+      survey);
+}
+
+Expected<SurveyBagReport> readSurveyRgbdFrames(const std::string& path, const SurveyBagOptions& options,
+                                               const std::function<void(const RgbdFrame&)>& sink)
+{
+  return readBag(
+      path, options, [&sink](const RgbdFrame& frame, const std::optional<Eigen::Isometry3d>&) { sink(frame); },
+      nullptr);
 }
 
 }  // namespace insitu_calibration

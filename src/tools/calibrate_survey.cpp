@@ -14,6 +14,7 @@
 
 #include "command_line.h"
 #include "insitu_calibration/refine/refinement.h"
+#include "insitu_calibration/lines/depth_registration.h"
 #include "insitu_calibration/lines/line_evaluation.h"
 #include "insitu_calibration/metrics.h"
 #include "insitu_calibration/ros/survey_bag_reader.h"
@@ -69,6 +70,10 @@ Options:
                         the RGB pixel (u + X, v + Y) (default 0,0; parameters depth_registration/x_px, y_px): the
                         edges' depth is read where it belongs (a surface seen at a grazing angle otherwise puts the
                         map lines millimetres to centimetres off, README "Generalisation")
+  --depth-registration auto | estimate
+                        estimate X,Y from the survey itself (a first pass over the bag's RGB-D frames: the creases
+                        where two surfaces meet, seen in depth and in RGB; lines/depth_registration.h) and print it
+                        with its sigma; auto then uses it (refused estimate: 0,0 with the reason), estimate exits
   --floor-lines 0|1     RGB lines beyond the depth range placed on the floor plane and confirmed from several
                         keyframes become map lines (default 0: off)
   --floor-height M      the floor plane's z in the world frame (default 0)
@@ -688,18 +693,51 @@ double seconds(std::chrono::steady_clock::time_point start)
 
 // The survey's parameters as calibration_node reads them (survey/survey_parameters.h), from --params or else the
 // --cameras file, then the command line's flags, which win; false (after saying why) on a malformed value.
-// --depth-registration X,Y; false (after saying why) when malformed.
+// --depth-registration X,Y; false (after saying why) when malformed. auto and estimate are done after parsing
+// (estimateDepthRegistration).
 bool parseDepthRegistration(const ic::CommandLine& cli, ic::SurveyOptions* options)
 {
-  if (!cli.has("depth-registration"))
+  const std::string mode = cli.value("depth-registration", "");
+  if (mode.empty() || mode == "auto" || mode == "estimate")
     return true;
   const std::vector<double> v = numbers(cli.value("depth-registration"));
   if (v.size() != 2 || !(std::abs(v[0]) <= 10.0 && std::abs(v[1]) <= 10.0))
   {
-    std::cerr << "calibrate_survey: --depth-registration takes X,Y (px, each within +-10)\n";
+    std::cerr << "calibrate_survey: --depth-registration takes X,Y (px, each within +-10), auto or estimate\n";
     return false;
   }
   options->rgbd.sampler.registration_offset_px = Eigen::Vector2d(v[0], v[1]);
+  return true;
+}
+
+// --depth-registration auto | estimate: the offset from the bag's RGB-D frames (a first pass), printed; auto puts it
+// in the options (left at 0,0 when refused). False when the bag cannot be read.
+bool estimateDepthRegistration(const std::string& bag, const ic::SurveyBagOptions& bag_options,
+                               ic::SurveyOptions* options)
+{
+  const ic::RgbdLineExtractor extractor(options->rgbd);
+  ic::DepthRegistrationEstimator estimator;
+  size_t failed = 0;
+  const auto read = ic::readSurveyRgbdFrames(
+      bag, bag_options, [&](const ic::RgbdFrame& frame) { failed += estimator.addFrame(frame, extractor) ? 0 : 1; });
+  if (!read)
+  {
+    std::cerr << "calibrate_survey: " << read.error().message() << "\n";
+    return false;
+  }
+  const auto e = estimator.estimate();
+  if (!e)
+  {
+    std::printf("depth registration: not estimated (%s); using %.3f,%.3f px\n", e.error().message().c_str(),
+                options->rgbd.sampler.registration_offset_px.x(), options->rgbd.sampler.registration_offset_px.y());
+    return true;
+  }
+  std::printf(
+      "depth registration: estimated %.3f,%.3f px (1 sigma %.3f, %.3f px) from %zu creases (%zu observations, "
+      "%zu trimmed) in %zu frames (%zu unusable), scatter %.2f\n",
+      e->offset_px.x(), e->offset_px.y(), e->sigma_px.x(), e->sigma_px.y(), e->creases, e->observations, e->trimmed,
+      e->frames, failed, e->scatter);
+  options->rgbd.sampler.registration_offset_px = e->offset_px;
   return true;
 }
 
@@ -1025,9 +1063,16 @@ int main(int argc, char** argv)
   ic::SurveyBagOptions bag_options;
   if (!parseSurveyOptions(cli, &options) || !loadCameras(cli, &cameras, &bag_options.camera_of_topic))
     return 2;
-  ic::Survey survey(cameras, options);
   bag_options.world_frame = cli.value("world-frame", "map");
   bag_options.odom_frame = cli.flag("no-odometry") ? "" : cli.value("odom-frame", "odom");
+  if (const std::string mode = cli.value("depth-registration", ""); mode == "auto" || mode == "estimate")
+  {
+    if (!estimateDepthRegistration(cli.positional()[0], bag_options, &options))
+      return 2;
+    if (mode == "estimate")
+      return 0;
+  }
+  ic::Survey survey(cameras, options);
   const auto start = std::chrono::steady_clock::now();
   const auto read = ic::readSurveyBag(cli.positional()[0], bag_options, &survey);
   if (!read)

@@ -66,6 +66,10 @@ public:
   Expected<std::vector<Line3d>> extract(const RgbdFrame& frame, RgbdLineStats* stats = nullptr,
                                         std::vector<UnliftedSegment>* unlifted = nullptr);
 
+  // The RGB image's segments as extract() lifts them: detected, then fine-tuned (refine_segments). Errors: the
+  // detector's or the refiner's. stats (optional): segments and times.
+  Expected<std::vector<Segment2d>> detectSegments(const cv::Mat& rgb, RgbdLineStats* stats = nullptr) const;
+
   const RgbdLineOptions& options() const { return options_; }
 
 private:

@@ -39,6 +39,7 @@
 #include "insitu_calibration/CalibrationStatus.h"
 #include "insitu_calibration/SurveyStatus.h"
 #include "insitu_calibration/Verify.h"
+#include "insitu_calibration/lines/depth_registration.h"
 #include "insitu_calibration/ros/parameter_reader.h"
 #include "insitu_calibration/survey/field_thresholds.h"
 #include "insitu_calibration/survey/survey.h"
@@ -55,6 +56,9 @@ public:
   bool ok() const { return survey_ != nullptr; }
 
 private:
+  // With depth_registration/estimate: a keyframe's creases into the estimate, logged when it is first determined
+  // and whenever its creases have doubled since.
+  void estimateDepthRegistration(const RgbdFrame& keyframe);
   // The ROS side of a fixed camera; its core is survey_->camera(name).
   struct Camera
   {
@@ -222,6 +226,13 @@ private:
   double tf_timeout_s_ = 0.2;
   double map_adjustment_period_s_ = 10.0;  // 0: only before a calibration
   bool write_report_ = true;               // <name>_report.html beside the YAML on every calibration
+  // depth_registration/estimate: the Xtion's depth-to-RGB misregistration estimated from the keyframes' creases and
+  // logged with its sigma (not applied: the keyframes already in the map were read without it; the operator sets
+  // depth_registration/x_px, y_px for the next survey). Guarded by registration_mutex_ (the RGB-D callbacks).
+  std::mutex registration_mutex_;
+  std::unique_ptr<DepthRegistrationEstimator> registration_estimator_;
+  std::unique_ptr<RgbdLineExtractor> registration_extractor_;
+  size_t registration_logged_creases_ = 0;  // creases behind the last logged estimate
   ros::ServiceServer reconfigure_server_;
   ros::Publisher reconfigure_descriptions_publisher_;
   ros::Publisher reconfigure_updates_publisher_;

@@ -6,6 +6,7 @@
 #define INSITU_CALIBRATION_ROS_SURVEY_BAG_READER_H
 
 #include <cstddef>
+#include <functional>
 #include <map>
 #include <string>
 
@@ -32,6 +33,11 @@ struct SurveyBagReport
 // Errors (kInvalidInput): the path is a directory, the bag cannot be opened or read to its end (with the hint that
 // `rosbag reindex` repairs a recording that was interrupted).
 Expected<SurveyBagReport> readSurveyBag(const std::string& path, const SurveyBagOptions& options, Survey* survey);
+
+// Only the Xtion's RGB-D frames, posed by tf, each to sink (a first pass over the bag: calibrate_survey
+// --depth-registration auto estimates the depth's misregistration from them). Errors as readSurveyBag.
+Expected<SurveyBagReport> readSurveyRgbdFrames(const std::string& path, const SurveyBagOptions& options,
+                                               const std::function<void(const RgbdFrame&)>& sink);
 
 }  // namespace insitu_calibration
 

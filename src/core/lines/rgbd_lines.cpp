@@ -82,6 +82,26 @@ std::optional<Line3d> RgbdLineExtractor::liftSegment(const RgbdFrame& frame, con
   return *line;
 }
 
+Expected<std::vector<Segment2d>> RgbdLineExtractor::detectSegments(const cv::Mat& rgb, RgbdLineStats* stats) const
+{
+  RgbdLineStats local;
+  RgbdLineStats& st = stats ? *stats : local;
+  double t = threadCpuMs();
+  auto segments = detector_.detect(rgb);
+  if (!segments)
+    return segments.error();
+  st.segments = static_cast<int>(segments->size());
+  st.detect_ms = cpuMsSince(t);
+  if (options_.refine_segments && !segments->empty())
+  {
+    t = threadCpuMs();
+    if (const Status refined = refineSegments(rgb, options_.refiner, &*segments); !refined)
+      return refined.error();
+    st.refine_ms = cpuMsSince(t);
+  }
+  return segments;
+}
+
 Expected<std::vector<Line3d>> RgbdLineExtractor::extract(const RgbdFrame& frame, RgbdLineStats* stats,
                                                          std::vector<UnliftedSegment>* unlifted)
 {
@@ -97,20 +117,9 @@ Expected<std::vector<Line3d>> RgbdLineExtractor::extract(const RgbdFrame& frame,
     return depth.error();
   st.depth_ms += cpuMsSince(t);
 
-  t = threadCpuMs();
-  auto segments = detector_.detect(frame.rgb);
+  auto segments = detectSegments(frame.rgb, &st);
   if (!segments)
     return segments.error();
-  st.segments = static_cast<int>(segments->size());
-  st.detect_ms = cpuMsSince(t);
-
-  if (options_.refine_segments && !segments->empty())
-  {
-    t = threadCpuMs();
-    if (const Status refined = refineSegments(frame.rgb, options_.refiner, &*segments); !refined)
-      return refined.error();
-    st.refine_ms = cpuMsSince(t);
-  }
 
   std::vector<Line3d> lines;
   if (unlifted)
