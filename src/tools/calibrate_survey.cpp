@@ -97,8 +97,8 @@ Options:
   --search-starts N     distinct results of the prior search refined per camera (default 4)
   --local-search-starts N
                         the local moves (basin hopping, influence check) run from this many of the best refined
-                        starts, the best result wins (default 1: from the best start only)
-  --hypothesis-starts N extra starts from line-correspondence hypotheses in the prior's 3-sigma cone (default 0)
+                        starts, the best result wins (default 3; 1: from the best start only)
+  --hypothesis-starts N extra starts from line-correspondence hypotheses in the prior's 3-sigma cone (default 4)
   --truth-dir DIR       the simulator's truth folder (<bag>_truth): also report, per camera, how many matches pair
                         the wrong edges and how far the matched map lines are from the true edges, the localiser's
                         limit (its error averaged over the keyframes, at the camera: "truth-limit" lines) and the

@@ -125,7 +125,11 @@ TEST(ViewAmbiguity, CameraOneTileOffInATiledHallIsRefused)
   // The installer's prior places the camera one tile along the wall from where it is: the view is the same.
   const ic::CameraModel wrong = ic::shiftedCamera(truth, Eigen::Vector3d(1.0, 0.0, 0.0), false, 0.0);
 
-  ic::FixedCameraOptions without;
+  // The prior search alone, which stays on the prior's tile (hypotheses from anywhere in the prior's cone may land on
+  // any tile, here mostly the true one: the view is the same from each).
+  ic::FixedCameraOptions checks;
+  checks.matcher.hypothesis_starts = 0;
+  ic::FixedCameraOptions without = checks;
   without.ambiguity.enabled = false;
   ic::FixedCamera unchecked = fixedCamera(wrong, image, without);
   const auto accepted = unchecked.calibrate(map, "world");
@@ -134,7 +138,7 @@ TEST(ViewAmbiguity, CameraOneTileOffInATiledHallIsRefused)
   std::printf("without the ambiguity test: accepted %.3f m from the truth: %s\n", off, accepted->summary.c_str());
   EXPECT_NEAR(off, 1.0, 0.05);
 
-  ic::FixedCamera checked = fixedCamera(wrong, image, {});
+  ic::FixedCamera checked = fixedCamera(wrong, image, checks);
   const auto refused = checked.calibrate(map, "world");
   if (refused)
     std::printf("accepted: %s\n", refused->summary.c_str());
@@ -148,6 +152,12 @@ TEST(ViewAmbiguity, CameraOneTileOffInATiledHallIsRefused)
   ASSERT_TRUE(checked.lastRefused());
   EXPECT_GT(checked.lastRefused()->ambiguity.tried, 0u);
   EXPECT_FALSE(checked.calibration());
+
+  // With the default search (hypothesis starts too) the view is as ambiguous, whichever tile the search ends on.
+  ic::FixedCamera by_default = fixedCamera(wrong, image, {});
+  const auto default_result = by_default.calibrate(map, "world");
+  ASSERT_FALSE(default_result);
+  EXPECT_NE(default_result.error().message().find("the view repeats"), std::string::npos);
 }
 
 TEST(ViewAmbiguity, TrueCameraOfARoomThatDoesNotRepeatIsAccepted)

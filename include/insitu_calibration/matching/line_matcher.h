@@ -73,7 +73,7 @@ struct LineMatcherOptions
   // anywhere in the prior's 3-sigma cone, their rotation and focal length from image lines taken as vertical or as
   // the map's dominant directions (hypothesis_iterations samples), their centre from image/map line pairs, scored
   // like the grid; the best hypothesis_starts distinct ones join the starts (0: none).
-  int hypothesis_starts = 0;
+  int hypothesis_starts = 4;
   int hypothesis_iterations = 4000;
   // The explanation score that picks among results: per image line its squared mean distance to the nearest
   // compatible projected 3D line, capped at this (px), summed.
@@ -88,7 +88,7 @@ struct LineMatcherOptions
   int max_local_rounds = 6;
   // The local moves run from this many of the best refined starts (each to its own local optimum); the result
   // explaining the image best wins. 1: from the best start only.
-  int local_search_starts = 1;
+  int local_search_starts = 3;
   bool basin_hopping = true;
   double hop_position_m = 0.15;
   double hop_focal_relative = 0.04;
