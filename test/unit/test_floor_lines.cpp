@@ -17,6 +17,7 @@
 #include "insitu_calibration/simulation/world.h"
 #include "insitu_calibration/survey/survey.h"
 #include "insitu_calibration/test_support/simulated_survey.h"
+#include "insitu_calibration/test_support/test_helpers.h"
 
 namespace ic = insitu_calibration;
 namespace sim = insitu_calibration::simulation;
@@ -25,16 +26,10 @@ namespace
 {
 const std::string kSource = INSITU_SOURCE_DIR;
 
-// A camera 1.1 m above the floor at (x, y), looking along yaw, tilted 15 degrees down (optical frame: z forward,
-// x right, y down).
+// A camera 1.1 m above the floor at (x, y), looking along yaw, tilted 15 degrees down.
 Eigen::Isometry3d cameraAt(double x, double y, double yaw)
 {
-  const Eigen::Matrix3d level = (Eigen::Matrix3d() << 0, 0, 1, -1, 0, 0, 0, -1, 0).finished();
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
-               Eigen::AngleAxisd(15.0 * M_PI / 180.0, Eigen::Vector3d::UnitY()).toRotationMatrix() * level;
-  T.translation() = Eigen::Vector3d(x, y, 1.1);
-  return T;
+  return ic::test::tiltedCameraPose(x, y, yaw, 15.0, 1.1);
 }
 
 // The segment's image in normalised coordinates (both ends in front of the camera).
@@ -126,25 +121,10 @@ TEST(FloorLines, PredictedErrorGrowsWithRange)
 
 TEST(FloorLines, DepthThatDisagreesWithTheFloorRefusesTheSegment)
 {
-  ic::RgbdCamera camera;
-  camera.width = 640;
-  camera.height = 480;
-  camera.intrinsics.fx = camera.intrinsics.fy = 570.0;
-  camera.intrinsics.cx = 319.5;
-  camera.intrinsics.cy = 239.5;
+  const ic::RgbdCamera camera = ic::test::xtionRgbdCamera();
   const Eigen::Isometry3d T = cameraAt(0.0, 0.0, 0.0);
   // Samples along the image of a floor edge 4 m ahead, with the floor's depth and with depth 0.5 m nearer.
-  std::vector<ic::DepthSample> on_floor, nearer;
-  for (double y = -1.0; y <= 1.0; y += 0.1)
-  {
-    const Eigen::Vector3d p = T.inverse() * Eigen::Vector3d(4.0, y, 0.0);
-    ic::DepthSample s;
-    s.pixel = Eigen::Vector2d(570.0 * p.x() / p.z() + 319.5, 570.0 * p.y() / p.z() + 239.5);
-    s.depth_m = p.z();
-    on_floor.push_back(s);
-    s.depth_m = p.z() - 0.5;
-    nearer.push_back(s);
-  }
+  const auto [on_floor, nearer] = ic::test::floorLineDepthSamples(T, 4.0, 0.5);
   ic::FloorLineOptions options;
   EXPECT_TRUE(ic::depthAgreesWithFloor(on_floor, camera, T, options));
   EXPECT_FALSE(ic::depthAgreesWithFloor(nearer, camera, T, options));
@@ -233,20 +213,14 @@ void countFloorLine(const ic::MapLine& line, double sigma, const std::vector<ic:
 
 TEST(FloorLines, SimulatedFloorHallGainsFloorLinesBeyondTheDepthRange)
 {
-  auto world = sim::loadWorldFile(kSource + "/config/worlds/floor_hall.yaml");
-  ASSERT_TRUE(world) << world.error().describe();
-  const auto edges = sim::computeTrueEdges(*world);
-  sim::SimulationOptions sim_options;
-  sim_options.seed = 4;
-  sim_options.duration_s = 40.0;
-  auto simulator = sim::SurveySimulator::create(*world, sim_options);
-  ASSERT_TRUE(simulator) << simulator.error().describe();
   ic::SurveyOptions options;
   options.localization_sigma_m = 0.0;  // a perfect localiser: the floor lines alone
   options.localization_sigma_deg = 0.0;
   options.floor.enabled = true;
   ic::Survey survey({}, options);
-  ic::test::feedSimulatedSurvey(*simulator, &survey);
+  const auto world = ic::test::surveyWorldFile(kSource + "/config/worlds/floor_hall.yaml", 4, 40.0, &survey);
+  ASSERT_TRUE(world) << world.error().describe();
+  const auto edges = sim::computeTrueEdges(*world);
 
   const auto used = survey.usedMapLines();
   const auto sigmas = survey.mapLineSigmas();

@@ -17,6 +17,7 @@
 #include "insitu_calibration/simulation/world.h"
 #include "insitu_calibration/survey/survey.h"
 #include "insitu_calibration/test_support/simulated_survey.h"
+#include "insitu_calibration/test_support/test_helpers.h"
 
 namespace ic = insitu_calibration;
 namespace sim = insitu_calibration::simulation;
@@ -25,16 +26,10 @@ namespace
 {
 using Edge = std::pair<Eigen::Vector3d, Eigen::Vector3d>;
 
-// A camera 1.1 m above the floor at (x, y), looking along yaw, tilted 15 degrees down (optical frame: z forward,
-// x right, y down).
+// A camera 1.1 m above the floor at (x, y), looking along yaw, tilted 15 degrees down.
 Eigen::Isometry3d cameraAt(double x, double y, double yaw)
 {
-  const Eigen::Matrix3d level = (Eigen::Matrix3d() << 0, 0, 1, -1, 0, 0, 0, -1, 0).finished();
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
-               Eigen::AngleAxisd(15.0 * M_PI / 180.0, Eigen::Vector3d::UnitY()).toRotationMatrix() * level;
-  T.translation() = Eigen::Vector3d(x, y, 1.1);
-  return T;
+  return ic::test::tiltedCameraPose(x, y, yaw, 15.0, 1.1);
 }
 
 // The edge's image in normalised coordinates, its end points moved across the 2D line by Gaussian pixel noise
@@ -192,24 +187,9 @@ TEST(FloorLinesAlongRoute, TheContinuationOfAConfirmedFloorLineIsConfirmed)
 
 TEST(FloorLinesAlongRoute, FloorDepthOfSamplesAndDepthLines)
 {
-  ic::RgbdCamera camera;
-  camera.width = 640;
-  camera.height = 480;
-  camera.intrinsics.fx = camera.intrinsics.fy = 570.0;
-  camera.intrinsics.cx = 319.5;
-  camera.intrinsics.cy = 239.5;
+  const ic::RgbdCamera camera = ic::test::xtionRgbdCamera();
   const Eigen::Isometry3d T = cameraAt(0.0, 0.0, 0.0);
-  std::vector<ic::DepthSample> on_floor, nearer;
-  for (double y = -1.0; y <= 1.0; y += 0.1)
-  {
-    const Eigen::Vector3d p = T.inverse() * Eigen::Vector3d(3.0, y, 0.0);
-    ic::DepthSample s;
-    s.pixel = Eigen::Vector2d(570.0 * p.x() / p.z() + 319.5, 570.0 * p.y() / p.z() + 239.5);
-    s.depth_m = p.z();
-    on_floor.push_back(s);
-    s.depth_m = p.z() - 0.3;
-    nearer.push_back(s);
-  }
+  const auto [on_floor, nearer] = ic::test::floorLineDepthSamples(T, 3.0, 0.3);
   const ic::FloorLineOptions o;
   EXPECT_EQ(ic::floorDepthOf(on_floor, camera, T, o), ic::FloorDepth::kOnFloor);
   EXPECT_EQ(ic::floorDepthOf(nearer, camera, T, o), ic::FloorDepth::kOffFloor);
@@ -248,21 +228,16 @@ bool onTrueFloorEdge(const ic::MapLine& line, const std::vector<sim::TrueEdge>& 
 
 TEST(FloorLinesAlongRoute, SimulatedFloorHallGainsFloorLinesOnTrueFloorEdges)
 {
-  auto world = sim::loadWorldFile(std::string(INSITU_SOURCE_DIR) + "/config/worlds/floor_hall.yaml");
-  ASSERT_TRUE(world) << world.error().describe();
-  const auto edges = sim::computeTrueEdges(*world);
-  sim::SimulationOptions sim_options;
-  sim_options.seed = 4;
-  sim_options.duration_s = 40.0;
-  auto simulator = sim::SurveySimulator::create(*world, sim_options);
-  ASSERT_TRUE(simulator) << simulator.error().describe();
   ic::SurveyOptions options;
   options.localization_sigma_m = 0.0;  // a perfect localiser: the floor lines alone
   options.localization_sigma_deg = 0.0;
   options.floor = ic::FloorLineOptions();
   options.floor.enabled = options.floor.depth_confirmation = options.floor.extend_confirmed = true;
   ic::Survey survey({}, options);
-  ic::test::feedSimulatedSurvey(*simulator, &survey);
+  const auto world =
+      ic::test::surveyWorldFile(std::string(INSITU_SOURCE_DIR) + "/config/worlds/floor_hall.yaml", 4, 40.0, &survey);
+  ASSERT_TRUE(world) << world.error().describe();
+  const auto edges = sim::computeTrueEdges(*world);
 
   std::vector<ic::MapLine> depth_lines;
   int floor_lines = 0, on_edges = 0;

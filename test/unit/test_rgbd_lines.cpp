@@ -13,6 +13,7 @@
 #include "insitu_calibration/lines/rgbd_lines.h"
 #include "insitu_calibration/test_support/line_scene.h"
 #include "insitu_calibration/geometry/optical_frame.h"
+#include "insitu_calibration/test_support/test_helpers.h"
 
 namespace ic = insitu_calibration;
 
@@ -42,13 +43,7 @@ double distanceToLine(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const 
 
 ic::RgbdCamera xtionCamera()
 {
-  ic::RgbdCamera c;
-  c.width = 640;
-  c.height = 480;
-  c.intrinsics.fx = c.intrinsics.fy = 570.3;
-  c.intrinsics.cx = 319.5;
-  c.intrinsics.cy = 239.5;
-  return c;
+  return ic::test::xtionRgbdCamera(570.3);
 }
 
 // The optical frame at position, looking at target (z forward, x right, y down; world z up).

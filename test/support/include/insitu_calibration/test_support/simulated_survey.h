@@ -3,9 +3,13 @@
 #ifndef INSITU_CALIBRATION_TEST_SUPPORT_SIMULATED_SURVEY_H
 #define INSITU_CALIBRATION_TEST_SUPPORT_SIMULATED_SURVEY_H
 
+#include <cstdint>
+#include <string>
+
 #include <opencv2/imgproc.hpp>
 
 #include "insitu_calibration/simulation/survey.h"
+#include "insitu_calibration/simulation/world.h"
 #include "insitu_calibration/survey/survey.h"
 
 namespace insitu_calibration
@@ -43,6 +47,23 @@ inline int feedSimulatedSurvey(const simulation::SurveySimulator& simulator, Sur
     }
   }
   return xtion;
+}
+
+// A world file surveyed by the simulator (seed, duration) and fed into survey; the world, for its truth.
+inline Expected<simulation::World> surveyWorldFile(const std::string& world_file, uint64_t seed, double duration_s,
+                                                   Survey* survey)
+{
+  auto world = simulation::loadWorldFile(world_file);
+  if (!world)
+    return world.error();
+  simulation::SimulationOptions options;
+  options.seed = seed;
+  options.duration_s = duration_s;
+  auto simulator = simulation::SurveySimulator::create(*world, options);
+  if (!simulator)
+    return simulator.error();
+  feedSimulatedSurvey(*simulator, survey);
+  return world;
 }
 }  // namespace test
 }  // namespace insitu_calibration
