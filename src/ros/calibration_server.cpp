@@ -383,9 +383,10 @@ void CalibrationServer::estimateDepthRegistration(const RgbdFrame& keyframe)
   std::lock_guard<std::mutex> lock(registration_mutex_);
   if (!registration_estimator_->addFrame(keyframe, *registration_extractor_))
     return;
-  const auto e = registration_estimator_->estimate();
-  if (!e || e->creases < 2 * registration_logged_creases_)
+  const auto due = registration_estimator_->estimateWhenGrown();
+  if (!due || !*due || (**due).creases < 2 * registration_logged_creases_)
     return;
+  const auto& e = *due;
   registration_logged_creases_ = e->creases;
   ROS_INFO(
       "calibration_node: depth registration estimated %.3f, %.3f px (1 sigma %.3f, %.3f px) from %zu creases in "

@@ -85,13 +85,12 @@ Frame render(const SyntheticEdge& e, const Eigen::Vector2d& s, double noise, dou
 }
 
 // Creases of every direction at different places of the image, one per frame.
-ic::DepthRegistrationEstimator survey(const Eigen::Vector2d& s, double noise, double edge_error_px, int frames,
-                                      unsigned seed, double max_angle_deg = 180.0)
+void addCreases(ic::DepthRegistrationEstimator& estimator, const Eigen::Vector2d& s, double noise, double edge_error_px,
+                int frames, unsigned seed, double max_angle_deg = 180.0)
 {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   std::normal_distribution<double> gauss(0.0, 1.0);
-  ic::DepthRegistrationEstimator estimator;
   for (int i = 0; i < frames; ++i)
   {
     const double angle = max_angle_deg * M_PI / 180.0 * (i + 0.5) / frames;
@@ -100,6 +99,13 @@ ic::DepthRegistrationEstimator survey(const Eigen::Vector2d& s, double noise, do
     const Frame f = render(e, s, noise, edge_error_px * gauss(rng), rng);
     estimator.addFrame(f.depth, f.grey, xtion(), {f.segment});
   }
+}
+
+ic::DepthRegistrationEstimator survey(const Eigen::Vector2d& s, double noise, double edge_error_px, int frames,
+                                      unsigned seed, double max_angle_deg = 180.0)
+{
+  ic::DepthRegistrationEstimator estimator;
+  addCreases(estimator, s, noise, edge_error_px, frames, seed, max_angle_deg);
   return estimator;
 }
 }  // namespace
@@ -162,4 +168,33 @@ TEST(DepthRegistration, RefusesWhatTheCreasesCannotDetermine)
   const auto parallel = survey(Eigen::Vector2d(0.5, 0.0), 2.85e-3, 0.2, 20, 4, 4.0).estimate();
   ASSERT_FALSE(parallel);
   EXPECT_EQ(parallel.error().code(), ic::ErrorCode::kDegenerate) << parallel.error().message();
+}
+
+TEST(DepthRegistration, ReestimatesOnlyWhenTheCreasesHaveGrown)
+{
+  // The node asks at every keyframe; the estimator solves again only after the creases grew by a quarter.
+  const Eigen::Vector2d s(0.4, -0.6);
+  ic::DepthRegistrationEstimator estimator;
+  EXPECT_FALSE(estimator.estimateWhenGrown()) << "no crease yet";
+  addCreases(estimator, s, 0.0, 0.0, 12, 5);
+  const auto first = estimator.estimateWhenGrown();
+  ASSERT_TRUE(first && *first);
+  EXPECT_EQ((**first).creases, 12u);
+  EXPECT_NEAR((**first).offset_px.x(), s.x(), 0.01);
+  EXPECT_NEAR((**first).offset_px.y(), s.y(), 0.01);
+  EXPECT_FALSE(estimator.estimateWhenGrown()) << "nothing new";
+  addCreases(estimator, s, 0.0, 0.0, 2, 6);  // 14 < 1.25 * 12
+  EXPECT_FALSE(estimator.estimateWhenGrown());
+  addCreases(estimator, s, 0.0, 0.0, 1, 7);  // 15 = 1.25 * 12
+  const auto second = estimator.estimateWhenGrown();
+  ASSERT_TRUE(second && *second);
+  EXPECT_EQ((**second).creases, 15u);
+  EXPECT_NEAR((**second).offset_px.x(), s.x(), 0.01);
+  // A refused estimate (too few creases) is due too: the node logs nothing then, and asks again later.
+  ic::DepthRegistrationEstimator few;
+  addCreases(few, s, 0.0, 0.0, 4, 8);
+  const auto refused = few.estimateWhenGrown();
+  ASSERT_TRUE(refused);
+  EXPECT_FALSE(*refused);
+  EXPECT_EQ(refused->error().code(), ic::ErrorCode::kNotEnoughData);
 }

@@ -108,6 +108,10 @@ public:
   // directions or too scattered to give each component within max_sigma_px (kDegenerate); the message says what
   // the survey lacked.
   Expected<DepthRegistrationEstimate> estimate() const;
+  // estimate() once the creases have grown by the fraction `growth` since the last time this solved (the first call
+  // solves when there is any crease); nullopt when not due. A node asks at every keyframe: solving each time would
+  // cost more and more as the survey grows, for an estimate that hardly moves.
+  std::optional<Expected<DepthRegistrationEstimate>> estimateWhenGrown(double growth = 0.25);
 
   const std::vector<CreaseObservation>& creases() const { return creases_; }
   size_t frames() const { return frames_; }
@@ -116,6 +120,7 @@ private:
   DepthRegistrationOptions options_;
   std::vector<CreaseObservation> creases_;
   size_t frames_ = 0;
+  size_t creases_at_last_estimate_ = 0;  // estimateWhenGrown's last solve
 };
 
 // The weighted, trimmed least-squares offset from creases (DepthRegistrationEstimator::estimate's solver).

@@ -238,6 +238,15 @@ Expected<DepthRegistrationEstimate> DepthRegistrationEstimator::estimate() const
   return result;
 }
 
+std::optional<Expected<DepthRegistrationEstimate>> DepthRegistrationEstimator::estimateWhenGrown(double growth)
+{
+  const double due = std::max(1.0, (1.0 + std::max(0.0, growth)) * static_cast<double>(creases_at_last_estimate_));
+  if (creases_.size() <= creases_at_last_estimate_ || static_cast<double>(creases_.size()) < due)
+    return std::nullopt;
+  creases_at_last_estimate_ = creases_.size();
+  return estimate();
+}
+
 namespace
 {
 // Groups the observations of one crease (the same 3D line, seen in several frames): per observation its group's
