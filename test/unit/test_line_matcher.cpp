@@ -139,3 +139,38 @@ TEST(LineMatcher, RefusesEmptyInput)
                 .code(),
             ic::ErrorCode::kInvalidInput);
 }
+
+// The local moves run from the local_search_starts best refined starts that are distinct cameras: a start that
+// refined to the same camera as a better one (within a few mm, 0.05 deg and 0.2 % focal length) is skipped, and the
+// next distinct one takes its place.
+TEST(LineMatcher, LocalMovesRunFromDistinctStarts)
+{
+  std::mt19937 rng(5);
+  const ic::CameraModel c0 = ic::randomCamera({}, rng);
+  const auto moved = [](ic::CameraModel c, const Eigen::Vector3d& centre_shift, double yaw_deg, double focal_scale) {
+    const Eigen::Vector3d centre = c.pose().center() + centre_shift;
+    c.pose().rotation = c.pose().rotation * Eigen::AngleAxisd(yaw_deg * M_PI / 180.0, Eigen::Vector3d::UnitY());
+    c.pose().translation = -c.pose().rotation * centre;
+    c.intrinsics().fx *= focal_scale;
+    c.intrinsics().fy *= focal_scale;
+    return c;
+  };
+  const std::vector<ic::CameraModel> refined = {
+      c0,
+      moved(c0, {0.002, -0.002, 0.0}, 0.0, 1.0),        // the same camera as start 1
+      moved(c0, {0.05, 0.0, 0.0}, 0.0, 1.0),            // 5 cm away: distinct
+      moved(c0, Eigen::Vector3d::Zero(), 0.03, 1.001),  // the same as start 1
+      moved(c0, Eigen::Vector3d::Zero(), 0.0, 1.01),    // 1 % longer focal length: distinct
+      moved(c0, {0.051, 0.001, 0.0}, 0.0, 1.0),         // the same as start 3
+      moved(c0, Eigen::Vector3d::Zero(), 0.5, 1.0),     // 0.5 deg turned: distinct
+  };
+  ic::LineMatcherOptions options;
+  options.local_search_starts = 3;
+  EXPECT_EQ(ic::distinctStarts(refined, options), (std::vector<size_t>{0, 2, 4}));
+  options.local_search_starts = 1;
+  EXPECT_EQ(ic::distinctStarts(refined, options), (std::vector<size_t>{0}));
+  options.local_search_starts = 0;  // at least the best start
+  EXPECT_EQ(ic::distinctStarts(refined, options), (std::vector<size_t>{0}));
+  options.local_search_starts = 10;  // as many as there are distinct ones
+  EXPECT_EQ(ic::distinctStarts(refined, options), (std::vector<size_t>{0, 2, 4, 6}));
+}

@@ -4,6 +4,7 @@
 #include "insitu_calibration/matching/line_matcher.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <optional>
 #include <string>
@@ -110,16 +111,20 @@ Expected<LineMatchResult> matchFromStarts(const MatchingProblem& problem, const 
   Expected<std::vector<Incumbent>> refined = refinedStarts(problem, starts, initial_max_distance_px);
   if (!refined)
     return refined.error();
-  const size_t explored =
-      std::min(refined->size(), static_cast<size_t>(std::max(1, problem.options.local_search_starts)));
-  size_t best = 0;
-  for (size_t k = 0; k < explored; ++k)
+  std::vector<CameraModel> cameras;
+  for (const Incumbent& start : *refined)
+    cameras.push_back(start.result.calibration.camera);
+  const std::vector<size_t> explored = distinctStarts(cameras, problem.options);
+  size_t best = explored.front();
+  for (const size_t k : explored)
   {
     trace(problem.options, "local moves from start %zu (score %.3f)", k + 1, (*refined)[k].score);
     improveLocally(problem, hop, &(*refined)[k]);
+    trace(problem.options, "local moves from start %zu: score %.3f", k + 1, (*refined)[k].score);
     if ((*refined)[k].score < (*refined)[best].score)
       best = k;
   }
+  trace(problem.options, "chosen: start %zu of %zu refined, %zu explored", best + 1, refined->size(), explored.size());
   LineMatchResult result = std::move((*refined)[best].result);
   if (problem.options.min_straight_line_px > 0.0)
     calibrateWithPlumbLines(problem, &result);
@@ -127,6 +132,22 @@ Expected<LineMatchResult> matchFromStarts(const MatchingProblem& problem, const 
 }
 }  // namespace
 }  // namespace matching
+
+std::vector<size_t> distinctStarts(const std::vector<CameraModel>& cameras, const LineMatcherOptions& options)
+{
+  const auto same = [&](const CameraModel& a, const CameraModel& b) {
+    const double angle = Eigen::AngleAxisd(a.pose().rotation * b.pose().rotation.transpose()).angle();
+    return (a.pose().center() - b.pose().center()).norm() <= options.same_camera_m &&
+           angle <= options.same_camera_deg * M_PI / 180.0 &&
+           std::abs(a.intrinsics().fx / b.intrinsics().fx - 1.0) <= options.same_camera_relative;
+  };
+  const size_t wanted = static_cast<size_t>(std::max(1, options.local_search_starts));
+  std::vector<size_t> chosen;
+  for (size_t k = 0; k < cameras.size() && chosen.size() < wanted; ++k)
+    if (std::none_of(chosen.begin(), chosen.end(), [&](size_t c) { return same(cameras[k], cameras[c]); }))
+      chosen.push_back(k);
+  return chosen;
+}
 
 LineMatcherOptions::LineMatcherOptions()
 {
