@@ -1,7 +1,11 @@
 // The matcher finds the right 3D line for each image line from a rough prior and calibrates the camera.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdio>
 #include <random>
+#include <string>
+#include <utility>
 
 #include "insitu_calibration/matching/line_matcher.h"
 #include "insitu_calibration/metrics.h"
@@ -138,4 +142,104 @@ TEST(LineMatcher, RefusesEmptyInput)
                 .error()
                 .code(),
             ic::ErrorCode::kInvalidInput);
+}
+
+// The local moves run from the local_search_starts best refined starts that are distinct cameras: a start that
+// refined to the same camera as a better one (within a few mm, 0.05 deg and 0.2 % focal length) is skipped, and the
+// next distinct one takes its place.
+TEST(LineMatcher, LocalMovesRunFromDistinctStarts)
+{
+  std::mt19937 rng(5);
+  const ic::CameraModel c0 = ic::randomCamera({}, rng);
+  const auto moved = [](ic::CameraModel c, const Eigen::Vector3d& centre_shift, double yaw_deg, double focal_scale) {
+    const Eigen::Vector3d centre = c.pose().center() + centre_shift;
+    c.pose().rotation = c.pose().rotation * Eigen::AngleAxisd(yaw_deg * M_PI / 180.0, Eigen::Vector3d::UnitY());
+    c.pose().translation = -c.pose().rotation * centre;
+    c.intrinsics().fx *= focal_scale;
+    c.intrinsics().fy *= focal_scale;
+    return c;
+  };
+  const std::vector<ic::CameraModel> refined = {
+      c0,
+      moved(c0, {0.002, -0.002, 0.0}, 0.0, 1.0),        // the same camera as start 1
+      moved(c0, {0.05, 0.0, 0.0}, 0.0, 1.0),            // 5 cm away: distinct
+      moved(c0, Eigen::Vector3d::Zero(), 0.03, 1.001),  // the same as start 1
+      moved(c0, Eigen::Vector3d::Zero(), 0.0, 1.01),    // 1 % longer focal length: distinct
+      moved(c0, {0.051, 0.001, 0.0}, 0.0, 1.0),         // the same as start 3
+      moved(c0, Eigen::Vector3d::Zero(), 0.5, 1.0),     // 0.5 deg turned: distinct
+  };
+  ic::LineMatcherOptions options;
+  options.local_search_starts = 3;
+  EXPECT_EQ(ic::distinctStarts(refined, options), (std::vector<size_t>{0, 2, 4}));
+  options.local_search_starts = 1;
+  EXPECT_EQ(ic::distinctStarts(refined, options), (std::vector<size_t>{0}));
+  options.local_search_starts = 0;  // at least the best start
+  EXPECT_EQ(ic::distinctStarts(refined, options), (std::vector<size_t>{0}));
+  options.local_search_starts = 10;  // as many as there are distinct ones
+  EXPECT_EQ(ic::distinctStarts(refined, options), (std::vector<size_t>{0, 2, 4, 6}));
+}
+
+namespace
+{
+// The matcher's trace lines about the local moves: per explored start its score after them, and the chosen start.
+struct LocalSearchTrace
+{
+  std::vector<std::pair<size_t, double>> explored;  // start (1-based), score after its local moves
+  size_t chosen = 0, refined = 0;
+  void read(const std::string& line)
+  {
+    size_t start = 0, count = 0;
+    double score = 0.0;
+    if (std::sscanf(line.c_str(), "local moves from start %zu: score %lf", &start, &score) == 2)
+      explored.emplace_back(start, score);
+    else if (std::sscanf(line.c_str(), "chosen: start %zu of %zu refined, %zu explored", &start, &refined, &count) == 3)
+      chosen = start;
+  }
+};
+}  // namespace
+
+// A room seen from a prior 1 m, 15 deg and 30 % (field of view) off: the prior search and the hypotheses give 8
+// refined starts, 6 of them the same camera. The local moves run from the best and the next two distinct starts, and
+// the result explaining the image best wins; it is the true camera.
+TEST(LineMatcher, LocalMovesFromSeveralDistinctStartsKeepTheBestExplanation)
+{
+  std::mt19937 rng(1000);
+  const std::vector<ic::Segment3d> room = makeRoom(rng);
+  ic::SyntheticCameraOptions camera_options;
+  camera_options.focal_min_px = 700;
+  camera_options.focal_max_px = 1300;
+  const ic::CameraModel truth = ic::randomCamera(camera_options, rng);
+  const auto image = imageLines(truth, room, 0.3, 15, rng);
+  ic::CameraPrior prior;
+  std::normal_distribution<double> n(0.0, 1.0);
+  prior.position = truth.pose().center() + 1.0 * Eigen::Vector3d(n(rng), n(rng), n(rng)).normalized();
+  const Eigen::Vector3d axis = truth.pose().rotation.row(2).transpose();
+  const Eigen::Vector3d tilt_axis = axis.cross(Eigen::Vector3d(n(rng), n(rng), n(rng))).normalized();
+  prior.direction = Eigen::AngleAxisd(15.0 * M_PI / 180.0, tilt_axis) * axis;
+  prior.horizontal_fov_deg = 2.0 * std::atan(0.5 * kWidth / truth.intrinsics().fx) * 180.0 / M_PI * 1.3;
+
+  for (const int starts : {1, 3})
+  {
+    LocalSearchTrace trace;
+    ic::LineMatcherOptions options;
+    options.local_search_starts = starts;
+    options.trace = [&](const std::string& line) { trace.read(line); };
+    const auto result = ic::matchAndCalibrate(room, image, prior, kWidth, kHeight, options);
+    ASSERT_TRUE(result) << result.error().describe();
+    const ic::CameraErrors e = ic::compareCameras(truth, result->calibration.camera);
+    std::printf("%d local search starts: %zu of %zu refined explored; focal %.3f %%, rotation %.3f deg, %.1f mm\n",
+                starts, trace.explored.size(), trace.refined, 100 * e.focal_relative, e.rotation_rad * 180 / M_PI,
+                1000 * e.center_m);
+    EXPECT_LT(std::abs(e.focal_relative), 0.01);
+    EXPECT_LT(e.rotation_rad * 180 / M_PI, 0.5);
+    EXPECT_LT(e.center_m, 0.03);
+    ASSERT_EQ(trace.explored.size(), static_cast<size_t>(starts));
+    EXPECT_EQ(trace.explored.front().first, 1u);  // the best refined start first
+    // The distinct starts: not the refined starts 2 and 3, which are the best one's camera again.
+    for (size_t k = 1; k < trace.explored.size(); ++k)
+      EXPECT_GT(trace.explored[k].first, 3u) << "explored start " << k + 1;
+    const auto best = std::min_element(trace.explored.begin(), trace.explored.end(),
+                                       [](const auto& a, const auto& b) { return a.second < b.second; });
+    EXPECT_EQ(trace.chosen, best->first);
+  }
 }

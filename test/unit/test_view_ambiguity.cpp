@@ -1,9 +1,11 @@
 // The ambiguity test of the final check (view_ambiguity.h): a camera one tile off in a hall of floor tiles and a row
 // of identical wall panels, all repeating every metre, explains its image exactly as well as the true camera; the other
 // checks accept it, the ambiguity test refuses it with the reason. The true camera of a room that does not repeat is
-// accepted (the test does not refuse everything).
+// accepted (the test does not refuse everything). An alternative is dismissed only by a check that says it is wrong,
+// not by one that says it is weakly determined (too few lines).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <string>
@@ -177,4 +179,64 @@ TEST(ViewAmbiguity, TrueCameraOfARoomThatDoesNotRepeatIsAccepted)
   EXPECT_NEAR(result->calibration.camera.intrinsics().fx, kFocal, 0.005 * kFocal);
   // The room's parallel edges (doors, posters, boxes) gave repetitions to try: the test ran and found none as good.
   EXPECT_GT(result->ambiguity.tried, 0u);
+}
+
+TEST(ViewAmbiguity, OnlyACheckSayingTheAlternativeIsWrongDismissesIt)
+{
+  EXPECT_FALSE(ic::dismissedByOwnChecks(ic::Success{}));
+  EXPECT_TRUE(ic::dismissedByOwnChecks(ic::Error(ic::ErrorCode::kNoSolution, "the focal length is implausible")));
+  // Weakly determined: says nothing against the alternative.
+  EXPECT_FALSE(ic::dismissedByOwnChecks(ic::Error(ic::ErrorCode::kDegenerate, "determined too weakly")));
+  EXPECT_FALSE(ic::dismissedByOwnChecks(ic::Error(ic::ErrorCode::kNotEnoughData, "only 7 lines matched")));
+}
+
+// The hall, with two panel edges missing from the map at the borders of the view (unsurveyed there): the true
+// camera, and the one two tiles from it, each miss one map line for an image line the camera one tile off explains.
+// With the final check needing as many matched lines as that wrong camera has, the check accepts it, and its two
+// neighbours, explaining the image as well, fail their own checks only for too few lines. That is no evidence
+// against them: the view still repeats.
+TEST(ViewAmbiguity, AnAlternativeWithTooFewLinesStillMakesTheViewRepeat)
+{
+  std::vector<ic::Segment3d> full_map, map;
+  const ic::LineScene hall = tiledHall(&full_map);
+  const ic::CameraModel truth = cameraLookingAt({12.3, 17.0, 3.0}, {12.6, 22.0, 0.8});
+  const cv::Mat image = render(hall, truth);
+  const ic::CameraModel wrong = ic::shiftedCamera(truth, Eigen::Vector3d(1.0, 0.0, 0.0), false, 0.0);
+  // Panel 9's left edge (x 9.2, the true camera's leftmost whole panel) and panel 18's right edge (x 18.6: what the
+  // camera two tiles off takes the true camera's panel 16 for); the camera one tile off sees neither.
+  for (const ic::Segment3d& line : full_map)
+    if (!(line.a.y() > 23.0 && line.a.x() == line.b.x() &&
+          (std::abs(line.a.x() - 9.2) < 1e-9 || std::abs(line.a.x() - 18.6) < 1e-9)))
+      map.push_back(line);
+  ASSERT_EQ(map.size(), full_map.size() - 2);
+
+  ic::FixedCameraOptions without;
+  without.matcher.hypothesis_starts = 0;  // the prior search alone: it stays on the prior's tile
+  without.ambiguity.enabled = false;
+  ic::FixedCamera unchecked = fixedCamera(wrong, image, without);
+  const auto accepted = unchecked.calibrate(map, "world");
+  ASSERT_TRUE(accepted) << accepted.error().describe();
+  ASSERT_NEAR((accepted->calibration.camera.pose().center() - truth.pose().center()).norm(), 1.0, 0.05);
+  const size_t matched = accepted->matched_map_lines.size();
+
+  ic::FixedCameraOptions checks = without;
+  checks.ambiguity.enabled = true;
+  checks.min_matched_lines = matched;  // the wrong camera just passes; its neighbours, one line short, do not
+  ic::FixedCamera checked = fixedCamera(wrong, image, checks);
+  const auto refused = checked.calibrate(map, "world");
+  ASSERT_TRUE(checked.lastRefused() || refused);
+  const ic::ViewAmbiguity& ambiguity = refused ? refused->ambiguity : checked.lastRefused()->ambiguity;
+  std::printf("%s\n", ambiguity.describe().c_str());
+  // The true camera is among the alternatives: one line short, explaining the image about as well.
+  const auto true_alternative =
+      std::find_if(ambiguity.alternatives.begin(), ambiguity.alternatives.end(), [&](const ic::AlternativeCamera& a) {
+        return (a.calibration.camera.pose().center() - truth.pose().center()).norm() < 0.02;
+      });
+  ASSERT_NE(true_alternative, ambiguity.alternatives.end());
+  EXPECT_LT(true_alternative->matched_lines, matched);
+  EXPECT_TRUE(ic::explainsAsWell(*true_alternative, ambiguity, checks.ambiguity));
+
+  ASSERT_FALSE(refused) << "accepted " << refused->summary;
+  EXPECT_EQ(refused.error().code(), ic::ErrorCode::kNoSolution);
+  EXPECT_NE(refused.error().message().find("the view repeats"), std::string::npos) << refused.error().message();
 }

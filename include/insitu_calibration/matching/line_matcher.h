@@ -87,8 +87,13 @@ struct LineMatcherOptions
   //   each banned in turn and the matching redone.
   int max_local_rounds = 6;
   // The local moves run from this many of the best refined starts (each to its own local optimum); the result
-  // explaining the image best wins. 1: from the best start only.
+  // explaining the image best wins. 1: from the best start only. Starts that refined to the same camera as a better
+  // one (centres within same_camera_m, rotations within same_camera_deg, focal lengths within same_camera_relative)
+  // are skipped: the local moves from them would repeat its own; the next distinct starts fill up to this number.
   int local_search_starts = 3;
+  double same_camera_m = 0.005;
+  double same_camera_deg = 0.05;
+  double same_camera_relative = 0.002;
   bool basin_hopping = true;
   double hop_position_m = 0.15;
   double hop_focal_relative = 0.04;
@@ -129,6 +134,11 @@ struct LineMatchResult
   int iterations = 0;
   bool converged = false;  // the match set stopped changing
 };
+
+// Which refined starts the local moves run from: indices into `cameras` (the refined starts, best explanation first) of
+// the first options.local_search_starts (at least 1) that are not the same camera (the options' same_camera_*
+// tolerances) as one chosen before them.
+std::vector<size_t> distinctStarts(const std::vector<CameraModel>& cameras, const LineMatcherOptions& options);
 
 // map_lines: 3D segments in the world; image_lines: distorted-pixel polylines of the fixed camera;
 // map_line_sigmas_m: optional, per map line how far off it may be (LineCorrespondence::world_sigma_m).

@@ -109,6 +109,13 @@ ViewAmbiguity findAlternativeCameras(const std::vector<Segment3d>& map_lines,
 bool explainsAsWell(const AlternativeCamera& alternative, const ViewAmbiguity& ambiguity,
                     const ViewAmbiguityOptions& options);
 
+// Whether an alternative's own checks (FixedCamera's final check, without the prior) dismiss it: only a refusal that
+// says it is wrong (kNoSolution: an implausible focal length, a large reprojection error) does. One that says it is
+// weakly determined (kDegenerate: too parallel lines, large sigmas; kNotEnoughData: too few lines) says nothing
+// against it: the accepted camera, explaining the image no better, is then no better determined by the data (a tiled
+// floor seen by 9 lines, floor_hall seed 1's cam_sw, was accepted 2.2 m off).
+bool dismissedByOwnChecks(const Status& own_checks);
+
 // The refusal (kNoSolution) for a view an alternative camera explains as well: names the repetition, the two
 // positions and what to do.
 Error ambiguityError(const CameraCalibration& accepted, const AlternativeCamera& alternative,

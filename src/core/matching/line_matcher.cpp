@@ -4,6 +4,7 @@
 #include "insitu_calibration/matching/line_matcher.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <optional>
 #include <string>
@@ -67,16 +68,36 @@ Expected<std::vector<Incumbent>> refinedStarts(const MatchingProblem& problem, c
   return refined;
 }
 
+// Whether two cameras are one for the local moves (the options' same_camera_* tolerances, far below the hops).
+bool sameCamera(const CameraModel& a, const CameraModel& b, const LineMatcherOptions& options)
+{
+  const double angle = Eigen::AngleAxisd(a.pose().rotation * b.pose().rotation.transpose()).angle();
+  return (a.pose().center() - b.pose().center()).norm() <= options.same_camera_m &&
+         angle <= options.same_camera_deg * M_PI / 180.0 &&
+         std::abs(a.intrinsics().fx / b.intrinsics().fx - 1.0) <= options.same_camera_relative;
+}
+
 // The local moves (local_moves.h) alternated while either explains the image better, at most max_local_rounds times.
-void improveLocally(const MatchingProblem& problem, bool hop, Incumbent* incumbent)
+// They stop once the incumbent is a camera at which the local moves of an earlier start ended with no move improving
+// it (`reached`): going on would retrace that start's path to the same result. True when they ended so.
+bool improveLocally(const MatchingProblem& problem, bool hop, const std::vector<CameraModel>& reached,
+                    Incumbent* incumbent)
 {
   for (int round = 0; round < problem.options.max_local_rounds; ++round)
   {
+    const CameraModel& camera = incumbent->result.calibration.camera;
+    if (std::any_of(reached.begin(), reached.end(),
+                    [&](const CameraModel& r) { return sameCamera(camera, r, problem.options); }))
+    {
+      trace(problem.options, "the local moves of an earlier start ended at this camera");
+      return false;
+    }
     const bool hopped = hop && problem.options.basin_hopping && hopRound(problem, incumbent);
     const bool pruned = influenceRound(problem, incumbent);
     if (!hopped && !pruned)
-      break;
+      return true;
   }
+  return false;
 }
 
 // The chosen result calibrated once more with the unmatched image lines as plumb lines (only here: each adds two
@@ -110,16 +131,22 @@ Expected<LineMatchResult> matchFromStarts(const MatchingProblem& problem, const 
   Expected<std::vector<Incumbent>> refined = refinedStarts(problem, starts, initial_max_distance_px);
   if (!refined)
     return refined.error();
-  const size_t explored =
-      std::min(refined->size(), static_cast<size_t>(std::max(1, problem.options.local_search_starts)));
-  size_t best = 0;
-  for (size_t k = 0; k < explored; ++k)
+  std::vector<CameraModel> cameras;
+  for (const Incumbent& start : *refined)
+    cameras.push_back(start.result.calibration.camera);
+  const std::vector<size_t> explored = distinctStarts(cameras, problem.options);
+  size_t best = explored.front();
+  std::vector<CameraModel> reached;  // where the local moves of the starts before ended, no move improving it
+  for (const size_t k : explored)
   {
     trace(problem.options, "local moves from start %zu (score %.3f)", k + 1, (*refined)[k].score);
-    improveLocally(problem, hop, &(*refined)[k]);
+    if (improveLocally(problem, hop, reached, &(*refined)[k]))
+      reached.push_back((*refined)[k].result.calibration.camera);
+    trace(problem.options, "local moves from start %zu: score %.3f", k + 1, (*refined)[k].score);
     if ((*refined)[k].score < (*refined)[best].score)
       best = k;
   }
+  trace(problem.options, "chosen: start %zu of %zu refined, %zu explored", best + 1, refined->size(), explored.size());
   LineMatchResult result = std::move((*refined)[best].result);
   if (problem.options.min_straight_line_px > 0.0)
     calibrateWithPlumbLines(problem, &result);
@@ -127,6 +154,17 @@ Expected<LineMatchResult> matchFromStarts(const MatchingProblem& problem, const 
 }
 }  // namespace
 }  // namespace matching
+
+std::vector<size_t> distinctStarts(const std::vector<CameraModel>& cameras, const LineMatcherOptions& options)
+{
+  const size_t wanted = static_cast<size_t>(std::max(1, options.local_search_starts));
+  std::vector<size_t> chosen;
+  for (size_t k = 0; k < cameras.size() && chosen.size() < wanted; ++k)
+    if (std::none_of(chosen.begin(), chosen.end(),
+                     [&](size_t c) { return matching::sameCamera(cameras[k], cameras[c], options); }))
+      chosen.push_back(k);
+  return chosen;
+}
 
 LineMatcherOptions::LineMatcherOptions()
 {

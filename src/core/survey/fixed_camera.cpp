@@ -216,11 +216,8 @@ Status FixedCamera::checkAmbiguity(FixedCameraResult& result, const std::vector<
       alt.dismissed = "explains less";
       continue;
     }
-    // Only a check that says the alternative is wrong dismisses it. One that says it is weakly determined (too few
-    // or too parallel lines) says nothing against it: the accepted camera, explaining the image no better, is then
-    // no better determined by the data (a tiled floor seen by 9 lines, floor_hall seed 1's cam_sw).
-    if (const Status own = check(alt.calibration, alt.matched_lines, false);
-        !own && own.error().code() == ErrorCode::kNoSolution)
+    // Only a check that says the alternative is wrong dismisses it (view_ambiguity.h).
+    if (const Status own = check(alt.calibration, alt.matched_lines, false); dismissedByOwnChecks(own))
     {
       alt.dismissed = "its own checks refuse it: " + own.error().message().substr(0, 60);
       continue;

@@ -199,6 +199,11 @@ bool explainsAsWell(const AlternativeCamera& alt, const ViewAmbiguity& ambiguity
          static_cast<double>(alt.matched_lines) >= o.min_matched_share * ambiguity.accepted_matched;
 }
 
+bool dismissedByOwnChecks(const Status& own_checks)
+{
+  return !own_checks && own_checks.error().code() == ErrorCode::kNoSolution;
+}
+
 std::string ViewAmbiguity::describe() const
 {
   char buffer[200];
