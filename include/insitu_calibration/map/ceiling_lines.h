@@ -28,10 +28,6 @@ struct CeilingLineOptions
   double max_tilt_deg = 2.0;
   double plane_tolerance_m = 0.02;
   int min_plane_lines = 20;
-  // ... whose end points spread at least min_extent_m across their principal direction: the top of a cabinet
-  // (generated office 3003: 0.4 x 1.3 m at 1.9 m, 36 depth lines, with the true ceiling out of the Xtion's view)
-  // is no ceiling, and RGB lines placed on it are ghosts.
-  double min_extent_m = 1.0;
   // A candidate whose depth line (or depth samples) lies farther from the plane than depth_tolerance_m +
   // depth_tolerance_per_m2 * range^2 is not on it.
   double depth_tolerance_m = 0.02;

@@ -2,9 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
-
-#include <Eigen/Eigenvalues>
 
 namespace insitu_calibration
 {
@@ -16,46 +13,10 @@ FloorLineOptions CeilingLineOptions::defaultLineOptions()
   return o;
 }
 
-namespace
-{
-// A horizontal depth line above the camera: its height and its end points' horizontal positions.
-struct HorizontalLine
-{
-  double z;
-  Eigen::Vector2d a, b;
-};
-
-// The smaller horizontal extent (m) of the lines' end points, across their principal direction.
-double minorExtent(std::vector<HorizontalLine>::const_iterator begin, std::vector<HorizontalLine>::const_iterator end)
-{
-  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-  Eigen::Matrix2d second = Eigen::Matrix2d::Zero();
-  double n = 0.0;
-  for (auto it = begin; it != end; ++it)
-    for (const Eigen::Vector2d& p : {it->a, it->b})
-    {
-      mean += p;
-      second += p * p.transpose();
-      n += 1.0;
-    }
-  mean /= n;
-  const Eigen::Matrix2d covariance = second / n - mean * mean.transpose();
-  const Eigen::Vector2d minor = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(covariance).eigenvectors().col(0);
-  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-  for (auto it = begin; it != end; ++it)
-    for (const Eigen::Vector2d& p : {it->a, it->b})
-    {
-      lo = std::min(lo, minor.dot(p));
-      hi = std::max(hi, minor.dot(p));
-    }
-  return hi - lo;
-}
-}  // namespace
-
 std::optional<PlaneHeight> measureCeilingHeight(const std::vector<Keyframe>& keyframes,
                                                 const CeilingLineOptions& options)
 {
-  std::vector<HorizontalLine> lines;
+  std::vector<double> heights;
   const double max_slope = std::sin(options.max_tilt_deg * M_PI / 180.0);
   for (const auto& kf : keyframes)
     for (const auto& l : kf.lines)
@@ -64,31 +25,25 @@ std::optional<PlaneHeight> measureCeilingHeight(const std::vector<Keyframe>& key
       const double z = 0.5 * (a.z() + b.z());
       if (std::abs((b - a).normalized().z()) <= max_slope &&
           z >= kf.T_map_camera.translation().z() + options.min_clearance_m)
-        lines.push_back({z, a.head<2>(), b.head<2>()});
+        heights.push_back(z);
     }
-  std::sort(lines.begin(), lines.end(), [](const HorizontalLine& l, const HorizontalLine& m) { return l.z < m.z; });
-  // The densest window of plane_tolerance_m (the highest of equals: the ceiling above a shelf's top) among those
-  // spread over min_extent_m across: the top of a cabinet seen all along the route is no ceiling.
+  std::sort(heights.begin(), heights.end());
+  // The densest window of plane_tolerance_m (the highest of equals: the ceiling above a shelf's top).
   size_t best_begin = 0, best_count = 0;
-  const size_t min_count = static_cast<size_t>(std::max(3, options.min_plane_lines));
-  for (size_t i = 0, j = 0; i < lines.size(); ++i)
+  for (size_t i = 0, j = 0; i < heights.size(); ++i)
   {
-    while (lines[i].z - lines[j].z > options.plane_tolerance_m)
+    while (heights[i] - heights[j] > options.plane_tolerance_m)
       ++j;
-    const size_t count = i - j + 1;
-    if (count >= min_count && count >= best_count &&
-        minorExtent(lines.begin() + static_cast<long>(j), lines.begin() + static_cast<long>(i + 1)) >=
-            options.min_extent_m)
+    if (i - j + 1 >= best_count)
     {
-      best_count = count;
+      best_count = i - j + 1;
       best_begin = j;
     }
   }
-  if (best_count < min_count)
+  if (static_cast<int>(best_count) < std::max(3, options.min_plane_lines))
     return std::nullopt;
-  std::vector<double> members;
-  for (size_t k = best_begin; k < best_begin + best_count; ++k)
-    members.push_back(lines[k].z);
+  std::vector<double> members(heights.begin() + static_cast<long>(best_begin),
+                              heights.begin() + static_cast<long>(best_begin + best_count));
   PlaneHeight plane;
   plane.lines = static_cast<int>(members.size());
   plane.height_m = members[members.size() / 2];
