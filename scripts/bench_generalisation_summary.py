@@ -20,6 +20,9 @@ def row(seed, directory, seconds):
         name, size, hfov, height = m.groups()
         failed = re.search(r"^%s: FAILED: (.*)$" % name, log, re.M)
         cells = [seed, kind, name, size, hfov, height]
+        # The map's coverage of the camera's image lines (calibrate_survey --truth-dir), the last column
+        covered = re.search(r"^truth-coverage %s ([0-9.]+) %%" % name, log, re.M)
+        coverage = covered.group(1) if covered else ""
         result = re.search(r"^\| %s \| ([-+0-9.]+) %% \|[^|]*\|[^|]*\| ([0-9.]+) deg \| ([0-9.]+) mm \|"
                            r"[^|]*\|[^|]*\| [0-9.]+ px / ([0-9.]+) mm / ([0-9.]+) deg" % name, compare, re.M)
         if failed or not result:
@@ -29,11 +32,12 @@ def row(seed, directory, seconds):
             truth = re.search(r"^%s: FAILED: .*\n(?:%s: .*\n)*  truth of the refused result: focal ([-+0-9.]+) %%, "
                               r"rotation ([0-9.]+) deg, position ([0-9.]+) mm" % (name, name), log, re.M)
             refused = category(*(abs(float(x)) for x in truth.groups())) if truth else ""
-            print("\t".join(cells + ["refused", "", "", "", reason, seconds, refused, "", ""]))
+            print("\t".join(cells + ["refused", "", "", "", reason, seconds, refused, "", "", coverage]))
             continue
         focal, rotation, position = abs(float(result.group(1))), float(result.group(2)), float(result.group(3))
         print("\t".join(cells + [category(focal, rotation, position), "%.3f" % focal, "%.3f" % rotation,
-                                 "%.1f" % position, "", seconds, "", result.group(4), result.group(5)]))
+                                 "%.1f" % position, "", seconds, "", result.group(4), result.group(5),
+                                 coverage]))
 
 
 def category(focal, rotation, position):
@@ -61,14 +65,16 @@ def reason_class(reason):
 
 def summary(path):
     rows = [line.rstrip("\n").split("\t") for line in open(path) if line.strip()]
-    print("\n| seed | kind | camera | size | HFOV | height | result | focal error | rotation | position | reason |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("\n| seed | kind | camera | size | HFOV | height | coverage | result | focal error | rotation | position | "
+          "reason |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         errors = ("%s %% | %s deg | %s mm" % (r[7], r[8], r[9])) if r[7] else " | | "
         if r[6] == "refused" and len(r) > 12 and r[12]:
             r[10] += " (the refused result was %s)" % r[12]
-        print("| %s | %s | %s | %s | %s deg | %s m | %s | %s | %s |" % (r[0], r[1], r[2], r[3], r[4], r[5], r[6],
-                                                                         errors, r[10]))
+        coverage = ("%s %%" % r[15]) if len(r) > 15 and r[15] else ""
+        print("| %s | %s | %s | %s | %s deg | %s m | %s | %s | %s | %s |" % (r[0], r[1], r[2], r[3], r[4], r[5],
+                                                                              coverage, r[6], errors, r[10]))
     n = len(rows)
     count = {s: sum(1 for r in rows if r[6] == s) for s in ("good", "fair", "off", "WRONG", "refused")}
     buildings = len(set(r[0] for r in rows))
@@ -80,6 +86,10 @@ def summary(path):
                                                                         pct(count["good"] + count["fair"])))
     print("  accepted, less accurate but not wrong:         %d" % count["off"])
     print("  accepted WRONG (> 5 %% focal, 2 deg or 10 cm):  %d (goal 0)" % count["WRONG"])
+    coverages = [float(r[15]) for r in rows if len(r) > 15 and r[15]]
+    if coverages:
+        print("  map coverage of the cameras' image lines (truth-coverage; median / min / max): %.1f / %.1f / %.1f %%"
+              % (percentile(coverages, 50), min(coverages), max(coverages)))
     reasons = {}
     for r in rows:
         if r[6] == "refused":

@@ -118,6 +118,40 @@ TEST(ViewAmbiguity, RepetitionsOfATiledFloor)
   }
 }
 
+TEST(ViewAmbiguity, TheTileIsTriedWhenItsMultiplesAreBetterSupported)
+{
+  // Floor tile edges every 0.37 m along x, three of them matched, and on three walls rows of panels repeating every
+  // 1.11, 1.48 and 1.85 m (3, 4 and 5 tiles), four panel edges of each matched: the rows' periods are better
+  // supported than the tile's and fill max_periods, yet a camera one tile off is what a tiled view risks.
+  constexpr double kTile = 0.37;
+  std::vector<ic::Segment3d> map, matched;
+  for (int k = 0; k <= 8; ++k)
+    map.push_back({Eigen::Vector3d(kTile * k, 0, 0), Eigen::Vector3d(kTile * k, 4, 0)});
+  matched = {map[0], map[4], map[8]};
+  const double rows[3] = {3 * kTile, 4 * kTile, 5 * kTile};
+  for (int w = 0; w < 3; ++w)
+    for (int k = 0; k < 5; ++k)
+    {
+      const double y = 10.0 + 10.0 * w;  // the walls farther apart than max_period_m
+      const ic::Segment3d edge{Eigen::Vector3d(rows[w] * k, y, 0.5), Eigen::Vector3d(rows[w] * k, y, 2.0)};
+      map.push_back(edge);
+      if (k < 4)
+        matched.push_back(edge);
+    }
+  const ic::ViewAmbiguityOptions options;
+  const auto shifts = ic::findRepetitionShifts(map, matched, options);
+  ASSERT_GT(shifts.size(), options.max_periods);
+  bool tile = false;
+  for (const auto& s : shifts)
+    tile = tile || (s.shift - Eigen::Vector3d(kTile, 0, 0)).norm() < 1e-9;
+  EXPECT_TRUE(tile) << "the 0.37 m tile is not among the " << shifts.size() << " periods tried";
+  for (const double row : rows)
+    EXPECT_TRUE(
+        std::any_of(shifts.begin(), shifts.begin() + options.max_periods,
+                    [&](const ic::RepetitionShift& s) { return (s.shift - Eigen::Vector3d(row, 0, 0)).norm() < 1e-9; }))
+        << "the row of " << row << " m is not among the best supported";
+}
+
 TEST(ViewAmbiguity, CameraOneTileOffInATiledHallIsRefused)
 {
   std::vector<ic::Segment3d> map;

@@ -59,7 +59,8 @@ struct RepetitionShift
 };
 
 // The map's repetition periods beside the matched map lines, best supported first (at most max_periods, each once:
-// its opposite is implied).
+// its opposite is implied), then the shortest supported period of which one of those is a multiple, when it was not
+// among them (a tiled floor's tile, whose multiples a dense map supports as well).
 std::vector<RepetitionShift> findRepetitionShifts(const std::vector<Segment3d>& map_lines,
                                                   const std::vector<Segment3d>& matched_map_lines,
                                                   const ViewAmbiguityOptions& options = {});

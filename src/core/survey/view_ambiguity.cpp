@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "matching/matcher_trace.h"
+
 namespace insitu_calibration
 {
 namespace
@@ -63,6 +65,30 @@ bool multipleOf(const Eigen::Vector3d& v, const std::vector<RepetitionShift>& ch
   }
   return false;
 }
+
+// A period chosen above may be a multiple of a shorter one that lost on support (a dense map, floor lines of a tiled
+// floor, supports every multiple of the tile about as much as the tile, and slightly imprecise lines split the
+// tile's own offsets): the camera one tile off would then never be tried (generated office 3003's cam_b was accepted
+// one 0.37 m tile off with its four best periods 1.1-1.5 m). The shortest supported period of which a chosen one is
+// a multiple is tried too, beyond max_periods.
+void appendFundamentals(const std::vector<OffsetCluster>& clusters, const ViewAmbiguityOptions& o,
+                        std::vector<RepetitionShift>* out)
+{
+  const size_t chosen = out->size();
+  for (size_t i = 0; i < chosen; ++i)
+  {
+    const RepetitionShift longer = (*out)[i];
+    const OffsetCluster* fundamental = nullptr;
+    for (const auto& c : clusters)
+      if (c.support >= o.min_support && multipleOf(longer.shift, {{c.mean(), c.support}}, o.cluster_m) &&
+          (!fundamental || c.mean().norm() < fundamental->mean().norm()))
+        fundamental = &c;
+    if (fundamental && !multipleOf(fundamental->mean(), *out, o.cluster_m) &&
+        std::none_of(out->begin(), out->end(),
+                     [&](const RepetitionShift& r) { return (r.shift - fundamental->mean()).norm() < o.cluster_m; }))
+      out->push_back({fundamental->mean(), fundamental->support});
+  }
+}
 }  // namespace
 
 std::vector<RepetitionShift> findRepetitionShifts(const std::vector<Segment3d>& map_lines,
@@ -96,6 +122,7 @@ std::vector<RepetitionShift> findRepetitionShifts(const std::vector<Segment3d>& 
     if (!multipleOf(c.mean(), out, o.cluster_m))
       out.push_back({c.mean(), c.support});
   }
+  appendFundamentals(clusters, o, &out);
   return out;
 }
 
@@ -165,6 +192,9 @@ ViewAmbiguity findAlternativeCameras(const std::vector<Segment3d>& map_lines,
   out.accepted_score = explanationScore(map_lines, image_lines, accepted.camera, image_width, image_height, matcher);
   const std::vector<RepetitionShift> shifts = findRepetitionShifts(map_lines, accepted_matched_map_lines, o);
   out.periods = shifts.size();
+  for (const auto& r : shifts)
+    matching::trace(matcher, "ambiguity: repetition %.3f %.3f %.3f m, beside %zu matched lines", r.shift.x(),
+                    r.shift.y(), r.shift.z(), r.support);
   LineMatcherOptions quiet = matcher;
   quiet.trace = nullptr;
   const double depth = sceneDepth(accepted.camera, accepted_matched_map_lines);
