@@ -85,6 +85,21 @@ std::vector<std::vector<Eigen::Vector2d>> imageLines(const ic::CameraModel& came
   }
   return out;
 }
+
+// The installer's prior: the centre position_m off in a random direction, the viewing direction direction_deg off
+// about a random axis across it, the horizontal field of view scaled by fov_scale.
+ic::CameraPrior offPrior(const ic::CameraModel& truth, double position_m, double direction_deg, double fov_scale,
+                         std::mt19937& rng)
+{
+  ic::CameraPrior prior;
+  std::normal_distribution<double> n(0.0, 1.0);
+  prior.position = truth.pose().center() + position_m * Eigen::Vector3d(n(rng), n(rng), n(rng)).normalized();
+  const Eigen::Vector3d axis = truth.pose().rotation.row(2).transpose();
+  const Eigen::Vector3d tilt_axis = axis.cross(Eigen::Vector3d(n(rng), n(rng), n(rng))).normalized();
+  prior.direction = Eigen::AngleAxisd(direction_deg * M_PI / 180.0, tilt_axis) * axis;
+  prior.horizontal_fov_deg = 2.0 * std::atan(0.5 * kWidth / truth.intrinsics().fx) * 180.0 / M_PI * fov_scale;
+  return prior;
+}
 }  // namespace
 
 TEST(LineMatcher, ConvergesFromAnOffPrior)
@@ -102,14 +117,7 @@ TEST(LineMatcher, ConvergesFromAnOffPrior)
     const auto image = imageLines(truth, room, 0.3, 10, rng);
 
     // The installer's prior: 0.5 m off, the direction 10 degrees off, the field of view 20 % off.
-    ic::CameraPrior prior;
-    std::normal_distribution<double> n(0.0, 1.0);
-    prior.position = truth.pose().center() + 0.5 * Eigen::Vector3d(n(rng), n(rng), n(rng)).normalized();
-    const Eigen::Vector3d axis = truth.pose().rotation.row(2).transpose();
-    const Eigen::Vector3d tilt_axis = axis.cross(Eigen::Vector3d(n(rng), n(rng), n(rng))).normalized();
-    prior.direction = Eigen::AngleAxisd(10.0 * M_PI / 180.0, tilt_axis) * axis;
-    prior.horizontal_fov_deg =
-        2.0 * std::atan(0.5 * kWidth / truth.intrinsics().fx) * 180.0 / M_PI * (trial % 2 ? 1.2 : 0.8);
+    const ic::CameraPrior prior = offPrior(truth, 0.5, 10.0, trial % 2 ? 1.2 : 0.8, rng);
 
     const auto result = ic::matchAndCalibrate(room, image, prior, kWidth, kHeight);
     ASSERT_TRUE(result) << "trial " << trial << ": " << result.error().describe();
@@ -210,13 +218,7 @@ TEST(LineMatcher, LocalMovesFromSeveralDistinctStartsKeepTheBestExplanation)
   camera_options.focal_max_px = 1300;
   const ic::CameraModel truth = ic::randomCamera(camera_options, rng);
   const auto image = imageLines(truth, room, 0.3, 15, rng);
-  ic::CameraPrior prior;
-  std::normal_distribution<double> n(0.0, 1.0);
-  prior.position = truth.pose().center() + 1.0 * Eigen::Vector3d(n(rng), n(rng), n(rng)).normalized();
-  const Eigen::Vector3d axis = truth.pose().rotation.row(2).transpose();
-  const Eigen::Vector3d tilt_axis = axis.cross(Eigen::Vector3d(n(rng), n(rng), n(rng))).normalized();
-  prior.direction = Eigen::AngleAxisd(15.0 * M_PI / 180.0, tilt_axis) * axis;
-  prior.horizontal_fov_deg = 2.0 * std::atan(0.5 * kWidth / truth.intrinsics().fx) * 180.0 / M_PI * 1.3;
+  const ic::CameraPrior prior = offPrior(truth, 1.0, 15.0, 1.3, rng);
 
   for (const int starts : {1, 3})
   {
