@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "insitu_calibration/matching/line_matcher.h"
-#include "matching/line_projection.h"
+#include "line_projection.h"  // beside this header: unit tests include it without src/core on their path
 
 namespace insitu_calibration
 {
