@@ -262,7 +262,7 @@ SurveyOptions CalibrationServer::readParameters(ParameterReader& read)
   if (read.flag("depth_registration/estimate", false))
   {
     registration_estimator_ = std::make_unique<DepthRegistrationEstimator>();
-    registration_extractor_ = std::make_unique<RgbdLineExtractor>(options.rgbd);
+    registration_rgbd_ = options.rgbd;
   }
   return options;
 }
@@ -368,22 +368,26 @@ void CalibrationServer::rgbdCallback(const sensor_msgs::ImageConstPtr& rgb, cons
     odometry = tf2::transformToEigen(tf_buffer_.lookupTransform(odom_frame_, rgb->header.frame_id, rgb->header.stamp));
 
   Expected<bool> used = false;
+  std::vector<Segment2d> segments;  // a keyframe's, for the registration estimate
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    used = survey_->addRgbdFrame(frame, odometry);
+    used = survey_->addRgbdFrame(frame, odometry, registration_estimator_ ? &segments : nullptr);
   }
   if (!used)
     ROS_WARN_THROTTLE(5.0, "calibration_node: skipping an RGB-D frame: %s", used.error().message().c_str());
   else if (*used && registration_estimator_)
-    estimateDepthRegistration(frame);
+    estimateDepthRegistration(frame, segments);
 }
 
-void CalibrationServer::estimateDepthRegistration(const RgbdFrame& keyframe)
+void CalibrationServer::estimateDepthRegistration(const RgbdFrame& keyframe, const std::vector<Segment2d>& segments)
 {
   std::lock_guard<std::mutex> lock(registration_mutex_);
-  if (!registration_estimator_->addFrame(keyframe, *registration_extractor_))
+  if (!registration_estimator_->addFrame(keyframe, segments, registration_rgbd_))
     return;
   const auto due = registration_estimator_->estimateWhenGrown();
+  if (due && !*due)
+    ROS_INFO_THROTTLE(30.0, "calibration_node: depth registration not estimated yet: %s",
+                      due->error().message().c_str());
   if (!due || !*due || (**due).creases < 2 * registration_logged_creases_)
     return;
   const auto& e = *due;

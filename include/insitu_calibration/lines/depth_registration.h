@@ -32,6 +32,7 @@
 namespace insitu_calibration
 {
 class RgbdLineExtractor;
+struct RgbdLineOptions;
 
 struct DepthRegistrationOptions
 {
@@ -100,8 +101,11 @@ public:
   void addFrame(const cv::Mat& depth_m, const cv::Mat& grey, const RgbdCamera& camera,
                 const std::vector<Segment2d>& segments,
                 const Eigen::Isometry3d& T_map_camera = Eigen::Isometry3d::Identity());
-  // The same from an RGB-D frame, its segments and depth as the extractor finds them for the map. Errors: the
-  // frame's (validateFrame, no valid depth) or the detector's.
+  // The same from an RGB-D frame and its segments as the map's extraction found them (RgbdLineExtractor::extract's
+  // or Survey::addRgbdFrame's), its depth read within the extraction's range. Errors: the frame's (validateFrame, no
+  // valid depth).
+  Status addFrame(const RgbdFrame& frame, const std::vector<Segment2d>& segments, const RgbdLineOptions& options);
+  // The same, the segments detected by the extractor. Errors: as above, or the detector's.
   Status addFrame(const RgbdFrame& frame, const RgbdLineExtractor& extractor);
 
   // The offset with its uncertainty. Errors: fewer than min_creases creases (kNotEnoughData), creases of too few

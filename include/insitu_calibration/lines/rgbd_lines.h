@@ -62,9 +62,11 @@ public:
   // segment). Errors (nothing is thrown): invalid frame (validateFrame: empty images, size mismatches, zero focal
   // length, depth neither 16UC1 nor 32FC1, bad pose) as kInvalidInput, depth without any valid pixel as
   // kNotEnoughData. A frame without usable lines gives an empty vector and stats->note says why.
-  // unlifted (optional): the segments without a 3D line.
+  // unlifted (optional): the segments without a 3D line. segments (optional): every RGB segment it tried to lift
+  // (detectSegments' result), for other uses of the frame's edges without detecting them again.
   Expected<std::vector<Line3d>> extract(const RgbdFrame& frame, RgbdLineStats* stats = nullptr,
-                                        std::vector<UnliftedSegment>* unlifted = nullptr);
+                                        std::vector<UnliftedSegment>* unlifted = nullptr,
+                                        std::vector<Segment2d>* segments = nullptr);
 
   // The RGB image's segments as extract() lifts them: detected, then fine-tuned (refine_segments). Errors: the
   // detector's or the refiner's. stats (optional): segments and times.

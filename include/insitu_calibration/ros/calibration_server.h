@@ -58,7 +58,7 @@ public:
 private:
   // With depth_registration/estimate: a keyframe's creases into the estimate, logged when it is first determined
   // and whenever its creases have doubled since.
-  void estimateDepthRegistration(const RgbdFrame& keyframe);
+  void estimateDepthRegistration(const RgbdFrame& keyframe, const std::vector<Segment2d>& segments);
   // The ROS side of a fixed camera; its core is survey_->camera(name).
   struct Camera
   {
@@ -231,7 +231,7 @@ private:
   // depth_registration/x_px, y_px for the next survey). Guarded by registration_mutex_ (the RGB-D callbacks).
   std::mutex registration_mutex_;
   std::unique_ptr<DepthRegistrationEstimator> registration_estimator_;
-  std::unique_ptr<RgbdLineExtractor> registration_extractor_;
+  RgbdLineOptions registration_rgbd_;       // the survey's extraction options (its depth range)
   size_t registration_logged_creases_ = 0;  // creases behind the last logged estimate
   ros::ServiceServer reconfigure_server_;
   ros::Publisher reconfigure_descriptions_publisher_;

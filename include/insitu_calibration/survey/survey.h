@@ -103,8 +103,11 @@ public:
   // a frame that could not be used (invalid, or the extraction failed).
   // T_odom_camera: the camera in the odometry frame at the frame's stamp, when there is odometry (ties consecutive
   // keyframes in the map adjustment).
+  // keyframe_segments (optional): when the frame became a keyframe, its RGB segments as the map's extraction found
+  // them (fine-tuned, distorted px), for the depth registration estimate without detecting them again.
   Expected<bool> addRgbdFrame(const RgbdFrame& frame,
-                              const std::optional<Eigen::Isometry3d>& T_odom_camera = std::nullopt);
+                              const std::optional<Eigen::Isometry3d>& T_odom_camera = std::nullopt,
+                              std::vector<Segment2d>* keyframe_segments = nullptr);
   // An image of a fixed camera (stamp in seconds). Returns whether it joined the median. Errors: unknown camera,
   // empty image, wrong size.
   Expected<bool> addFixedImage(const std::string& camera, const cv::Mat& image, double stamp);

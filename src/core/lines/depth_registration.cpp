@@ -215,18 +215,26 @@ Status DepthRegistrationEstimator::addFrame(const RgbdFrame& frame, const RgbdLi
 {
   if (Status valid = validateFrame(frame); !valid)
     return valid;
-  const auto depth = depthToMeters(frame.depth, extractor.options().min_range_m, extractor.options().max_range_m);
-  if (!depth)
-    return depth.error();
   const auto segments = extractor.detectSegments(frame.rgb);
   if (!segments)
     return segments.error();
+  return addFrame(frame, *segments, extractor.options());
+}
+
+Status DepthRegistrationEstimator::addFrame(const RgbdFrame& frame, const std::vector<Segment2d>& segments,
+                                            const RgbdLineOptions& options)
+{
+  if (Status valid = validateFrame(frame); !valid)
+    return valid;
+  const auto depth = depthToMeters(frame.depth, options.min_range_m, options.max_range_m);
+  if (!depth)
+    return depth.error();
   cv::Mat grey = frame.rgb;
   if (frame.rgb.channels() == 3)
     cv::cvtColor(frame.rgb, grey, cv::COLOR_BGR2GRAY);
   else if (frame.rgb.channels() == 4)
     cv::cvtColor(frame.rgb, grey, cv::COLOR_BGRA2GRAY);
-  addFrame(*depth, grey, frame.camera, *segments, frame.T_map_camera);
+  addFrame(*depth, grey, frame.camera, segments, frame.T_map_camera);
   return Success{};
 }
 

@@ -103,7 +103,8 @@ Expected<std::vector<Segment2d>> RgbdLineExtractor::detectSegments(const cv::Mat
 }
 
 Expected<std::vector<Line3d>> RgbdLineExtractor::extract(const RgbdFrame& frame, RgbdLineStats* stats,
-                                                         std::vector<UnliftedSegment>* unlifted)
+                                                         std::vector<UnliftedSegment>* unlifted,
+                                                         std::vector<Segment2d>* segments_out)
 {
   RgbdLineStats local;
   RgbdLineStats& st = stats ? *stats : local;
@@ -136,6 +137,8 @@ Expected<std::vector<Line3d>> RgbdLineExtractor::extract(const RgbdFrame& frame,
   st.lines = static_cast<int>(lines.size());
   if (lines.empty())
     st.note = noLineNote(st, options_.detector.min_length_px);
+  if (segments_out)
+    *segments_out = std::move(*segments);
   return lines;
 }
 

@@ -129,7 +129,8 @@ Survey::Survey(const std::vector<FixedCameraConfig>& cameras, const SurveyOption
     surfaces_ = std::make_shared<SurfaceVoxels>(options_.occlusion);
 }
 
-Expected<bool> Survey::addRgbdFrame(const RgbdFrame& frame, const std::optional<Eigen::Isometry3d>& T_odom_camera)
+Expected<bool> Survey::addRgbdFrame(const RgbdFrame& frame, const std::optional<Eigen::Isometry3d>& T_odom_camera,
+                                    std::vector<Segment2d>* keyframe_segments)
 {
   ++stats_.frames;
   if (const Status valid = validateFrame(frame); !valid)
@@ -140,7 +141,7 @@ Expected<bool> Survey::addRgbdFrame(const RgbdFrame& frame, const std::optional<
   if (!keyframes_.accept(frame.T_map_camera, frame.stamp))
     return false;
   std::vector<UnliftedSegment> unlifted;
-  const auto lines = extractor_.extract(frame, nullptr, beyondDepth(options_) ? &unlifted : nullptr);
+  const auto lines = extractor_.extract(frame, nullptr, beyondDepth(options_) ? &unlifted : nullptr, keyframe_segments);
   if (!lines)
   {
     ++stats_.skipped;
