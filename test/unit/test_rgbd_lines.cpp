@@ -496,3 +496,28 @@ TEST(RgbdCamera, NormalizeInvertsPlumbBob)
   c.plumb_bob[0] = std::nan("");
   EXPECT_FALSE(c.validate().ok());
 }
+
+// The segments extract() hands out (for the depth registration estimate, without a second detection) are
+// detectSegments' own, and every 3D line's RGB segment is one of them.
+TEST(RgbdLines, ExtractHandsOutTheSegmentsItDetected)
+{
+  std::mt19937 rng(kSeed);
+  ic::LineScene scene = ic::makeRoomScene(rng);
+  const ic::RgbdFrame frame = renderFrame(scene, lookAt({3.0, 2.8, 0.9}, {1.5, 0.0, 0.9}), true, rng);
+  ic::RgbdLineExtractor extractor;
+  std::vector<ic::Segment2d> segments;
+  const auto lines = extractor.extract(frame, nullptr, nullptr, &segments);
+  ASSERT_TRUE(lines.ok()) << lines.error().describe();
+  const auto detected = extractor.detectSegments(frame.rgb);
+  ASSERT_TRUE(detected.ok()) << detected.error().describe();
+  ASSERT_EQ(segments.size(), detected->size());
+  ASSERT_GT(segments.size(), lines->size() / 2);
+  for (size_t i = 0; i < segments.size(); ++i)
+  {
+    EXPECT_EQ(segments[i].a, (*detected)[i].a);
+    EXPECT_EQ(segments[i].b, (*detected)[i].b);
+  }
+  for (const auto& line : *lines)
+    EXPECT_TRUE(std::any_of(segments.begin(), segments.end(),
+                            [&](const ic::Segment2d& s) { return s.a == line.image.a && s.b == line.image.b; }));
+}
