@@ -78,8 +78,9 @@ Options:
   --depth-registration-sigma PX
                         the registration's uncertainty, px per axis (default 0.5, or the estimate's larger sigma
                         with auto; parameter depth_registration/sigma_px): times the depth's slope at an edge, the
-                        error its map line keeps however often it is seen (its sigma, and the map adjustment's
-                        weight of its depth); 0: the registration is exact
+                        error every sighting of that edge shares: the map adjustment weighs such a line's depth
+                        less, so the keyframe poses do not bend to it (and with the parameter
+                        depth_registration/in_map_line_sigma true the map line's sigma keeps it); 0: exact
   --floor-lines 0|1     RGB lines beyond the depth range placed on the floor plane and confirmed from several
                         keyframes become map lines (default 0: off)
   --floor-height M      the floor plane's z in the world frame (default 0)

@@ -481,11 +481,12 @@ std::vector<double> Survey::sigmasOf(const std::vector<MapLine>& used) const
   std::vector<double> out;
   // The map line's standard error predicted from its observations (it falls with their number, where the spread
   // does not: a line seen 20 times counted as much as one seen twice), with the floor for the errors the
-  // observations share (an edge's depth bias seen from similar viewpoints) and their shared registration error;
-  // the spread when nothing is predicted.
+  // observations share (an edge's depth bias seen from similar viewpoints) and, with shared_map_line_sigma, their
+  // shared registration error; the spread when nothing is predicted.
   for (const auto& line : used)
   {
-    const double shared = std::hypot(options_.min_map_line_sigma_m, sharedSigma(line));
+    const double shared =
+        std::hypot(options_.min_map_line_sigma_m, options_.shared_map_line_sigma ? sharedSigma(line) : 0.0);
     out.push_back(line.sigma() > 0.0 ? std::hypot(shared, line.sigma()) : std::max(shared, line.spread()));
   }
   return out;
