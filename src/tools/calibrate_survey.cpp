@@ -73,7 +73,14 @@ Options:
   --depth-registration auto | estimate
                         estimate X,Y from the survey itself (a first pass over the bag's RGB-D frames: the creases
                         where two surfaces meet, seen in depth and in RGB; lines/depth_registration.h) and print it
-                        with its sigma; auto then uses it (refused estimate: 0,0 with the reason), estimate exits
+                        with its sigma; auto then uses it and its sigma (refused estimate: 0,0 with the reason),
+                        estimate exits
+  --depth-registration-sigma PX
+                        the registration's uncertainty, px per axis (default 0.5, or the estimate's larger sigma
+                        with auto; parameter depth_registration/sigma_px): times the depth's slope at an edge, the
+                        error every sighting of that edge shares: the map adjustment weighs such a line's depth
+                        less, so the keyframe poses do not bend to it (and with the parameter
+                        depth_registration/in_map_line_sigma true the map line's sigma keeps it); 0: exact
   --floor-lines 0|1     RGB lines beyond the depth range placed on the floor plane and confirmed from several
                         keyframes become map lines (default 0: off)
   --floor-height M      the floor plane's z in the world frame (default 0)
@@ -224,6 +231,106 @@ void reportKeyframesAgainstTruth(const std::vector<ic::simulation::LocalizationS
   };
   print("tf", sum_before, sq_before);
   print("adjusted", sum_after, sq_after);
+}
+
+// Medians of a group of RGB-D lines' offsets from their true edges (truth-observations, truth-maplines lines).
+struct OffsetGroup
+{
+  std::vector<double> depth_mm, lateral_mm, sigma_mm, ratio, shared_mm;
+};
+
+void printOffsetGroups(const char* what, const std::map<std::string, OffsetGroup>& groups)
+{
+  auto median = [](std::vector<double> v) {
+    if (v.empty())
+      return std::nan("");
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  auto absolute = [](std::vector<double> v) {
+    for (double& x : v)
+      x = std::abs(x);
+    return v;
+  };
+  for (const auto& [key, g] : groups)
+  {
+    size_t beyond = 0;
+    for (double r : g.ratio)
+      beyond += r > 3.0;
+    std::printf(
+        "%s %-22s n %5zu  depth median %+6.2f |%5.2f| mm  lateral %+5.2f |%5.2f| mm  sigma %5.2f mm  "
+        "|off|/sigma median %5.2f, > 3: %4.1f %%  shared %5.2f mm\n",
+        what, key.c_str(), g.depth_mm.size(), median(g.depth_mm), median(absolute(g.depth_mm)), median(g.lateral_mm),
+        median(absolute(g.lateral_mm)), median(g.sigma_mm), median(g.ratio),
+        g.ratio.empty() ? 0.0 : 100.0 * beyond / g.ratio.size(), median(g.shared_mm));
+  }
+}
+
+// Every keyframe's RGB-D line (at tf's pose) against the true edges, in the sensor's terms (depth along the ray,
+// lateral across it), per edge kind, range and angle to the ray: where the map lines' offset comes from.
+void reportObservationsAgainstTruth(const std::vector<ic::simulation::TrueEdge>& edges,
+                                    const std::vector<ic::Segment3d>& segments, const ic::Survey& survey)
+{
+  std::map<std::string, OffsetGroup> groups;
+  for (const auto& kf : survey.keyframes())
+    for (const auto& kl : kf.lines)
+    {
+      const Eigen::Vector3d a = kf.T_map_camera * kl.line.a, b = kf.T_map_camera * kl.line.b;
+      const ic::ViewOffset off = ic::measureViewOffset(kf.T_map_camera.translation(), a, b, segments);
+      if (off.edge < 0)
+        continue;
+      const std::string range = off.range_m < 2.0   ? "<2m"
+                                : off.range_m < 3.0 ? "2-3m"
+                                : off.range_m < 4.0 ? "3-4m"
+                                                    : ">4m";
+      const std::string angle = off.ray_angle_deg < 30.0 ? "<30deg" : off.ray_angle_deg < 60.0 ? "30-60deg" : ">60deg";
+      for (const std::string& key : {std::string("all"), "kind " + edges[off.edge].kind, "range " + range,
+                                     "ray " + angle, edges[off.edge].kind + " " + range})
+      {
+        OffsetGroup& g = groups[key];
+        g.depth_mm.push_back(1000.0 * off.depth_m);
+        g.lateral_mm.push_back(1000.0 * off.lateral_m);
+        const double sigma = std::hypot(kl.line.sigma_m, kl.line.sigma_systematic_m);
+        g.sigma_mm.push_back(1000.0 * sigma);
+        g.shared_mm.push_back(1000.0 * kl.line.sigma_systematic_m);
+        g.ratio.push_back(sigma > 0.0 ? std::abs(off.depth_m) / sigma : 0.0);
+      }
+    }
+  printOffsetGroups("truth-observations", groups);
+}
+
+// The used map lines against the true edges: the offset split by their observations' interpretation planes (depth:
+// in the planes, lateral: normal to them), and against their predicted sigma.
+void reportMapLinesAgainstTruth(const std::vector<ic::simulation::TrueEdge>& edges,
+                                const std::vector<ic::Segment3d>& segments, const ic::Survey& survey)
+{
+  std::map<std::string, OffsetGroup> groups;
+  const std::vector<double> sigmas = survey.mapLineSigmas();
+  const std::vector<ic::MapLine> used = survey.usedMapLines();
+  for (size_t i = 0; i < used.size(); ++i)
+  {
+    const ic::MapLine& line = used[i];
+    const ic::Line3dError e = ic::measureLine3d(line.a(), line.b(), segments, 0.05, 5.0);
+    if (e.edge < 0)
+      continue;
+    Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+    for (const auto& o : line.observations)
+      normal += normal.dot(o.normal) < 0.0 ? -o.normal : o.normal;
+    const ic::Segment3d& t = segments[e.edge];
+    const Eigen::Vector3d u = (t.b - t.a).normalized(), m = 0.5 * (line.a() + line.b());
+    const Eigen::Vector3d off = (m - t.a) - (m - t.a).dot(u) * u;
+    const double lateral = normal.norm() > 0.0 ? off.dot(normal.normalized()) : 0.0;
+    const double depth = std::sqrt(std::max(0.0, off.squaredNorm() - lateral * lateral));
+    for (const std::string& key : {std::string("all"), "kind " + edges[e.edge].kind})
+    {
+      OffsetGroup& g = groups[key];
+      g.depth_mm.push_back(1000.0 * depth);
+      g.lateral_mm.push_back(1000.0 * lateral);
+      g.sigma_mm.push_back(1000.0 * sigmas[i]);
+      g.ratio.push_back(sigmas[i] > 0.0 ? off.norm() / sigmas[i] : 0.0);
+    }
+  }
+  printOffsetGroups("truth-maplines", groups);
 }
 
 // Per calibrated camera the localiser's limit at it, and per pair of calibrated cameras their relative pose's error.
@@ -710,10 +817,25 @@ bool parseDepthRegistration(const ic::CommandLine& cli, ic::SurveyOptions* optio
   return true;
 }
 
+// --depth-registration-sigma PX.
+bool parseRegistrationSigma(const ic::CommandLine& cli, ic::SurveyOptions* options)
+{
+  if (!cli.has("depth-registration-sigma"))
+    return true;
+  const std::vector<double> v = numbers(cli.value("depth-registration-sigma"));
+  if (v.size() != 1 || !(v[0] >= 0.0 && v[0] <= 10.0))
+  {
+    std::cerr << "calibrate_survey: --depth-registration-sigma takes one value in px, 0 .. 10\n";
+    return false;
+  }
+  options->rgbd.sampler.registration_sigma_px = v[0];
+  return true;
+}
+
 // --depth-registration auto | estimate: the offset from the bag's RGB-D frames (a first pass), printed; auto puts it
 // in the options (left at 0,0 when refused). False when the bag cannot be read.
 bool estimateDepthRegistration(const std::string& bag, const ic::SurveyBagOptions& bag_options,
-                               ic::SurveyOptions* options)
+                               bool cli_sets_registration_sigma, ic::SurveyOptions* options)
 {
   const ic::RgbdLineExtractor extractor(options->rgbd);
   ic::DepthRegistrationEstimator estimator;
@@ -738,6 +860,8 @@ bool estimateDepthRegistration(const std::string& bag, const ic::SurveyBagOption
       e->offset_px.x(), e->offset_px.y(), e->sigma_px.x(), e->sigma_px.y(), e->creases, e->observations, e->trimmed,
       e->frames, failed, e->scatter);
   options->rgbd.sampler.registration_offset_px = e->offset_px;
+  if (!cli_sets_registration_sigma)
+    options->rgbd.sampler.registration_sigma_px = e->sigma_px.maxCoeff();
   return true;
 }
 
@@ -754,7 +878,7 @@ bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options)
     std::cerr << "calibrate_survey: " << error << "\n";
   if (!parameters->ok())
     return false;
-  if (!parseDepthRegistration(cli, options))
+  if (!parseDepthRegistration(cli, options) || !parseRegistrationSigma(cli, options))
     return false;
   options->min_map_support = static_cast<int>(cli.number("min-support", options->min_map_support));
   options->max_map_spread_m = cli.number("max-spread", options->max_map_spread_m);
@@ -1001,6 +1125,14 @@ int calibrateCameras(const ic::CommandLine& cli, ic::Survey& survey)
     if (survey.options().floor.enabled)
       reportSourceAgainstTruth(cli.value("truth-dir"), survey, ic::MapLineSource::kFloor, "floor");
     reportMapAgainstTruth(cli.value("truth-dir"), survey);
+    if (const auto edges = ic::simulation::loadTrueEdges(cli.value("truth-dir") + "/edges.yaml"))
+    {
+      std::vector<ic::Segment3d> segments;
+      for (const auto& e : *edges)
+        segments.push_back({e.start, e.end});
+      reportObservationsAgainstTruth(*edges, segments, survey);
+      reportMapLinesAgainstTruth(*edges, segments, survey);
+    }
   }
   if (cli.flag("oracle") && cli.has("truth-dir"))
     for (const auto& name : survey.cameraNames())
@@ -1038,6 +1170,7 @@ int main(int argc, char** argv)
        "odometry-sigma",
        "floor-lines",
        "depth-registration",
+       "depth-registration-sigma",
        "floor-height",
        "floor-max-range",
        "floor-extended",
@@ -1067,7 +1200,7 @@ int main(int argc, char** argv)
   bag_options.odom_frame = cli.flag("no-odometry") ? "" : cli.value("odom-frame", "odom");
   if (const std::string mode = cli.value("depth-registration", ""); mode == "auto" || mode == "estimate")
   {
-    if (!estimateDepthRegistration(cli.positional()[0], bag_options, &options))
+    if (!estimateDepthRegistration(cli.positional()[0], bag_options, cli.has("depth-registration-sigma"), &options))
       return 2;
     if (mode == "estimate")
       return 0;

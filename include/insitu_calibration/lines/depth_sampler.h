@@ -48,6 +48,10 @@ struct DepthSamplerOptions
   // reading taken at the wrong ray puts an edge's depth where the surface is seen at that offset: on a surface seen
   // at a grazing angle centimetres off, the same for every frame, so the map does not average it out. Zero: none.
   Eigen::Vector2d registration_offset_px = Eigen::Vector2d::Zero();
+  // Its uncertainty, px per axis (0.5: unknown, the generated Xtions' offsets are 0.3-0.9 px; an estimate's sigma
+  // when estimated). It moves an edge's depth by the depth's slope at the edge times it, the same in every frame:
+  // Line3d::sigma_systematic_m, which the map line's sigma keeps instead of averaging it away.
+  double registration_sigma_px = 0.5;
 };
 
 struct DepthSample
@@ -56,6 +60,10 @@ struct DepthSample
   double t = 0.0;                                   // (pixel - a) . (b - a) / |b - a|^2, about [0, 1]
   double depth_m = 0.0;                             // optical-frame z of the front surface at the edge
   bool discontinuity = false;                       // far readings were present and ignored
+  // How the depth changes across the edge on each side of it (m per px of offset, signed; left: negative offsets;
+  // 0 where a side gave no slope): a registration error of e px across moves depth_m by about e times the slope of
+  // the side it moves into. Single samples' slopes are noisy: the fit takes their median along the segment.
+  Eigen::Vector2d depth_slope_m_per_px = Eigen::Vector2d::Zero();
 };
 
 // Depth image -> 32FC1 metres, NaN where there is no measurement (0 in 16UC1, 0/NaN/inf in 32FC1, or outside

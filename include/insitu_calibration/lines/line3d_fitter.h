@@ -34,6 +34,12 @@ struct Line3d
   // Standard error of the end points predicted from the fit's residuals (the larger of the two; for RGB-D lines
   // along the line of sight, where the depth noise puts it): how far the line may be off its edge. 0: unknown.
   double sigma_m = 0.0;
+  // The part of the end points' error that seeing the edge again does not average away, m: the depth
+  // registration's uncertainty (DepthSamplerOptions::registration_sigma_px) times the depth's slope at the edge
+  // (across it, and along it), along the line of sight. A surface seen at a grazing angle changes depth by a
+  // centimetre or more per pixel, so a few tenths of a pixel put its edges millimetres off in every frame alike.
+  // 0: none (no registration uncertainty, or not an RGB-D line).
+  double sigma_systematic_m = 0.0;
   double range_m = 0.0;  // distance of the segment's midpoint from the sensor when it was measured
   // The sensor's optical centre in the frame of a and b (RGB-D lines: the camera origin, then the map position of
   // the frame); NaN when unknown (fitLine3d). The line map uses it to tell depth errors (along the line of sight,
@@ -65,6 +71,9 @@ struct Line3dFitOptions
   double min_length_m = 0.1;      // of the inliers' extent
   Line3dRefinement refinement = Line3dRefinement::kInterpretationPlane;
   uint32_t seed = 1;  // of RANSAC's sampling (PCL's generator, reseeded)
+  // RGB-D lines: the depth registration's uncertainty, px per axis (Line3d::sigma_systematic_m; the extractor sets
+  // it from DepthSamplerOptions::registration_sigma_px).
+  double registration_sigma_px = 0.0;
 };
 
 // RANSAC + PCA on the inliers, any 3D points. Errors: fewer than min_inliers finite points (kNotEnoughData), no

@@ -64,6 +64,22 @@ struct Line3dError
 Line3dError measureLine3d(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const std::vector<Segment3d>& truth,
                           double max_distance_m = 0.1, double max_angle_deg = 5.0);
 
+// Where a 3D line measured from a sensor position (an RGB-D line) lies off a true edge, in the sensor's terms: at the
+// line's midpoint, its depth error along the ray from the sensor (positive: beyond the edge, where the ray passes
+// closest to it) and its lateral offset normal to the interpretation plane (the plane through the sensor and the
+// line, which the RGB edge fixes). Edge: as measureLine3d; -1 when none is within the limits.
+struct ViewOffset
+{
+  int edge = -1;
+  double depth_m = 0.0;         // signed, along the ray
+  double lateral_m = 0.0;       // signed, normal to the interpretation plane
+  double range_m = 0.0;         // of the midpoint from the sensor
+  double ray_angle_deg = 90.0;  // between the ray and the line (small: the line runs away from the sensor)
+};
+ViewOffset measureViewOffset(const Eigen::Vector3d& sensor, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                             const std::vector<Segment3d>& truth, double max_distance_m = 0.05,
+                             double max_angle_deg = 5.0);
+
 // How much of a fixed camera's view the line map explains (issue 11's map coverage): of the image lines' length
 // (distorted px), the share on a true edge (measureImageLine: 3 px, 60 % of the samples, under the true camera) for
 // which the map holds a line: both end points within max_distance_m of the edge's line, overlapping the part of it

@@ -72,6 +72,7 @@ struct MapObservation
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();  // of the interpretation plane (zero: unknown sensor)
   double sigma_lateral = 0.0;                        // normal to the plane, m
   double sigma_depth = 0.0;                          // in the plane, across the line, m
+  double sigma_systematic = 0.0;                     // Line3d::sigma_systematic_m: shared with the other observations
 };
 
 // Where a map line comes from: RGB-D observations merged (depth), or RGB lines placed on the floor plane by

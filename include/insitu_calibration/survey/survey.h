@@ -32,7 +32,12 @@ struct SurveyOptions
   int min_map_support = 2;               // map lines seen fewer times are not used for calibration
   double max_map_spread_m = 0.01;        // nor map lines whose observations disagree more (MapLine::spread)
   double min_map_line_sigma_m = 0.0005;  // added (in quadrature) to a map line's predicted error (mapLineSigmas)
-  double fixed_image_period_s = 0.5;     // one image per period per camera goes into its median
+  // Also add the error the line's observations share (Line3d::sigma_systematic_m, the depth registration's
+  // uncertainty at the edge) to mapLineSigmas. Off: on the simulator's realistic buildings it makes the map lines'
+  // sigmas cover their offsets (median offset / sigma 1.3-5.9 -> 0.9-1.6), but the calibration's refinement then
+  // weighs the lines so unevenly that one held-out camera came out 1.5 deg off with a 0.33 deg sigma (README).
+  bool shared_map_line_sigma = false;
+  double fixed_image_period_s = 0.5;  // one image per period per camera goes into its median
   // The localiser behind the keyframes' poses (tf): its error's standard deviation in x, y and yaw, and its
   // correlation time. With a sigma above 0 the map is adjusted jointly with the keyframe poses
   // (line_map_adjustment.h) before it is used, and a calibration's uncertainty includes the map's placement (the

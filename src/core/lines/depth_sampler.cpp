@@ -73,6 +73,7 @@ struct EdgeDepth
 {
   double depth_m = 0.0;
   bool far_seen = false;  // readings of a farther surface in the band: a discontinuity
+  Eigen::Vector2d slope_m_per_px = Eigen::Vector2d::Zero();  // each side's depth slope across the edge
 };
 
 // Near cluster: inverse depth, affine in the offset on each side of the edge and continuous across it (a crease: both
@@ -116,11 +117,14 @@ std::optional<EdgeDepth> nearClusterDepth(const std::vector<double>& offsets, co
     ata(side, side) = 1.0;
     atb(side) = 0.0;
   }
-  const double inverse_depth = ata.ldlt().solve(atb)(0);
+  const Eigen::Vector3d solution = ata.ldlt().solve(atb);
+  const double inverse_depth = solution(0);
   if (!(inverse_depth > 0.0))
     return std::nullopt;
   // Never beyond the near cluster's readings by more than a jump.
   edge.depth_m = std::clamp(1.0 / inverse_depth, near_lo - jump, near_hi + jump);
+  // dz / do = -z^2 dv / do on each side.
+  edge.slope_m_per_px = -edge.depth_m * edge.depth_m * solution.tail<2>();
   return edge;
 }
 
@@ -285,6 +289,7 @@ std::vector<DepthSample> sampleDepthAlongSegment(const cv::Mat& depth_m, const S
     sample.t = (s + along) / length;
     sample.depth_m = edge->depth_m;
     sample.discontinuity = edge->far_seen;
+    sample.depth_slope_m_per_px = edge->slope_m_per_px;
     out.push_back(sample);
     const std::array<double, 2> sides =
         edge->far_seen ? std::array<double, 2>{nan, nan} : oneSidedInverseDepths(offsets, depths);

@@ -189,8 +189,10 @@ void refinePcaLine(const std::vector<Eigen::Vector3d>& points, double threshold,
 }
 
 // Depth samples back-projected (camera frame, m) with their parameter t along the normalised 2D segment xa + t xab.
+// Also each kept sample's depth slopes across the edge (slopes, m per px, left and right).
 void backProjectSamples(const std::vector<DepthSample>& samples, const RgbdCamera& camera, const Eigen::Vector2d& xa,
-                        const Eigen::Vector2d& xab, std::vector<Eigen::Vector3d>* points, std::vector<double>* t)
+                        const Eigen::Vector2d& xab, std::vector<Eigen::Vector3d>* points, std::vector<double>* t,
+                        std::vector<Eigen::Vector2d>* slopes)
 {
   points->reserve(samples.size());
   t->reserve(samples.size());
@@ -201,7 +203,30 @@ void backProjectSamples(const std::vector<DepthSample>& samples, const RgbdCamer
     const Eigen::Vector2d x = camera.normalize(s.pixel);
     points->push_back(s.depth_m * x.homogeneous());
     t->push_back((x - xa).dot(xab) / xab.squaredNorm());
+    slopes->push_back(s.depth_slope_m_per_px);
   }
+}
+
+// Line3d::sigma_systematic_m: the registration's uncertainty times the depth's gradient at the edge, along the ray.
+// Across the edge: the steeper side's median slope over the samples (one sample's slope, from 4 readings, is mostly
+// noise); along it: z^2 |dv/ds| per px from the line's end points (inverse depth is affine along the segment).
+// px_per_unit: image pixels per unit of normalised coordinates.
+double registrationSigma(const Line3d& line, const std::vector<Eigen::Vector2d>& slopes, double px_per_unit,
+                         double sigma_px)
+{
+  if (!(sigma_px > 0.0) || slopes.empty() || !(px_per_unit > 0.0) || !(line.a.z() > 0.0 && line.b.z() > 0.0))
+    return 0.0;
+  std::vector<double> left, right;
+  for (const Eigen::Vector2d& s : slopes)
+  {
+    left.push_back(s.x());
+    right.push_back(s.y());
+  }
+  const double across = std::max(std::abs(middleValue(left)), std::abs(middleValue(right)));
+  const Eigen::Vector3d mid = 0.5 * (line.a + line.b);
+  const double span_px = px_per_unit * (line.a.head<2>() / line.a.z() - line.b.head<2>() / line.b.z()).norm();
+  const double along = mid.z() * mid.z() * std::abs(1.0 / line.b.z() - 1.0 / line.a.z()) / std::max(span_px, 1e-9);
+  return sigma_px * std::hypot(across, along) * mid.norm() / mid.z();
 }
 
 // Inverse depth v = alpha + beta t along the 2D segment.
@@ -345,7 +370,8 @@ Expected<Line3d> fitLine3dToDepthSamples(const Segment2d& segment, const std::ve
   const Eigen::Vector2d xab = camera.normalize(segment.b) - xa;
   std::vector<Eigen::Vector3d> points;
   std::vector<double> t;
-  backProjectSamples(samples, camera, xa, xab, &points, &t);
+  std::vector<Eigen::Vector2d> slopes;
+  backProjectSamples(samples, camera, xa, xab, &points, &t, &slopes);
   if (points.size() < static_cast<size_t>(std::max(2, options.min_inliers)))
     return Error(ErrorCode::kNotEnoughData, std::to_string(points.size()) + " depth samples along the segment, " +
                                                 std::to_string(std::max(2, options.min_inliers)) + " needed");
@@ -375,6 +401,8 @@ Expected<Line3d> fitLine3dToDepthSamples(const Segment2d& segment, const std::ve
     return Error(ErrorCode::kNoSolution,
                  std::to_string(line.inliers) + " inliers of " + std::to_string(points.size()) + " depth samples");
   line.samples = static_cast<int>(samples.size());
+  line.sigma_systematic_m =
+      registrationSigma(line, slopes, segment.length() / xab.norm(), options.registration_sigma_px);
   line.image = segment;
   line.sensor = Eigen::Vector3d::Zero();
   if (auto s = checkLength(line, options); !s)

@@ -204,6 +204,32 @@ Line3dError measureLine3d(const Eigen::Vector3d& a, const Eigen::Vector3d& b, co
   return best;
 }
 
+ViewOffset measureViewOffset(const Eigen::Vector3d& sensor, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                             const std::vector<Segment3d>& truth, double max_distance_m, double max_angle_deg)
+{
+  ViewOffset out;
+  const Line3dError matched = measureLine3d(a, b, truth, max_distance_m, max_angle_deg);
+  const Eigen::Vector3d m = 0.5 * (a + b);
+  const Eigen::Vector3d ray = m - sensor;
+  out.range_m = ray.norm();
+  if (matched.edge < 0 || !(out.range_m > 0.0))
+    return out;
+  out.edge = matched.edge;
+  const Eigen::Vector3d r = ray / out.range_m, d = (b - a).normalized();
+  out.ray_angle_deg = std::acos(std::min(1.0, std::abs(r.dot(d)))) * 180.0 / M_PI;
+  const Segment3d& e = truth[matched.edge];
+  const Eigen::Vector3d u = (e.b - e.a).normalized();
+  const Eigen::Vector3d foot = e.a + (m - e.a).dot(u) * u;
+  const Eigen::Vector3d normal = (a - sensor).cross(b - sensor).normalized();
+  out.lateral_m = (m - foot).dot(normal);
+  // The ray's closest approach to the edge's line: sensor + t r nearest to e.a + s u.
+  const Eigen::Vector3d w = sensor - e.a;
+  const double ru = r.dot(u), det = 1.0 - ru * ru;
+  if (det > 1e-9)
+    out.depth_m = out.range_m - (ru * u.dot(w) - r.dot(w)) / det;
+  return out;
+}
+
 bool segmentHoldsEdge(const Segment3d& edge, double lo, double hi, const Segment3d& line, double max_distance_m)
 {
   const Eigen::Vector3d u = (edge.b - edge.a).normalized();

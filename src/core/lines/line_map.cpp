@@ -234,6 +234,7 @@ int LineMap::insert(const Line3d& o)
   kept.normal = normal;
   kept.sigma_lateral = std::max(options_.lateral_floor_m, options_.lateral_sigma_rad * range);
   kept.sigma_depth = std::hypot(o.sigma_m > 0.0 ? o.sigma_m : limit / 3.0, options_.depth_floor_fit_m);
+  kept.sigma_systematic = o.sigma_systematic_m;
   if (best < 0)
   {
     MapLine line;

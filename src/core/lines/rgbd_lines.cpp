@@ -63,6 +63,7 @@ std::optional<Line3d> RgbdLineExtractor::liftSegment(const RgbdFrame& frame, con
   }
   t = threadCpuMs();
   fit.seed = seed;
+  fit.registration_sigma_px = options_.sampler.registration_sigma_px;
   auto line = fitLine3dToDepthSamples(segment, samples, frame.camera, fit);
   st->fit_ms += cpuMsSince(t);
   if (!line)

@@ -166,7 +166,8 @@ ObservationResidual makeResidual(const Keyframe& kf, const KeyframeLine& o, cons
   const Eigen::Vector3d normal = o.line.a.cross(o.line.b).normalized();
   r.depth_direction = normal.cross(dir).normalized();
   r.focal_over_sigma_px = kf.focal_px / options.rgb_sigma_px;
-  r.inverse_sigma_depth = 1.0 / std::hypot(o.line.sigma_m, options.depth_floor_m);
+  // The registration's share (sigma_systematic_m) too: the same in every keyframe, it must not pull their poses.
+  r.inverse_sigma_depth = 1.0 / std::hypot(o.line.sigma_m, o.line.sigma_systematic_m, options.depth_floor_m);
   return r;
 }
 

@@ -459,15 +459,37 @@ std::vector<MapLine> Survey::usedMapLines() const
   return usedLinesOf(lineMap());
 }
 
+namespace
+{
+// The error a map line's observations share (Line3d::sigma_systematic_m: the depth registration's uncertainty at
+// the edge), which their number does not reduce: their mean, weighted as the refit weighs them.
+double sharedSigma(const MapLine& line)
+{
+  double sum = 0.0, weight = 0.0;
+  for (const auto& o : line.observations)
+    if (o.sigma_depth > 0.0)
+    {
+      const double w = 1.0 / (o.sigma_depth * o.sigma_depth);
+      sum += w * o.sigma_systematic;
+      weight += w;
+    }
+  return weight > 0.0 ? sum / weight : 0.0;
+}
+}  // namespace
+
 std::vector<double> Survey::sigmasOf(const std::vector<MapLine>& used) const
 {
   std::vector<double> out;
   // The map line's standard error predicted from its observations (it falls with their number, where the spread
   // does not: a line seen 20 times counted as much as one seen twice), with the floor for the errors the
-  // observations share (an edge's depth bias seen from similar viewpoints); the spread when nothing is predicted.
+  // observations share (an edge's depth bias seen from similar viewpoints) and, with shared_map_line_sigma, their
+  // shared registration error; the spread when nothing is predicted.
   for (const auto& line : used)
-    out.push_back(line.sigma() > 0.0 ? std::hypot(options_.min_map_line_sigma_m, line.sigma())
-                                     : std::max(options_.min_map_line_sigma_m, line.spread()));
+  {
+    const double shared =
+        std::hypot(options_.min_map_line_sigma_m, options_.shared_map_line_sigma ? sharedSigma(line) : 0.0);
+    out.push_back(line.sigma() > 0.0 ? std::hypot(shared, line.sigma()) : std::max(shared, line.spread()));
+  }
   return out;
 }
 

@@ -32,6 +32,9 @@ void readMapParameters(ParameterSource& read, SurveyOptions& options)
   Eigen::Vector2d& registration = options.rgbd.sampler.registration_offset_px;
   registration.x() = read.number("depth_registration/x_px", registration.x(), Range::closed(-10.0, 10.0, "px"));
   registration.y() = read.number("depth_registration/y_px", registration.y(), Range::closed(-10.0, 10.0, "px"));
+  double& registration_sigma = options.rgbd.sampler.registration_sigma_px;
+  registration_sigma = read.number("depth_registration/sigma_px", registration_sigma, Range::closed(0.0, 10.0, "px"));
+  options.shared_map_line_sigma = read.flag("depth_registration/in_map_line_sigma", options.shared_map_line_sigma);
 }
 
 // Lines on the floor beyond the depth range (map/floor_lines.h).
