@@ -88,9 +88,11 @@ Options:
                         measured) whose own depth is too poor for the map or missing, placed on it by ray-plane
                         intersection and confirmed from several keyframes, become map lines (default 0: off)
   --max-fusion-sigma M  observations too uncertain for the map alone (sigma above 3 mm) up to M m are fused into
-                        map lines used when many keyframes agree (params map/max_fusion_sigma; 0: off)
+                        map lines used when many keyframes agree (params map/max_fusion_sigma, default 0.012; 0: off)
   --min-fusion-keyframes N
                         distinct keyframes a fused map line needs (params map/min_fusion_keyframes, default 4)
+  --fusion-floor M      added in quadrature to a fused map line's predicted error: what averaging cannot remove
+                        (params map/fusion_floor, default 0.005)
   --triangulated-lines 0|1
                         RGB lines beyond the depth range (4 m) triangulated from five or more keyframes become map lines
                         (default 0: off)
@@ -852,6 +854,7 @@ bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options)
   options->map.max_fusion_sigma_m = cli.number("max-fusion-sigma", options->map.max_fusion_sigma_m);
   options->map.min_fusion_keyframes =
       static_cast<int>(cli.number("min-fusion-keyframes", options->map.min_fusion_keyframes));
+  options->map.fusion_floor_m = cli.number("fusion-floor", options->map.fusion_floor_m);
   options->ceiling.enabled = cli.number("ceiling-lines", options->ceiling.enabled ? 1.0 : 0.0) != 0.0;
   options->triangulated.enabled = cli.number("triangulated-lines", options->triangulated.enabled ? 1.0 : 0.0) != 0.0;
   options->occlusion.enabled = cli.number("occlusion-test", options->occlusion.enabled ? 1.0 : 0.0) != 0.0;
@@ -1122,7 +1125,8 @@ int main(int argc, char** argv)
        "triangulated-lines",
        "ceiling-lines",
        "max-fusion-sigma",
-       "min-fusion-keyframes"},
+       "min-fusion-keyframes",
+       "fusion-floor"},
       {"no-refine", "no-ransac", "no-report", "quiet", "oracle", "oracle-details", "trace", "no-odometry"});
   if (cli.help())
   {

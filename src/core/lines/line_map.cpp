@@ -405,9 +405,10 @@ std::vector<MapLine> LineMap::fusedLines(FusionCounts* counts) const
     if (distinctKeyframes(candidate) < std::max(1, options_.min_fusion_keyframes))
       continue;
     ++n.keyframes;
+    // What averaging achieves must meet a precise observation's bar; the floor then stands for what it cannot.
     const double sigma = std::hypot(candidate.sigma(), options_.fusion_floor_m);
-    const double angle_deg = std::atan(std::sqrt(2.0) * sigma / candidate.length()) * 180.0 / M_PI;
-    if (!(sigma <= options_.max_sigma_m) ||
+    const double angle_deg = std::atan(std::sqrt(2.0) * candidate.sigma() / candidate.length()) * 180.0 / M_PI;
+    if (!(candidate.sigma() <= options_.max_sigma_m) ||
         (options_.max_sigma_angle_deg > 0.0 && !(angle_deg <= options_.max_sigma_angle_deg)))
       continue;
     ++n.sigma;

@@ -18,6 +18,7 @@ void readMapParameters(ParameterSource& read, SurveyOptions& options)
   map.max_fusion_sigma_m = read.number("map/max_fusion_sigma", map.max_fusion_sigma_m, Range::closed(0.0, 1.0, "m"));
   map.min_fusion_keyframes =
       read.integer("map/min_fusion_keyframes", map.min_fusion_keyframes, Range::integers(1, 1000));
+  map.fusion_floor_m = read.number("map/fusion_floor", map.fusion_floor_m, Range::closed(0.0, 1.0, "m"));
   options.keyframes.min_translation_m =
       read.number("keyframe/min_translation", options.keyframes.min_translation_m, Range::closed(0.0, 100.0, "m"));
   options.keyframes.min_rotation_deg =
