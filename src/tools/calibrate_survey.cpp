@@ -4,10 +4,12 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <optional>
 #include <iostream>
 #include <map>
 #include <random>
+#include <set>
 #include <sstream>
 
 #include <opencv2/imgcodecs.hpp>
@@ -92,6 +94,12 @@ Options:
   --ceiling-lines 0|1   RGB lines on the ceiling (the horizontal plane above the Xtion that its depth lines
                         measured) whose own depth is too poor for the map or missing, placed on it by ray-plane
                         intersection and confirmed from several keyframes, become map lines (default 0: off)
+  --max-fusion-sigma M  observations too uncertain for the map alone (sigma above 3 mm) up to M m are fused into
+                        map lines used when many keyframes agree (params map/max_fusion_sigma, default 0.012; 0: off)
+  --min-fusion-keyframes N
+                        distinct keyframes a fused map line needs (params map/min_fusion_keyframes, default 4)
+  --fusion-floor M      added in quadrature to a fused map line's predicted error: what averaging cannot remove
+                        (params map/fusion_floor, default 0.005)
   --triangulated-lines 0|1
                         RGB lines beyond the depth range (4 m) triangulated from five or more keyframes become map lines
                         (default 0: off)
@@ -378,6 +386,56 @@ void reportMapAgainstTruth(const std::string& truth_dir, const ic::Survey& surve
     }
 }
 
+// The too-uncertain RGB-D lines of one edge ("truth-uncertain-edge"): how many keyframes, their predicted error
+// sigma_m and range, their real offset from the edge (the larger of the end points') against sigma_m, and what
+// their inverse-variance mean would be off (the fusion of LineMapOptions::max_fusion_sigma_m).
+void printUncertainObservations(const ic::Survey& survey, const ic::Segment3d& part)
+{
+  std::vector<double> sigmas, ranges, offsets, ratios;
+  std::set<double> stamps;
+  const Eigen::Vector3d d = (part.b - part.a).normalized();
+  auto off = [&](const Eigen::Vector3d& p) {
+    const Eigen::Vector3d r = p - part.a;
+    return Eigen::Vector3d(r - r.dot(d) * d);
+  };
+  Eigen::Vector3d weighted = Eigen::Vector3d::Zero();
+  double information = 0.0;
+  for (const auto& kf : survey.keyframes())
+    for (const auto& l : kf.lines)
+    {
+      const ic::Segment3d line{kf.T_map_camera * l.line.a, kf.T_map_camera * l.line.b};
+      if (!ic::segmentHoldsEdge(part, 0.0, part.length(), line, 0.03) || !(l.line.sigma_m > 0.0))
+        continue;
+      const Eigen::Vector3d oa = off(line.a), ob = off(line.b);
+      const double offset = std::max(oa.norm(), ob.norm());
+      sigmas.push_back(l.line.sigma_m);
+      ranges.push_back(l.line.range_m);
+      offsets.push_back(offset);
+      ratios.push_back(offset / l.line.sigma_m);
+      stamps.insert(kf.stamp);
+      const double w = 1.0 / (l.line.sigma_m * l.line.sigma_m);
+      weighted += w * 0.5 * (oa + ob);
+      information += w;
+    }
+  auto median = [](std::vector<double> v) {
+    if (v.empty())
+      return std::nan("");
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  auto maximum = [](const std::vector<double>& v) {
+    return v.empty() ? std::nan("") : *std::max_element(v.begin(), v.end());
+  };
+  std::printf(
+      "truth-uncertain-edge %.2f m: %zu lines from %zu keyframes, sigma_m median %.1f max %.1f mm, range median "
+      "%.1f m, offset median %.1f max %.1f mm, offset/sigma median %.2f max %.2f, inverse-variance mean %.1f mm off "
+      "(predicted %.1f)\n",
+      part.length(), sigmas.size(), stamps.size(), 1000.0 * median(sigmas), 1000.0 * maximum(sigmas), median(ranges),
+      1000.0 * median(offsets), 1000.0 * maximum(offsets), median(ratios), maximum(ratios),
+      information > 0.0 ? 1000.0 * (weighted / information).norm() : NAN,
+      information > 0.0 ? 1000.0 / std::sqrt(information) : NAN);
+}
+
 // Why the map lacks an edge a fixed camera shows (issue 11's diagnosis): never in the Xtion's view, in view without
 // depth (beyond its range, or grazing), or with depth and lost on the way to the map: no keyframe made a 3D line of
 // it, its keyframes' lines were all too uncertain for the map (LineMapOptions::max_sigma_m), or the map holds it
@@ -403,7 +461,10 @@ std::string missingCause(const ic::simulation::EdgeSightings& sight, const ic::S
   if (observed == 0)
     return "depth-not-extracted";
   if (certain == 0)
+  {
+    printUncertainObservations(survey, part);
     return "depth-too-uncertain";
+  }
   const auto& all = survey.lineMap().lines();
   auto held = [&](double distance) {
     return std::any_of(all.begin(), all.end(), [&](const ic::MapLine& m) {
@@ -489,10 +550,10 @@ void reportCoverageAgainstTruth(const std::string& truth_dir, const ic::Survey& 
     diagnoseMissingEdges(world_file, survey, name, c);
 }
 
-// The map lines of one source beyond depth (triangulated, ceiling) in use against the true edges: within 3
-// predicted sigmas, within 1 cm, on none ("truth-<label>" lines).
-void reportSourceAgainstTruth(const std::string& truth_dir, const ic::Survey& survey, ic::MapLineSource source,
-                              const std::string& label)
+// The map lines of one kind (beyond depth: triangulated, ceiling, floor; fused) in use against the true edges:
+// within 3 predicted sigmas, within 1 cm, on none ("truth-<label>" lines).
+void reportSourceAgainstTruth(const std::string& truth_dir, const ic::Survey& survey,
+                              const std::function<bool(const ic::MapLine&)>& chosen, const std::string& label)
 {
   const auto edges = ic::simulation::loadTrueEdges(truth_dir + "/edges.yaml");
   if (!edges)
@@ -503,7 +564,7 @@ void reportSourceAgainstTruth(const std::string& truth_dir, const ic::Survey& su
   size_t lines = 0, within_sigmas = 0, within_cm = 0, none = 0;
   for (const auto& line : survey.usedMapLines())
   {
-    if (line.source != source)
+    if (!chosen(line))
       continue;
     ++lines;
     const ic::Line3dError e = ic::measureLine3d(line.a(), line.b(), segments, 0.1, 5.0);
@@ -914,6 +975,10 @@ bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options)
   const bool extended = cli.number("floor-extended", options->floor.depth_confirmation ? 1.0 : 0.0) != 0.0;
   options->floor.depth_confirmation = options->floor.extend_confirmed = extended;
 
+  options->map.max_fusion_sigma_m = cli.number("max-fusion-sigma", options->map.max_fusion_sigma_m);
+  options->map.min_fusion_keyframes =
+      static_cast<int>(cli.number("min-fusion-keyframes", options->map.min_fusion_keyframes));
+  options->map.fusion_floor_m = cli.number("fusion-floor", options->map.fusion_floor_m);
   options->ceiling.enabled = cli.number("ceiling-lines", options->ceiling.enabled ? 1.0 : 0.0) != 0.0;
   options->triangulated.enabled = cli.number("triangulated-lines", options->triangulated.enabled ? 1.0 : 0.0) != 0.0;
   options->occlusion.enabled = cli.number("occlusion-test", options->occlusion.enabled ? 1.0 : 0.0) != 0.0;
@@ -1025,6 +1090,15 @@ void printSurveySummary(const ic::Survey& survey, size_t frames_without_pose, do
       triangulated += line.source == ic::MapLineSource::kTriangulated ? 1 : 0;
     std::printf("triangulated lines: %zu map lines used\n", triangulated);
   }
+  if (survey.options().map.max_fusion_sigma_m > 0.0)
+  {
+    ic::LineMap::FusionCounts n;
+    survey.lineMap().fusedLines(&n);
+    std::printf(
+        "fused lines: %zu uncertain map lines, %zu from enough keyframes, %zu precise enough, %zu consistent, %zu "
+        "not held by a precise line (used)\n",
+        n.pool, n.keyframes, n.sigma, n.consistent, n.used);
+  }
 }
 
 // A refusal with what to survey next (survey_guidance.h), and its picture beside the overlay.
@@ -1118,12 +1192,17 @@ int calibrateCameras(const ic::CommandLine& cli, ic::Survey& survey)
     for (const auto& name : survey.cameraNames())
       if (selected(name))
         reportCoverageAgainstTruth(cli.value("truth-dir"), survey, name, map, cli.value("coverage-diagnosis"));
+    auto of = [](ic::MapLineSource source) { return [source](const ic::MapLine& l) { return l.source == source; }; };
+    const std::string truth_dir = cli.value("truth-dir");
     if (survey.options().triangulated.enabled)
-      reportSourceAgainstTruth(cli.value("truth-dir"), survey, ic::MapLineSource::kTriangulated, "triangulated");
+      reportSourceAgainstTruth(truth_dir, survey, of(ic::MapLineSource::kTriangulated), "triangulated");
     if (survey.options().ceiling.enabled)
-      reportSourceAgainstTruth(cli.value("truth-dir"), survey, ic::MapLineSource::kCeiling, "ceiling");
+      reportSourceAgainstTruth(truth_dir, survey, of(ic::MapLineSource::kCeiling), "ceiling");
     if (survey.options().floor.enabled)
-      reportSourceAgainstTruth(cli.value("truth-dir"), survey, ic::MapLineSource::kFloor, "floor");
+      reportSourceAgainstTruth(truth_dir, survey, of(ic::MapLineSource::kFloor), "floor");
+    if (survey.options().map.max_fusion_sigma_m > 0.0)
+      reportSourceAgainstTruth(
+          truth_dir, survey, [](const ic::MapLine& l) { return l.fused; }, "fused");
     reportMapAgainstTruth(cli.value("truth-dir"), survey);
     if (const auto edges = ic::simulation::loadTrueEdges(cli.value("truth-dir") + "/edges.yaml"))
     {
@@ -1177,7 +1256,10 @@ int main(int argc, char** argv)
        "occlusion-test",
        "occluders-follow-adjustment",
        "triangulated-lines",
-       "ceiling-lines"},
+       "ceiling-lines",
+       "max-fusion-sigma",
+       "min-fusion-keyframes",
+       "fusion-floor"},
       {"no-refine", "no-ransac", "no-report", "quiet", "oracle", "oracle-details", "trace", "no-odometry"});
   if (cli.help())
   {

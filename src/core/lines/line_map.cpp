@@ -137,6 +137,45 @@ double observationWeight(const Line3d& o, double min_rms)
   return std::max(1, o.inliers) / (rms * rms);
 }
 
+int distinctKeyframes(const MapLine& line)
+{
+  std::vector<double> stamps;
+  for (const auto& o : line.observations)
+    stamps.push_back(o.stamp);
+  std::sort(stamps.begin(), stamps.end());
+  return static_cast<int>(std::unique(stamps.begin(), stamps.end()) - stamps.begin());
+}
+
+// The chi-square quantile at 99 % (Wilson-Hilferty), k >= 1 degrees of freedom.
+double chiSquare99(double k)
+{
+  const double z = 2.326, h = 2.0 / (9.0 * k);
+  return k * std::pow(1.0 - h + z * std::sqrt(h), 3);
+}
+
+// Whether the observations agree with the fitted line within their errors: each end point's offset in its
+// interpretation plane, across the line (depth: sigma_depth times fusion_sigma_scale, with the floor). The offsets
+// normal to the planes (a fraction of a millimetre) would only dilute the test. Several observations that disagree
+// (two edges, keyframes biased differently) fail it.
+bool observationsConsistent(const MapLine& line, const LineMapOptions& o)
+{
+  double chi2 = 0.0;
+  int terms = 0;
+  const Eigen::Vector3d& d = line.direction;
+  for (const auto& obs : line.observations)
+    for (const Eigen::Vector3d& p : {obs.a, obs.b})
+    {
+      const Eigen::Vector3d r = p - line.point;
+      const Eigen::Vector3d q = r - r.dot(d) * d;
+      const double lateral = obs.normal.squaredNorm() > 0.0 ? q.dot(obs.normal) : 0.0;
+      const double sd = std::hypot(o.fusion_sigma_scale * obs.sigma_depth, o.fusion_floor_m);
+      chi2 += std::max(0.0, q.squaredNorm() - lateral * lateral) / (sd * sd);
+      ++terms;
+    }
+  const int dof = terms - 2;  // the line's two degrees of freedom in the planes
+  return dof >= 1 && chi2 <= chiSquare99(dof);
+}
+
 }  // namespace
 
 std::vector<Eigen::Vector3d> MapLine::samplePoints(int n) const
@@ -196,11 +235,20 @@ int LineMap::insert(const Line3d& o)
 {
   if (!o.a.allFinite() || !o.b.allFinite() || !((o.b - o.a).norm() > 0.0))
     return -1;
-  if (options_.max_sigma_m > 0.0 && o.sigma_m > options_.max_sigma_m)
-    return -1;
-  if (options_.max_sigma_angle_deg > 0.0 &&
-      std::atan(std::sqrt(2.0) * o.sigma_m / (o.b - o.a).norm()) * 180.0 / M_PI > options_.max_sigma_angle_deg)
-    return -1;
+  const bool precise =
+      !(options_.max_sigma_m > 0.0 && o.sigma_m > options_.max_sigma_m) &&
+      !(options_.max_sigma_angle_deg > 0.0 &&
+        std::atan(std::sqrt(2.0) * o.sigma_m / (o.b - o.a).norm()) * 180.0 / M_PI > options_.max_sigma_angle_deg);
+  if (precise)
+    return merge(o, &lines_);
+  // Uncertain (far, short or noisy): pooled for fusion, where only many consistent keyframes make a used line.
+  if (options_.max_fusion_sigma_m > 0.0 && o.sigma_m > 0.0 && o.sigma_m <= options_.max_fusion_sigma_m)
+    merge(o, &pool_);
+  return -1;
+}
+
+int LineMap::merge(const Line3d& o, std::vector<MapLine>* lines)
+{
   const double range = std::max(0.0, o.range_m);
   const double limit = options_.max_distance_m + options_.max_distance_per_m * range;
   // The normal of the interpretation plane (sensor, a, b), when the sensor is known and not on the line.
@@ -216,11 +264,11 @@ int LineMap::insert(const Line3d& o)
       o.sigma_m > 0.0 ? options_.depth_sigmas * std::hypot(o.sigma_m, options_.depth_floor_m) : limit;
   int best = -1;
   double best_distance = std::numeric_limits<double>::infinity();
-  for (size_t i = 0; i < lines_.size(); ++i)
+  for (size_t i = 0; i < lines->size(); ++i)
   {
     double distance = 0.0;
-    if (lines_[i].source == MapLineSource::kDepth &&
-        compatible(lines_[i], o.a, o.b, limit, normal, lateral_limit, depth_limit, &distance) &&
+    if ((*lines)[i].source == MapLineSource::kDepth &&
+        compatible((*lines)[i], o.a, o.b, limit, normal, lateral_limit, depth_limit, &distance) &&
         distance < best_distance)
     {
       best_distance = distance;
@@ -235,6 +283,7 @@ int LineMap::insert(const Line3d& o)
   kept.sigma_lateral = std::max(options_.lateral_floor_m, options_.lateral_sigma_rad * range);
   kept.sigma_depth = std::hypot(o.sigma_m > 0.0 ? o.sigma_m : limit / 3.0, options_.depth_floor_fit_m);
   kept.sigma_systematic = o.sigma_systematic_m;
+  kept.stamp = o.stamp;
   if (best < 0)
   {
     MapLine line;
@@ -248,10 +297,10 @@ int LineMap::insert(const Line3d& o)
     if (options_.max_observations > 0)
       line.observations.push_back(kept);
     refitFromObservations(&line, options_.robust_k);
-    lines_.push_back(line);
-    return static_cast<int>(lines_.size()) - 1;
+    lines->push_back(line);
+    return static_cast<int>(lines->size()) - 1;
   }
-  MapLine& line = lines_[best];
+  MapLine& line = (*lines)[best];
   addSegmentMoments(o.a, o.b, w, &line);
   line.information += 1.0 / (kept.sigma_depth * kept.sigma_depth);
   ++line.support;
@@ -264,7 +313,7 @@ int LineMap::insert(const Line3d& o)
     trimObservations(options_.max_observations, &line);
   }
   refitFromObservations(&line, options_.robust_k);
-  return fuseWithOthers(best);
+  return fuseWithOthers(best, lines);
 }
 
 void LineMap::insert(const std::vector<Line3d>& observations)
@@ -273,26 +322,27 @@ void LineMap::insert(const std::vector<Line3d>& observations)
     insert(o);
 }
 
-int LineMap::fuseWithOthers(int index)
+int LineMap::fuseWithOthers(int index, std::vector<MapLine>* lines)
 {
+  std::vector<MapLine>& all = *lines;
   bool fused = true;
   while (fused)
   {
     fused = false;
-    for (size_t j = 0; j < lines_.size(); ++j)
+    for (size_t j = 0; j < all.size(); ++j)
     {
-      if (static_cast<int>(j) == index || lines_[j].source != MapLineSource::kDepth)
+      if (static_cast<int>(j) == index || all[j].source != MapLineSource::kDepth)
         continue;
-      const MapLine& other = lines_[j];
+      const MapLine& other = all[j];
       double distance = 0.0;
       // Each line's end points against the other line, within the lateral tolerance in every direction (map lines
       // are averages of many observations; depth errors mostly average out).
       const double limit = std::min(options_.max_distance_m, options_.max_lateral_m);
       const Eigen::Vector3d none = Eigen::Vector3d::Zero();
-      if (!compatible(lines_[index], other.a(), other.b(), limit, none, limit, limit, &distance) ||
-          !compatible(other, lines_[index].a(), lines_[index].b(), limit, none, limit, limit, &distance))
+      if (!compatible(all[index], other.a(), other.b(), limit, none, limit, limit, &distance) ||
+          !compatible(other, all[index].a(), all[index].b(), limit, none, limit, limit, &distance))
         continue;
-      MapLine& line = lines_[index];
+      MapLine& line = all[index];
       // The other's moments about this line's reference.
       const Eigen::Vector3d delta = other.reference - line.reference;
       line.sum_wx += other.sum_wx + other.weight * delta;
@@ -308,10 +358,10 @@ int LineMap::fuseWithOthers(int index)
       trimObservations(options_.max_observations, &line);
       refitFromObservations(&line, options_.robust_k);
       // Remove j (swap with the last) and keep track of index.
-      const int last = static_cast<int>(lines_.size()) - 1;
+      const int last = static_cast<int>(all.size()) - 1;
       if (static_cast<int>(j) != last)
-        lines_[j] = lines_[last];
-      lines_.pop_back();
+        all[j] = all[last];
+      all.pop_back();
       if (index == last)
         index = static_cast<int>(j);
       fused = true;
@@ -321,12 +371,73 @@ int LineMap::fuseWithOthers(int index)
   return index;
 }
 
+bool LineMap::sameEdge(const MapLine& x, const MapLine& y) const
+{
+  // Within the merge distance along the same edge, either way.
+  const Eigen::Vector3d none = Eigen::Vector3d::Zero();
+  const double limit = options_.max_distance_m;
+  double distance = 0.0;
+  return compatible(x, y.a(), y.b(), limit, none, limit, limit, &distance) ||
+         compatible(y, x.a(), x.b(), limit, none, limit, limit, &distance);
+}
+
+bool LineMap::heldElsewhere(size_t candidate) const
+{
+  // A precise line holds the edge already; or another pool line from two or more keyframes claims it a little off
+  // (depth biased differently from two sides: each group consistent, the groups centimetres apart).
+  const MapLine& fused = pool_[candidate];
+  for (const auto& line : lines_)
+    if (line.source == MapLineSource::kDepth && sameEdge(line, fused))
+      return true;
+  for (size_t j = 0; j < pool_.size(); ++j)
+    if (j != candidate && distinctKeyframes(pool_[j]) >= 2 && sameEdge(pool_[j], fused))
+      return true;
+  return false;
+}
+
+std::vector<MapLine> LineMap::fusedLines(FusionCounts* counts) const
+{
+  FusionCounts n;
+  std::vector<MapLine> out;
+  for (size_t i = 0; i < pool_.size(); ++i)
+  {
+    const MapLine& candidate = pool_[i];
+    ++n.pool;
+    if (distinctKeyframes(candidate) < std::max(1, options_.min_fusion_keyframes))
+      continue;
+    ++n.keyframes;
+    // What averaging achieves must meet a precise observation's bar; the floor then stands for what it cannot.
+    const double sigma = std::hypot(candidate.sigma(), options_.fusion_floor_m);
+    const double angle_deg = std::atan(std::sqrt(2.0) * candidate.sigma() / candidate.length()) * 180.0 / M_PI;
+    if (!(candidate.sigma() <= options_.max_sigma_m) ||
+        (options_.max_sigma_angle_deg > 0.0 && !(angle_deg <= options_.max_sigma_angle_deg)))
+      continue;
+    ++n.sigma;
+    if (!observationsConsistent(candidate, options_))
+      continue;
+    ++n.consistent;
+    if (heldElsewhere(i))
+      continue;
+    ++n.used;
+    out.push_back(candidate);
+    out.back().fused = true;
+    out.back().information = 1.0 / (sigma * sigma);
+  }
+  if (counts)
+    *counts = n;
+  return out;
+}
+
 std::vector<MapLine> LineMap::lines(int min_support) const
 {
   std::vector<MapLine> out;
   for (const auto& l : lines_)
     if (l.support >= min_support)
       out.push_back(l);
+  if (options_.max_fusion_sigma_m > 0.0)
+    for (const auto& l : fusedLines())
+      if (l.support >= min_support)
+        out.push_back(l);
   return out;
 }
 

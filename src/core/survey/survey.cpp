@@ -43,7 +43,7 @@ void addLinesBeyondDepth(const std::vector<Keyframe>& keyframes, const std::vect
   // spread, would leave the edge to neither).
   std::vector<MapLine> used;
   for (const auto& line : map->lines(o.min_map_support))
-    if (line.spread() <= o.max_map_spread_m)  // as Survey::usedLinesOf
+    if (line.fused || line.spread() <= o.max_map_spread_m)  // as Survey::usedLinesOf
       used.push_back(line);
   for (const auto& line : confirmCeilingLines(keyframes, corrections, used, o.ceiling))
     map->add(line);
@@ -448,8 +448,9 @@ bool Survey::addMapPlacement(FixedCameraResult* result) const
 std::vector<MapLine> Survey::usedLinesOf(const LineMap& map) const
 {
   std::vector<MapLine> out;
+  // A fused line's observations are spread by their depth errors; its consistency test stands for the spread's.
   for (const auto& line : map.lines(options_.min_map_support))
-    if (line.spread() <= options_.max_map_spread_m)
+    if (line.fused || line.spread() <= options_.max_map_spread_m)
       out.push_back(line);
   return out;
 }

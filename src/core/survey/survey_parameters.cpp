@@ -13,6 +13,12 @@ void readMapParameters(ParameterSource& read, SurveyOptions& options)
       read.number("fixed_image_period", options.fixed_image_period_s, Range::closed(0.0, 3600.0, "s"));
   options.min_map_support = read.integer("min_map_support", options.min_map_support, Range::integers(1, 1000));
   options.max_map_spread_m = read.number("max_map_spread", options.max_map_spread_m, Range::positive(10.0, "m"));
+  // Fusion of the observations too uncertain for the map on their own (LineMapOptions::max_fusion_sigma_m).
+  LineMapOptions& map = options.map;
+  map.max_fusion_sigma_m = read.number("map/max_fusion_sigma", map.max_fusion_sigma_m, Range::closed(0.0, 1.0, "m"));
+  map.min_fusion_keyframes =
+      read.integer("map/min_fusion_keyframes", map.min_fusion_keyframes, Range::integers(1, 1000));
+  map.fusion_floor_m = read.number("map/fusion_floor", map.fusion_floor_m, Range::closed(0.0, 1.0, "m"));
   options.keyframes.min_translation_m =
       read.number("keyframe/min_translation", options.keyframes.min_translation_m, Range::closed(0.0, 100.0, "m"));
   options.keyframes.min_rotation_deg =
