@@ -95,7 +95,8 @@ Options:
                         measured) whose own depth is too poor for the map or missing, placed on it by ray-plane
                         intersection and confirmed from several keyframes, become map lines (default 0: off)
   --max-fusion-sigma M  observations too uncertain for the map alone (sigma above 3 mm) up to M m are fused into
-                        map lines used when many keyframes agree (params map/max_fusion_sigma, default 0.012; 0: off)
+                        map lines used when many keyframes agree (params map/max_fusion_sigma; default 0: off;
+                        0.012 measured: it let one wrong camera through on a held-out building)
   --min-fusion-keyframes N
                         distinct keyframes a fused map line needs (params map/min_fusion_keyframes, default 4)
   --fusion-floor M      added in quadrature to a fused map line's predicted error: what averaging cannot remove
