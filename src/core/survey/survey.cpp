@@ -32,6 +32,13 @@ Keyframe toKeyframe(const RgbdFrame& frame, const std::vector<Line3d>& lines, st
   return kf;
 }
 
+// Whether the calibration uses a map line with enough support: its observations' spread within the limit, or fused
+// (a fused line's observations are spread by their depth errors; its consistency test stands for the spread's).
+bool usedByCalibration(const MapLine& line, const SurveyOptions& o)
+{
+  return line.fused || line.spread() <= o.max_map_spread_m;
+}
+
 // The lines beyond the depth range (floor lines, ceiling lines, then triangulated lines), added to a map of depth
 // lines.
 void addLinesBeyondDepth(const std::vector<Keyframe>& keyframes, const std::vector<PoseCorrection>& corrections,
@@ -43,7 +50,7 @@ void addLinesBeyondDepth(const std::vector<Keyframe>& keyframes, const std::vect
   // spread, would leave the edge to neither).
   std::vector<MapLine> used;
   for (const auto& line : map->lines(o.min_map_support))
-    if (line.fused || line.spread() <= o.max_map_spread_m)  // as Survey::usedLinesOf
+    if (usedByCalibration(line, o))
       used.push_back(line);
   for (const auto& line : confirmCeilingLines(keyframes, corrections, used, o.ceiling))
     map->add(line);
@@ -448,9 +455,8 @@ bool Survey::addMapPlacement(FixedCameraResult* result) const
 std::vector<MapLine> Survey::usedLinesOf(const LineMap& map) const
 {
   std::vector<MapLine> out;
-  // A fused line's observations are spread by their depth errors; its consistency test stands for the spread's.
   for (const auto& line : map.lines(options_.min_map_support))
-    if (line.fused || line.spread() <= options_.max_map_spread_m)
+    if (usedByCalibration(line, options_))
       out.push_back(line);
   return out;
 }
