@@ -184,7 +184,14 @@ void reportAgainstTruth(const std::string& truth_dir, const std::string& name, c
       const Eigen::Vector3d d = (a.b - a.a).normalized();
       const bool collinear =
           std::abs(d.dot((b.b - b.a).normalized())) > 0.9999 && ((b.a - a.a) - d * d.dot(b.a - a.a)).norm() < 1e-3;
-      wrong += (image_error.edge != map_error.edge && !collinear) ? 1 : 0;
+      if (image_error.edge != map_error.edge && !collinear)
+      {
+        ++wrong;
+        std::printf("  truth-wrong-match: image line on edge [%.2f %.2f %.2f] -> [%.2f %.2f %.2f], map line on edge "
+                    "[%.2f %.2f %.2f] -> [%.2f %.2f %.2f]\n",
+                    a.a.x(), a.a.y(), a.a.z(), a.b.x(), a.b.y(), a.b.z(), b.a.x(), b.a.y(), b.a.z(), b.b.x(), b.b.y(),
+                    b.b.z());
+      }
     }
   }
   const ic::ReprojectionStats map_stats = ic::summarize(map_errors_mm);

@@ -144,6 +144,37 @@ TEST(VerticalLinesSolver, RecoversPoseAndFocalFromAMinimalSet)
   EXPECT_LE(most_solutions, 4u);
 }
 
+// A corridor's map has one dominant horizontal direction (the cross lines are short): the hypotheses then give both
+// non-vertical lines that direction. For a tilted camera, their vanishing point and the vertical one fix f and the
+// rotation (orthogonal vanishing points), and the four lines the position.
+TEST(VerticalLinesSolver, RecoversPoseAndFocalFromTwoParallelHorizontalLines)
+{
+  std::mt19937 rng(14);
+  const Eigen::Vector2d pp(0.5 * (kWidth - 1), 0.5 * (kHeight - 1));
+  constexpr int kTrials = 1000;
+  int recovered = 0;
+  for (int trial = 0; trial < kTrials; ++trial)
+  {
+    const ic::CameraModel truth = randomCamera(rng);
+    const Eigen::Vector3d along = randomNonVertical(rng, true);
+    std::array<ic::ImageMapLine, 4> set = {visibleLine(truth, Eigen::Vector3d::UnitZ(), rng),
+                                           visibleLine(truth, Eigen::Vector3d::UnitZ(), rng),
+                                           visibleLine(truth, along, rng), visibleLine(truth, along, rng)};
+    const Errors e = bestSolution(ic::solveVerticalLinesFocalPose(set, pp, kWidth), truth);
+    bool rotation_focal = false;
+    for (const ic::RotationFocal& rf : ic::solveVerticalLinesRotationFocal(set, pp, kWidth))
+      rotation_focal |= Eigen::AngleAxisd(rf.rotation * truth.pose().rotation.transpose()).angle() < 1e-6 &&
+                        std::abs(rf.focal_px / truth.intrinsics().fx - 1.0) < 1e-6;
+    if (e.rotation_rad < 1e-6 && e.position_m < 1e-6 && e.focal_relative < 1e-6 && rotation_focal)
+      ++recovered;
+    else
+      std::printf("parallel pair, trial %d: best rotation %.3g rad, position %.3g m, focal %.3g\n", trial,
+                  e.rotation_rad, e.position_m, e.focal_relative);
+  }
+  // 998 of 1000 today; the two misses return no solution (nothing wrong).
+  EXPECT_GE(recovered, kTrials - 4);
+}
+
 TEST(VerticalLinesSolver, RecoversPoseFromThreeLinesWithKnownFocal)
 {
   std::mt19937 rng(13);

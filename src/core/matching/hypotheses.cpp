@@ -194,14 +194,17 @@ struct Rotation
 // Stage 1: rotation and focal length from directions alone. Two image lines that may be vertical (the vertical
 // vanishing point) and two others, each taken as one of the map's dominant horizontal directions, solved by the
 // vertical-lines solver's first stage; supported by the image lines pointing at the vertical or a dominant
-// direction's vanishing point. The best distinct few in the cone.
+// direction's vanishing point. The best distinct few in the cone. A map with one dominant direction (a corridor:
+// its cross lines are short) gives it to both others: their vanishing point and the vertical one fix f and the
+// rotation for a tilted camera.
 std::vector<Rotation> rotationHypotheses(const MatchingProblem& problem, const Cone& cone,
                                          const std::vector<size_t>& vertical, const std::vector<size_t>& other,
                                          const std::vector<Eigen::Vector3d>& directions, std::mt19937& rng)
 {
   std::vector<Rotation> found;
-  if (vertical.size() < 2 || other.size() < 2 || directions.size() < 2)
+  if (vertical.size() < 2 || other.size() < 2 || directions.empty())
     return found;
+  const bool one_direction = directions.size() == 1;
   const Eigen::Vector2d pp = imageCenter(problem.width, problem.height);
   VerticalLinesSolverOptions options;
   options.min_fov_deg = cone.fov_min_deg;
@@ -217,7 +220,7 @@ std::vector<Rotation> rotationHypotheses(const MatchingProblem& problem, const C
     const size_t v0 = vertical[pick_vertical(rng)], v1 = vertical[pick_vertical(rng)];
     const size_t o0 = other[pick_other(rng)], o1 = other[pick_other(rng)];
     const size_t d0 = pick_direction(rng), d1 = pick_direction(rng);
-    if (v0 == v1 || o0 == o1 || d0 == d1)
+    if (v0 == v1 || o0 == o1 || (d0 == d1 && !one_direction))
       continue;
     const std::array<ImageMapLine, 4> lines = {image(v0, Eigen::Vector3d::UnitZ()), image(v1, Eigen::Vector3d::UnitZ()),
                                                image(o0, directions[d0]), image(o1, directions[d1])};
