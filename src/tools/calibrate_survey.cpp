@@ -187,10 +187,10 @@ void reportAgainstTruth(const std::string& truth_dir, const std::string& name, c
       if (image_error.edge != map_error.edge && !collinear)
       {
         ++wrong;
-        std::printf("  truth-wrong-match: image line on edge [%.2f %.2f %.2f] -> [%.2f %.2f %.2f], map line on edge "
-                    "[%.2f %.2f %.2f] -> [%.2f %.2f %.2f]\n",
-                    a.a.x(), a.a.y(), a.a.z(), a.b.x(), a.b.y(), a.b.z(), b.a.x(), b.a.y(), b.a.z(), b.b.x(), b.b.y(),
-                    b.b.z());
+        std::printf(
+            "  truth-wrong-match: image line on edge [%.2f %.2f %.2f] -> [%.2f %.2f %.2f], map line on edge "
+            "[%.2f %.2f %.2f] -> [%.2f %.2f %.2f]\n",
+            a.a.x(), a.a.y(), a.a.z(), a.b.x(), a.b.y(), a.b.z(), b.a.x(), b.a.y(), b.a.z(), b.b.x(), b.b.y(), b.b.z());
       }
     }
   }

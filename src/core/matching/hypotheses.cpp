@@ -7,6 +7,7 @@
 #include <limits>
 #include <optional>
 #include <random>
+#include <set>
 
 #include "insitu_calibration/solvers/vertical_lines_focal_pose.h"
 #include "matching/matcher_trace.h"
@@ -129,20 +130,37 @@ bool distinctFrom(const CameraModel& c, const std::vector<Scored>& chosen)
            std::abs(c.intrinsics().fx / s.camera.intrinsics().fx - 1.0) > 0.05;
   });
 }
+// A horizontal direction's azimuth, deg in [0, 180) (a line has no sense), and its length; none for a short or
+// steep line.
+std::optional<std::pair<double, double>> horizontalAzimuth(const Segment3d& s)
+{
+  const Eigen::Vector3d d = s.b - s.a;
+  if (d.norm() < 0.05 || std::abs(d.normalized().z()) > std::sin(10.0 * kDegToRad))
+    return std::nullopt;
+  return std::make_pair(std::fmod(std::atan2(d.y(), d.x()) / kDegToRad + 360.0, 180.0), d.norm());
+}
+
+// The length-weighted mean azimuth of the lines within 3 deg of a peak's azimuth (doubled angles: 179 and 1 deg
+// average to 0): a histogram bin alone leaves up to 1 deg of yaw error in every hypothesis.
+Eigen::Vector3d refinedDirection(const std::vector<Segment3d>& map_lines, double peak_deg)
+{
+  Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+  for (const Segment3d& s : map_lines)
+    if (const auto a = horizontalAzimuth(s); a && std::abs(wrapDeg(2.0 * (a->first - peak_deg))) <= 6.0)
+      sum += a->second * Eigen::Vector2d(std::cos(2.0 * a->first * kDegToRad), std::sin(2.0 * a->first * kDegToRad));
+  const double azimuth = sum.norm() > 0.0 ? 0.5 * std::atan2(sum.y(), sum.x()) : peak_deg * kDegToRad;
+  return Eigen::Vector3d(std::cos(azimuth), std::sin(azimuth), 0.0);
+}
+
 // The map's dominant horizontal directions (azimuth histogram of its near-horizontal lines weighted by length, 2 deg
-// bins smoothed, peaks at least 15 deg apart holding at least 10 % of the largest), at most four.
+// bins smoothed, peaks at least 15 deg apart holding at least 10 % of the largest, refined), at most four.
 std::vector<Eigen::Vector3d> dominantDirections(const std::vector<Segment3d>& map_lines)
 {
   constexpr int kBins = 90;
   std::array<double, kBins> histogram{};
   for (const Segment3d& s : map_lines)
-  {
-    const Eigen::Vector3d d = s.b - s.a;
-    if (d.norm() < 0.05 || std::abs(d.normalized().z()) > std::sin(10.0 * kDegToRad))
-      continue;
-    const double azimuth = std::fmod(std::atan2(d.y(), d.x()) / kDegToRad + 360.0, 180.0);
-    histogram[static_cast<int>(azimuth / 2.0) % kBins] += d.norm();
-  }
+    if (const auto a = horizontalAzimuth(s))
+      histogram[static_cast<int>(a->first / 2.0) % kBins] += a->second;
   std::array<double, kBins> smooth{};
   for (int b = 0; b < kBins; ++b)
     smooth[b] = histogram[(b + kBins - 1) % kBins] + histogram[b] + histogram[(b + 1) % kBins];
@@ -160,8 +178,7 @@ std::vector<Eigen::Vector3d> dominantDirections(const std::vector<Segment3d>& ma
                     [&](int p) { return std::min(std::abs(p - b), kBins - std::abs(p - b)) < 8; }))
       continue;
     peaks.push_back(b);
-    const double azimuth = (2.0 * b + 1.0) * kDegToRad;
-    directions.emplace_back(std::cos(azimuth), std::sin(azimuth), 0.0);
+    directions.push_back(refinedDirection(map_lines, 2.0 * b + 1.0));
   }
   return directions;
 }
@@ -194,9 +211,10 @@ struct Rotation
 // Stage 1: rotation and focal length from directions alone. Two image lines that may be vertical (the vertical
 // vanishing point) and two others, each taken as one of the map's dominant horizontal directions, solved by the
 // vertical-lines solver's first stage; supported by the image lines pointing at the vertical or a dominant
-// direction's vanishing point. The best distinct few in the cone. A map with one dominant direction (a corridor:
-// its cross lines are short) gives it to both others: their vanishing point and the vertical one fix f and the
-// rotation for a tilted camera.
+// direction's vanishing point. The best distinct few in the cone. Both others may take the same direction (their
+// vanishing point and the vertical one fix f and the rotation of a tilted camera): a corridor's map has one dominant
+// direction, or its cross lines are too few in view for a sample to pick one (then nearly every sample of two
+// directions assigns a line wrongly, and a wrong focal length can gather the most support).
 std::vector<Rotation> rotationHypotheses(const MatchingProblem& problem, const Cone& cone,
                                          const std::vector<size_t>& vertical, const std::vector<size_t>& other,
                                          const std::vector<Eigen::Vector3d>& directions, std::mt19937& rng)
@@ -204,7 +222,6 @@ std::vector<Rotation> rotationHypotheses(const MatchingProblem& problem, const C
   std::vector<Rotation> found;
   if (vertical.size() < 2 || other.size() < 2 || directions.empty())
     return found;
-  const bool one_direction = directions.size() == 1;
   const Eigen::Vector2d pp = imageCenter(problem.width, problem.height);
   VerticalLinesSolverOptions options;
   options.min_fov_deg = cone.fov_min_deg;
@@ -220,7 +237,7 @@ std::vector<Rotation> rotationHypotheses(const MatchingProblem& problem, const C
     const size_t v0 = vertical[pick_vertical(rng)], v1 = vertical[pick_vertical(rng)];
     const size_t o0 = other[pick_other(rng)], o1 = other[pick_other(rng)];
     const size_t d0 = pick_direction(rng), d1 = pick_direction(rng);
-    if (v0 == v1 || o0 == o1 || (d0 == d1 && !one_direction))
+    if (v0 == v1 || o0 == o1)
       continue;
     const std::array<ImageMapLine, 4> lines = {image(v0, Eigen::Vector3d::UnitZ()), image(v1, Eigen::Vector3d::UnitZ()),
                                                image(o0, directions[d0]), image(o1, directions[d1])};
@@ -263,6 +280,7 @@ struct PlanePair
   Eigen::Vector3d normal;
   Eigen::Vector3d point;
   double weight;
+  size_t image_line;
 };
 
 // Stage 2's pairs: an image line and a map line whose direction's vanishing point it points at (1.5 deg), whose
@@ -272,8 +290,9 @@ std::vector<PlanePair> planePairs(const MatchingProblem& problem, const Cone& co
 {
   const Eigen::Matrix3d k_r = intrinsicMatrix(rf.focal_px, problem) * rf.rotation;
   std::vector<PlanePair> pairs;
-  for (const ImageChord& line : problem.image)
+  for (size_t i = 0; i < problem.image.size(); ++i)
   {
+    const ImageChord& line = problem.image[i];
     if (line.length < std::max(30.0, problem.options.min_image_length_px))
       continue;
     const Eigen::Vector3d l = line.first.homogeneous().cross(line.last.homogeneous());
@@ -289,14 +308,20 @@ std::vector<PlanePair> planePairs(const MatchingProblem& problem, const Cone& co
         if (const double d = std::abs(normal.dot(p - cone.prior.position)); d < best)
           best = d, nearest = p;
       if (best <= cone.max_offset_m)
-        pairs.push_back({normal, nearest, std::exp(-4.5 * std::pow(best / cone.max_offset_m, 2))});
+        pairs.push_back({normal, nearest, std::exp(-4.5 * std::pow(best / cone.max_offset_m, 2)), i});
     }
   }
   return pairs;
 }
 
-// Stage 2: centres from three plane pairs (linear), ranked by the pairs within 3 cm and refined on them; the best
-// `count` at least 0.2 m apart (a corridor's repeated heights leave several).
+// RANSAC samples of three plane pairs per rotation: a view's true pairs can be a few percent of its pairs (each image
+// line pairs with every parallel map line in the cone), so that 500 samples missed a corridor camera's centre
+// (test_line_hypotheses); about 20 ms per rotation.
+constexpr int kCentreSamples = 5000;
+
+// Stage 2: centres from three plane pairs (linear), ranked by the image lines with a pair within 3 cm (an image line
+// pairs with every parallel map line in the cone, so counting pairs favours centres where wrong pairs pile up) and
+// refined on those pairs; the best `count` at least 0.2 m apart (a corridor's repeated heights leave several).
 std::vector<Eigen::Vector3d> centreHypotheses(const std::vector<PlanePair>& pairs, const Cone& cone, int iterations,
                                               size_t count, std::mt19937& rng)
 {
@@ -313,6 +338,12 @@ std::vector<Eigen::Vector3d> centreHypotheses(const std::vector<PlanePair>& pair
         in.push_back(k);
     return in;
   };
+  const auto explained = [&](const std::vector<size_t>& in) {
+    std::set<size_t> lines;
+    for (size_t k : in)
+      lines.insert(pairs[k].image_line);
+    return lines.size();
+  };
   std::vector<std::pair<size_t, Eigen::Vector3d>> found;
   for (int it = 0; it < iterations; ++it)
   {
@@ -328,7 +359,7 @@ std::vector<Eigen::Vector3d> centreHypotheses(const std::vector<PlanePair>& pair
       continue;
     const Eigen::Vector3d c = a.partialPivLu().solve(b);
     if ((c - cone.prior.position).norm() <= cone.max_offset_m)
-      found.emplace_back(inliers(c).size(), c);
+      found.emplace_back(explained(inliers(c)), c);
   }
   std::sort(found.begin(), found.end(), [](const auto& x, const auto& y) { return x.first > y.first; });
   std::vector<Eigen::Vector3d> centres;
@@ -372,7 +403,7 @@ std::vector<CameraModel> lineHypotheses(const MatchingProblem& problem, const Ca
   for (const Rotation& r : rotations)
   {
     const std::vector<PlanePair> pairs = planePairs(problem, cone, r.value, maps);
-    const std::vector<Eigen::Vector3d> centres = centreHypotheses(pairs, cone, 500, 3, rng);
+    const std::vector<Eigen::Vector3d> centres = centreHypotheses(pairs, cone, kCentreSamples, 3, rng);
     trace(o, "hypotheses: rotation supported by %.0f px of lines, fx %.1f, %zu plane pairs, %zu centres", r.support,
           r.value.focal_px, pairs.size(), centres.size());
     for (const Eigen::Vector3d& centre : centres)

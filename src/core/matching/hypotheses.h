@@ -9,7 +9,7 @@
 
 #include <vector>
 
-#include "matching/matching_problem.h"
+#include "matching_problem.h"  // beside this header: unit tests include it without src/core on their path
 
 namespace insitu_calibration
 {
