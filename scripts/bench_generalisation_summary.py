@@ -124,8 +124,32 @@ def summary(path):
           ", ".join("%s %d/%d/%d" % (k, v[0], v[1], v[2]) for k, v in sorted(by_kind.items())))
 
 
+def passes(first_path, second_path, drives_path, route_s):
+    """Each camera's result in the first survey and after following the hints, and the surveys' durations."""
+    read = lambda path: {(r[0], r[2]): r for r in (line.rstrip("\n").split("\t") for line in open(path)
+                                                    if line.strip())}
+    first, second = read(first_path), read(second_path)
+    changes = {}
+    for key, r in first.items():
+        after = second[key][6] if key in second else "missing"
+        changes[(r[6], after)] = changes.get((r[6], after), 0) + 1
+    print("\ncamera results, first survey -> after following the hints: " + ", ".join(
+        "%s -> %s %d" % (a, b, k) for (a, b), k in sorted(changes.items())))
+    newly_wrong = [k for k, r in second.items() if r[6] == "WRONG" and first.get(k, [""] * 7)[6] != "WRONG"]
+    if newly_wrong:
+        print("  accepted WRONG after following the hints: " + ", ".join("seed %s %s" % k for k in newly_wrong))
+    drives = [line.split() for line in open(drives_path) if line.strip()]
+    if drives:
+        extra = [float(d[4]) for d in drives]
+        print("surveys extended: %d buildings, the %s s route + visits (extra drive median / max: %.0f / %.0f s; "
+              "simulated): %s" % (len(drives), route_s, percentile(extra, 50), max(extra), ", ".join(
+                  "seed %s %s s (%s visits)" % (d[0], d[3], d[2]) for d in drives)))
+
+
 if __name__ == "__main__":
     if sys.argv[1] == "row":
         row(*sys.argv[2:5])
+    elif sys.argv[1] == "passes":
+        passes(*sys.argv[2:6])
     else:
         summary(sys.argv[2])

@@ -7,6 +7,7 @@
 #include "insitu_calibration/io/calibration_store.h"
 #include "insitu_calibration/ros/calibration_server.h"
 #include "insitu_calibration/ros/conversions.h"
+#include "insitu_calibration/survey/survey_hint_file.h"
 
 namespace insitu_calibration
 {
@@ -49,7 +50,10 @@ std::string CalibrationServer::publishSurveyGuidance(const std::string& name, co
     return error.describe();
   }
   const cv::Mat hint = drawSurveyHint(camera.medianImage(), *guidance);
-  if (const Status saved = CalibrationStore(output_directory_).saveSurveyHint(name, hint); !saved)
+  const CalibrationStore store(output_directory_);
+  if (const Status saved = store.saveSurveyHint(name, hint); !saved)
+    ROS_ERROR_STREAM("calibration_node: " << name << ": " << saved.error().message());
+  if (const Status saved = store.saveSurveyHintYaml(name, surveyHintYaml(surveyHintOf(name, *guidance))); !saved)
     ROS_ERROR_STREAM("calibration_node: " << name << ": " << saved.error().message());
   std_msgs::Header header;
   header.stamp = ros::Time::now();

@@ -29,6 +29,7 @@
 #include "insitu_calibration/io/calibration_store.h"
 #include "insitu_calibration/survey/survey.h"
 #include "insitu_calibration/survey/survey_guidance.h"
+#include "insitu_calibration/survey/survey_hint_file.h"
 #include "insitu_calibration/survey/survey_parameters.h"
 #include "insitu_calibration/geometry/optical_frame.h"
 
@@ -44,8 +45,10 @@ in the world frame) build the 3D line map; each configured fixed camera's images
 median; then every camera is calibrated (prior matching or correspondence file) and DIR/<camera>.yaml and
 DIR/<camera>_overlay.png are written, as the node writes them, with the calibration report DIR/<camera>_report.html
 and its PNG figures (README, "Calibration report"; also for a result the checks refused, saying why). A refused
-camera also gets DIR/<camera>_survey_hint.png (the parts of its view without map lines) and its message says where
-to drive the robot (README "When a camera is refused").
+camera also gets DIR/<camera>_survey_hint.png (the parts of its view without map lines) and
+DIR/<camera>_survey_hint.yaml (the same for programs: per region a standpoint and look direction in the map frame,
+the floor polygon; generate_world --visit-hints reads it), and its message says where to drive the robot (README
+"When a camera is refused").
 
 Options:
   --cameras FILE        fixed-camera configuration (config/cameras.yaml format)
@@ -1129,6 +1132,9 @@ void reportRefusal(const ic::CommandLine& cli, const ic::Survey& survey, const s
     std::printf("%s: survey hint (%zu of %zu cells without map lines) -> %s\n", name.c_str(),
                 guidance->count(ic::GuidanceCell::kUnmapped), guidance->cells.size(),
                 store.surveyHintPath(name).c_str());
+  const std::string text = ic::surveyHintYaml(ic::surveyHintOf(name, *guidance));
+  if (const ic::Status saved = store.saveSurveyHintYaml(name, text); !saved)
+    std::printf("%s: %s\n", name.c_str(), saved.error().describe().c_str());
 }
 
 // The camera's report beside its calibration (a refused result's too, saying why); a failure is only printed.

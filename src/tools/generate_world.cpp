@@ -6,6 +6,7 @@
 #include "command_line.h"
 #include "insitu_calibration/io/atomic_file.h"
 #include "insitu_calibration/simulation/world_generator.h"
+#include "insitu_calibration/survey/survey_hint_file.h"
 
 namespace sim = insitu_calibration::simulation;
 using insitu_calibration::Status;
@@ -38,6 +39,11 @@ Options:
   --view-leg M             the route starts with a drive of up to M metres per camera from under its installer prior
                            along the prior's viewing direction, so the Xtion sees what the camera sees, as an operator
                            surveying for the cameras would (default 0: none; try 4)
+  --visit-hints F[,F...]   after the route, drive to each region of these survey hints (calibrate_survey's
+                           DIR/<camera>_survey_hint.yaml, nearest first): the shortest free path to its standpoint,
+                           then three 0.3 m legs turned +30, -30 and 0 deg from its look direction, so the Xtion
+                           sweeps where the hint says and ends looking there. The building, cameras and the route
+                           before the visits are unchanged (give the same --seed and options as the first time)
   --appearance A           realistic (default): sensor blur, vignetting, exposure and white balance differing per
                            camera, JPEG on the fixed cameras, Xtion RGB noise, flying pixels, low-frequency depth
                            error and RGB-to-depth misregistration (docs/simulator.md, "appearance"); plain: none of
@@ -48,7 +54,25 @@ Example:
   generate_world --seed 101 --out /tmp/w.yaml --cameras-out /tmp/c.yaml --max-route-s 40
   simulate_survey --world /tmp/w.yaml --out /tmp/s.bag --duration 40
   calibrate_survey /tmp/s.bag --cameras /tmp/c.yaml --out-dir /tmp/out --truth-dir /tmp/s_truth
+  # a camera refused: survey again with its hint followed (the duration printed by generate_world)
+  generate_world --seed 101 --out /tmp/w2.yaml --max-route-s 40 --visit-hints /tmp/out/cam_a_survey_hint.yaml
 )";
+
+// Every region of every hint file, as a visit.
+insitu_calibration::Expected<std::vector<sim::Visit>> readVisits(const std::string& list)
+{
+  std::vector<sim::Visit> visits;
+  std::stringstream files(list);
+  for (std::string path; std::getline(files, path, ',');)
+  {
+    const auto hint = insitu_calibration::readSurveyHint(path);
+    if (!hint)
+      return hint.error();
+    for (const auto& region : hint->regions)
+      visits.push_back({region.standpoint, region.look_direction});
+  }
+  return visits;
+}
 
 bool parsePriorError(const std::string& text, sim::PriorError* error)
 {
@@ -65,7 +89,7 @@ int main(int argc, char** argv)
 {
   insitu_calibration::CommandLine cli(argc, argv,
                                       {"seed", "kind", "out", "cameras-out", "prior-error", "max-route-s",
-                                       "look-around-spacing", "view-leg", "appearance"},
+                                       "look-around-spacing", "view-leg", "appearance", "visit-hints"},
                                       {});
   if (cli.help())
   {
@@ -100,6 +124,14 @@ int main(int argc, char** argv)
     problem = "--prior-error needs three non-negative numbers M,DEG,FOV (FOV < 1), e.g. 0.5,10,0.2";
   if (problem.empty() && (options.max_route_s < 0.0 || options.look_around_spacing_m < 0.0 || options.view_leg_m < 0.0))
     problem = "--max-route-s, --look-around-spacing and --view-leg must be 0 or positive";
+  if (problem.empty() && cli.has("visit-hints"))
+  {
+    const auto visits = readVisits(cli.value("visit-hints"));
+    if (visits)
+      options.visits = *visits;
+    else
+      problem = "--visit-hints: " + visits.error().message();
+  }
   if (!problem.empty())
   {
     std::cerr << "generate_world: " << problem << "\n\n" << kUsage;
@@ -122,6 +154,10 @@ int main(int argc, char** argv)
   std::printf("%s (seed %llu): %s; %zu surfaces, route %zu waypoints, %.1f s\n", world->world.name.c_str(),
               static_cast<unsigned long long>(options.seed), sim::buildingKindName(world->kind),
               world->world.surfaces.size(), world->world.route.waypoints.size(), world->route_duration_s);
+  if (!options.visits.empty())
+    std::printf("  visits: %zu of %zu driven after the route's %.1f s (%.1f s more)\n",
+                options.visits.size() - world->visits_skipped, options.visits.size(), world->route_before_visits_s,
+                world->route_duration_s - world->route_before_visits_s);
   for (const auto& c : world->world.fixed_cameras)
   {
     const auto& k = c.camera.intrinsics();

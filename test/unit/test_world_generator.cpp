@@ -346,3 +346,94 @@ TEST(RoutePlanner, ViewLegsAreDrivenFirstAlongTheirDirections)
   for (const auto& p : w)
     EXPECT_GT(p.x(), 0.4);
 }
+
+// Visits after the route (a refused camera's survey hints): the robot reaches each standpoint (the free cell nearest
+// it), never comes within the clearance of the obstacle or the walls, and ends each visit facing its look direction;
+// a standpoint far outside the floor is left out and counted.
+TEST(RoutePlanner, VisitsReachEachStandpointAndEndFacingItsDirection)
+{
+  const sim::FloorPlan plan = roomWithBlock(Eigen::Vector2d(4, 2), Eigen::Vector2d(6, 3));
+  const auto lanes = sim::planCoverageRoute(plan, {});
+  ASSERT_TRUE(lanes);
+  // Behind the block looking at it from the north (the sweep ahead is free), in the south-west corner looking into
+  // the corner (the floor ahead is blocked: the sweep ends at the standpoint), and 20 m outside.
+  const std::vector<sim::Visit> visits = {{Eigen::Vector2d(5.0, 4.5), Eigen::Vector2d(0, -1)},
+                                          {Eigen::Vector2d(0.6, 0.6), Eigen::Vector2d(-1, -1).normalized()},
+                                          {Eigen::Vector2d(30.0, 3.0), Eigen::Vector2d(1, 0)}};
+  size_t skipped = 0;
+  const auto route = sim::appendVisits(plan, *lanes, visits, {}, &skipped);
+  ASSERT_TRUE(route) << route.error().describe();
+  EXPECT_EQ(skipped, 1u);
+  ASSERT_GT(route->size(), lanes->size());
+  for (size_t k = 0; k < lanes->size(); ++k)
+    EXPECT_EQ((*route)[k], (*lanes)[k]);  // the route before the visits is kept
+  for (size_t k = 1; k < route->size(); ++k)
+    for (double t = 0; t <= 1.0; t += 0.01)
+    {
+      const Eigen::Vector2d p = (*route)[k - 1] + t * ((*route)[k] - (*route)[k - 1]);
+      EXPECT_GT(sim::distanceToFootprint(p, plan.obstacles[0]), 0.44);
+      EXPECT_TRUE(plan.walkable.contains(p));
+      EXPECT_GT(std::min({p.x(), p.y(), 10.0 - p.x(), 6.0 - p.y()}), 0.44) << p.transpose();
+    }
+  sim::Route r;
+  r.waypoints = *route;
+  r.loop = false;
+  const sim::RouteTrajectory trajectory(r);
+  r.waypoints = *lanes;
+  const double lanes_s = sim::RouteTrajectory(r).lapDuration();  // the visits are driven after this
+  // The robot ends the route facing the last visit's direction, at the end of its sweep or at its standpoint.
+  const sim::Pose2d end = trajectory.at(trajectory.lapDuration() + 1.0);
+  const auto facing = [](const sim::Pose2d& pose, const Eigen::Vector2d& d) {
+    return Eigen::Vector2d(std::cos(pose.yaw), std::sin(pose.yaw)).dot(d.normalized());
+  };
+  // Each visit: some moment near its standpoint (within the sweep's reach) facing its direction within 1 deg, just
+  // before the robot turns away.
+  for (size_t v = 0; v < 2; ++v)
+  {
+    const Eigen::Vector2d stand = visits[v].standpoint;
+    bool reached = false;
+    for (double t = lanes_s; t <= trajectory.lapDuration() && !reached; t += 0.02)
+    {
+      const sim::Pose2d pose = trajectory.at(t);
+      reached = (Eigen::Vector2d(pose.x, pose.y) - stand).norm() < 1.0 &&
+                facing(pose, visits[v].look_direction) > std::cos(M_PI / 180.0);
+    }
+    EXPECT_TRUE(reached) << "visit " << v;
+  }
+  // Nearest first: the block's north side (nearer the lanes' end) or the corner, whichever is nearer; the last one
+  // driven is where the route ends.
+  const Eigen::Vector2d last = route->back();
+  const size_t last_visit = (last - visits[0].standpoint).norm() < (last - visits[1].standpoint).norm() ? 0 : 1;
+  EXPECT_LT((last - visits[last_visit].standpoint).norm(), 1.0);
+  EXPECT_GT(facing(end, visits[last_visit].look_direction), std::cos(M_PI / 180.0));
+  // The corner's floor ahead is blocked, so its sweep ends at the free cell nearest its standpoint.
+  const Eigen::Vector2d corner_cell(0.45, 0.45);
+  EXPECT_TRUE(std::any_of(route->begin() + static_cast<long>(lanes->size()), route->end(),
+                          [&](const Eigen::Vector2d& p) { return (p - corner_cell).norm() < 0.15; }));
+}
+
+// generate_world with visits: the same building, cameras and route first, the visits after, and a longer drive.
+TEST(WorldGenerator, VisitsExtendTheRouteAndKeepEverythingElse)
+{
+  sim::WorldGeneratorOptions options;
+  options.seed = 3;
+  options.kind = sim::BuildingKind::kCorridor;
+  options.max_route_s = 35.0;
+  const auto plain = sim::generateWorld(options);
+  ASSERT_TRUE(plain);
+  const Eigen::Vector2d first = plain->world.route.waypoints.front();
+  options.visits = {{first + Eigen::Vector2d(0.3, 0.3), Eigen::Vector2d(0, 1)}};
+  const auto visiting = sim::generateWorld(options);
+  ASSERT_TRUE(visiting) << visiting.error().describe();
+  EXPECT_EQ(visiting->visits_skipped, 0u);
+  EXPECT_NEAR(visiting->route_before_visits_s, plain->route_duration_s, 0.1);
+  EXPECT_GT(visiting->route_duration_s, plain->route_duration_s + 2.0);
+  const auto& a = plain->world.route.waypoints;
+  const auto& b = visiting->world.route.waypoints;
+  ASSERT_GT(b.size(), a.size());
+  for (size_t k = 0; k < a.size(); ++k)
+    EXPECT_LT((a[k] - b[k]).norm(), 1e-9);
+  EXPECT_EQ(visiting->cameras_yaml, plain->cameras_yaml);
+  ASSERT_EQ(visiting->world.fixed_cameras.size(), plain->world.fixed_cameras.size());
+  EXPECT_EQ(visiting->world.surfaces.size(), plain->world.surfaces.size());
+}

@@ -1,6 +1,6 @@
 // The directory of saved calibrations that calibration_node reloads at start-up and calibrate_survey writes:
 // <dir>/<camera>.yaml (calibration_file.h), <dir>/<camera>_overlay.png (for people) and, after a refusal,
-// <dir>/<camera>_survey_hint.png (what to survey). A restart must lose nothing
+// <dir>/<camera>_survey_hint.png and .yaml (what to survey). A restart must lose nothing
 // and keep nothing broken: writes are atomic, what a killed write left behind is removed, a file that does not
 // validate is renamed aside (never overwritten, never deleted) and the camera starts uncalibrated.
 #ifndef INSITU_CALIBRATION_IO_CALIBRATION_STORE_H
@@ -30,11 +30,15 @@ public:
   // Writes the survey hint atomically. Error: an empty image, or the write failed. save() removes it (the
   // calibration saved supersedes the refusal it described).
   Status saveSurveyHint(const std::string& camera, const cv::Mat& hint) const;
+  // <dir>/<camera>_survey_hint.yaml: the same guidance for programs (survey/survey_hint_file.h makes the text).
+  // Written atomically; save() removes it too.
+  std::string surveyHintYamlPath(const std::string& camera) const;
+  Status saveSurveyHintYaml(const std::string& camera, const std::string& yaml_text) const;
 
   // Removes the temporary files of a write that was killed before its rename: <camera>.yaml.tmp.XXXXXX,
-  // <camera>_overlay.png.tmp.XXXXXX, <camera>_survey_hint.png.tmp.XXXXXX, the older .<camera>_overlay.tmp.png and
-  // the calibration report's <camera>_report*.tmp.XXXXXX (survey/calibration_report.h). Only these names of the
-  // cameras given are touched. Returns the paths removed.
+  // <camera>_overlay.png.tmp.XXXXXX, <camera>_survey_hint.png.tmp.XXXXXX, <camera>_survey_hint.yaml.tmp.XXXXXX, the
+  // older .<camera>_overlay.tmp.png and the calibration report's <camera>_report*.tmp.XXXXXX
+  // (survey/calibration_report.h). Only these names of the cameras given are touched. Returns the paths removed.
   std::vector<std::string> removeStaleTemporaries(const std::vector<std::string>& cameras) const;
 
   struct Loaded

@@ -49,6 +49,34 @@ struct RoutePlanOptions
   std::vector<ViewLeg> view_legs;
 };
 
+// A place the robot drives to after its route, and where it then looks (a refused camera's survey hint region).
+struct Visit
+{
+  Eigen::Vector2d standpoint = Eigen::Vector2d::Zero();
+  Eigen::Vector2d look_direction = Eigen::Vector2d::UnitX();
+};
+
+struct VisitOptions
+{
+  double clearance_m = 0.45;  // as RoutePlanOptions
+  double cell_m = 0.1;
+  double max_offset_m = 3.0;  // a standpoint without a free cell this near is skipped
+  // At a standpoint the robot, which faces where it drives, sweeps its view: three legs of leg_m, turned by
+  // +sweep_deg, -sweep_deg and 0 from the look direction, so that it ends facing it (0: one leg along it).
+  double leg_m = 0.3;
+  double sweep_deg = 30.0;
+};
+
+// The route extended by visits, nearest first (straight-line distance from where the robot is): from the route's
+// end along the shortest free path to the free cell nearest the standpoint, then the sweep (or, when the floor ahead
+// is blocked, the same sweep ending at the standpoint, or a single leg along the look direction either way), so the
+// robot stands there looking along the look direction at the end of each visit. A visit with no free cell within
+// max_offset_m, or no free leg along its direction, is left out and counted in `skipped`.
+// Errors: the route is empty, or its end has no free cell within max_offset_m.
+Expected<std::vector<Eigen::Vector2d>> appendVisits(const FloorPlan& plan, std::vector<Eigen::Vector2d> route,
+                                                    const std::vector<Visit>& visits, const VisitOptions& options = {},
+                                                    size_t* skipped = nullptr);
+
 // Distance from a point to a convex quadrilateral (0 inside).
 double distanceToFootprint(const Eigen::Vector2d& p, const Footprint& quad);
 

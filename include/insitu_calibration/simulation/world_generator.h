@@ -16,8 +16,10 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "insitu_calibration/error.h"
+#include "insitu_calibration/simulation/route_planner.h"
 #include "insitu_calibration/simulation/world.h"
 
 namespace insitu_calibration
@@ -64,6 +66,10 @@ struct WorldGeneratorOptions
   // misregistration); false: the plain appearance of the hand-made worlds. Drawn from its own stream of the seed, so
   // the building is the same either way.
   bool realistic_appearance = true;
+  // Driven after the route (cut to max_route_s or not): to each standpoint, then a look along its direction
+  // (route_planner.h, appendVisits), e.g. from refused cameras' survey hints (generate_world --visit-hints). The
+  // building, its cameras and the route before the visits are the same as without them.
+  std::vector<Visit> visits;
 };
 
 struct GeneratedWorld
@@ -73,6 +79,8 @@ struct GeneratedWorld
   std::string cameras_yaml;  // the installer's priors (config/cameras.yaml format)
   World world;               // world_yaml as parseWorld reads it
   double route_duration_s = 0.0;
+  double route_before_visits_s = 0.0;  // the drive without the visits
+  size_t visits_skipped = 0;           // visits with no free standpoint or look (appendVisits)
 };
 
 // Same options, same files (byte for byte). Errors only when the generated file fails to parse (a bug).

@@ -119,6 +119,7 @@ std::vector<std::string> CalibrationStore::removeStaleTemporaries(const std::vec
       const bool stale = isTemporaryOf(name, camera + ".yaml.tmp.") ||
                          isTemporaryOf(name, camera + "_overlay.png.tmp.") ||
                          isTemporaryOf(name, camera + "_survey_hint.png.tmp.") ||
+                         isTemporaryOf(name, camera + "_survey_hint.yaml.tmp.") ||
                          name == "." + camera + "_overlay.tmp.png" || report_temporary;
       std::error_code ignored;
       if (stale && it->is_regular_file(ignored) && fs::remove(it->path(), ignored))
@@ -224,6 +225,7 @@ Status CalibrationStore::save(const std::string& camera, const CalibrationFile& 
   // A survey hint describes a refusal this calibration supersedes.
   std::error_code ignored;
   fs::remove(surveyHintPath(camera), ignored);
+  fs::remove(surveyHintYamlPath(camera), ignored);
   if (overlay.empty())
     return Success{};
   return writePngAtomically(overlayPath(camera), overlay, "the overlay of '" + camera + "'");
@@ -239,6 +241,18 @@ Status CalibrationStore::saveSurveyHint(const std::string& camera, const cv::Mat
   if (hint.empty())
     return Error(ErrorCode::kInvalidInput, "no survey hint of '" + camera + "' to save");
   return writePngAtomically(surveyHintPath(camera), hint, "the survey hint of '" + camera + "'");
+}
+
+std::string CalibrationStore::surveyHintYamlPath(const std::string& camera) const
+{
+  return directory_ + "/" + camera + "_survey_hint.yaml";
+}
+
+Status CalibrationStore::saveSurveyHintYaml(const std::string& camera, const std::string& yaml_text) const
+{
+  if (const Status written = writeFileAtomically(surveyHintYamlPath(camera), yaml_text); !written)
+    return Error(written.error().code(), "the survey hint of '" + camera + "': " + written.error().message());
+  return Success{};
 }
 
 }  // namespace insitu_calibration

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <queue>
+#include <utility>
 
 namespace insitu_calibration
 {
@@ -319,7 +320,86 @@ std::vector<Eigen::Vector2d> cutAtLength(const std::vector<Eigen::Vector2d>& poi
   }
   return out;
 }
+
+Eigen::Vector2d rotated(const Eigen::Vector2d& d, double deg)
+{
+  const double a = deg * M_PI / 180.0;
+  return {std::cos(a) * d.x() - std::sin(a) * d.y(), std::sin(a) * d.x() + std::cos(a) * d.y()};
+}
+
+// The legs a visit drives at its standpoint p, ending facing d: the sweep starting at p, else ending there, else one
+// leg along d from p, else one ending at p; the first whose legs all stay free. Empty when none is.
+std::vector<Eigen::Vector2d> visitLegs(const Grid& grid, const Eigen::Vector2d& p, const Eigen::Vector2d& d,
+                                       const VisitOptions& options)
+{
+  std::vector<Eigen::Vector2d> sweep{Eigen::Vector2d::Zero()};
+  if (options.sweep_deg > 0.0)
+    for (const double deg : {options.sweep_deg, -options.sweep_deg})
+      sweep.push_back(sweep.back() + options.leg_m * rotated(d, deg));
+  sweep.push_back(sweep.back() + options.leg_m * d);
+  const std::vector<Eigen::Vector2d> single{Eigen::Vector2d::Zero(), options.leg_m * d};
+  for (const std::vector<Eigen::Vector2d>* shape : {&std::as_const(sweep), &single})
+    for (const bool ending_at_p : {false, true})
+    {
+      std::vector<Eigen::Vector2d> legs;
+      for (const Eigen::Vector2d& offset : *shape)
+        legs.push_back(p + offset - (ending_at_p ? shape->back() : Eigen::Vector2d::Zero()));
+      bool free = true;
+      for (size_t k = 1; free && k < legs.size(); ++k)
+        free = grid.lineOfSight(legs[k - 1], legs[k]);
+      if (free)
+        return legs;
+    }
+  return {};
+}
 }  // namespace
+
+Expected<std::vector<Eigen::Vector2d>> appendVisits(const FloorPlan& plan, std::vector<Eigen::Vector2d> route,
+                                                    const std::vector<Visit>& visits, const VisitOptions& options,
+                                                    size_t* skipped)
+{
+  Grid grid(plan, options.cell_m, options.clearance_m);
+  grid.keepLargestRegion();
+  if (route.empty())
+    return Error(ErrorCode::kInvalidInput, "no route to extend by visits");
+  int here = grid.nearestFree(route.back(), options.max_offset_m);
+  if (here < 0)
+    return Error(ErrorCode::kNoSolution, "the route's end has no free cell within " +
+                                             std::to_string(options.max_offset_m) + " m to start the visits from");
+  size_t left_out = 0;
+  std::vector<bool> done(visits.size(), false);
+  for (size_t n = 0; n < visits.size(); ++n)
+  {
+    size_t next = visits.size();
+    for (size_t k = 0; k < visits.size(); ++k)
+      if (!done[k] && (next == visits.size() ||
+                       (visits[k].standpoint - route.back()).norm() < (visits[next].standpoint - route.back()).norm()))
+        next = k;
+    done[next] = true;
+    const Visit& visit = visits[next];
+    const int stand = grid.nearestFree(visit.standpoint, options.max_offset_m);
+    const std::vector<Eigen::Vector2d> legs = stand < 0 || visit.look_direction.norm() < 1e-9
+                                                  ? std::vector<Eigen::Vector2d>{}
+                                                  : visitLegs(grid, grid.center(stand % grid.nx(), stand / grid.nx()),
+                                                              visit.look_direction.normalized(), options);
+    const int start = legs.empty() ? -1 : grid.nearestFree(legs.front(), options.cell_m);
+    if (start < 0)
+    {
+      ++left_out;
+      continue;
+    }
+    // The path's cells end at the legs' start cell; the legs themselves are exact.
+    std::vector<Eigen::Vector2d> path = joinTargets(grid, {here, start});
+    path.insert(path.end(), legs.begin(), legs.end());
+    for (const Eigen::Vector2d& p : path)
+      if ((p - route.back()).norm() > 1e-6)
+        route.push_back(p);
+    here = grid.nearestFree(route.back(), options.max_offset_m);
+  }
+  if (skipped)
+    *skipped = left_out;
+  return route;
+}
 
 double distanceToFootprint(const Eigen::Vector2d& p, const Footprint& quad)
 {

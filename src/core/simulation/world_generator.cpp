@@ -345,7 +345,16 @@ Expected<GeneratedWorld> generateWorld(const WorldGeneratorOptions& options)
                 options.view_leg_m > 0.0 ? cameraViewLegs(priors, options.view_leg_m) : std::vector<ViewLeg>{});
   if (!route)
     return Error(route.error().code(), std::string("generate_world: ") + route.error().message());
-  out.world_yaml = worldYaml(options, out.kind, layout, *route, cameras, rng);
+  out.route_before_visits_s = routeDuration(*route, options.speed);
+  std::vector<V2> driven = *route;
+  if (!options.visits.empty())
+  {
+    auto extended = appendVisits(layout.scene.plan, driven, options.visits, {}, &out.visits_skipped);
+    if (!extended)
+      return Error(extended.error().code(), std::string("generate_world: ") + extended.error().message());
+    driven = std::move(*extended);
+  }
+  out.world_yaml = worldYaml(options, out.kind, layout, driven, cameras, rng);
   std::ostringstream prior_text;
   prior_text << "# Installer priors for the fixed cameras of generate_world --seed " << options.seed << " --kind "
              << buildingKindName(out.kind) << ": each off by " << num(options.prior_error.position_m) << " m, "

@@ -1,0 +1,60 @@
+// The survey guidance of a refused camera as a file (DIR/<camera>_survey_hint.yaml beside its picture), so that a
+// program can act on it: the simulator drives the robot to each standpoint (generate_world --visit-hints), a robot's
+// mission planner could do the same. Coordinates are in the map frame (the simulator's world frame), metres.
+//
+//   camera: cam_a
+//   frame: map
+//   image_width: 1280
+//   image_height: 720
+//   regions:                      # largest first (by unexplained image lines)
+//     - where: left               # the part of the camera's view
+//       image_lines: 29           # image lines there that no map line explains
+//       standpoint: [16.7, 0.4]   # where the robot should stand, x, y
+//       look_direction: [-0.97, -0.23]  # unit vector: where its Xtion should look
+//       floor_polygon: [[x, y], ...]    # the floor the region shows (convex, counter-clockwise)
+#ifndef INSITU_CALIBRATION_SURVEY_SURVEY_HINT_FILE_H
+#define INSITU_CALIBRATION_SURVEY_SURVEY_HINT_FILE_H
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "insitu_calibration/error.h"
+#include "insitu_calibration/survey/survey_guidance.h"
+
+namespace insitu_calibration
+{
+struct SurveyHintRegion
+{
+  std::string where;
+  size_t image_lines = 0;
+  Eigen::Vector2d standpoint = Eigen::Vector2d::Zero();
+  Eigen::Vector2d look_direction = Eigen::Vector2d::UnitX();
+  std::vector<Eigen::Vector2d> floor_polygon;
+};
+
+struct SurveyHint
+{
+  std::string camera;
+  int image_width = 0;
+  int image_height = 0;
+  std::vector<SurveyHintRegion> regions;  // largest first
+};
+
+// The hint of a camera from its guidance (its regions, in their order).
+SurveyHint surveyHintOf(const std::string& camera, const SurveyGuidance& guidance);
+
+// The file's text (format above; millimetre precision, 4 decimals for directions).
+std::string surveyHintYaml(const SurveyHint& hint);
+
+// Reads the text back. Errors: not YAML, a missing or malformed field (with its place), a look direction that is
+// not a direction (zero length; it is normalised otherwise), more than 64 regions or 10000 polygon points.
+Expected<SurveyHint> parseSurveyHint(const std::string& yaml_text, const std::string& source = "survey hint");
+
+// The file at a path (readFile's limits apply).
+Expected<SurveyHint> readSurveyHint(const std::string& path);
+
+}  // namespace insitu_calibration
+
+#endif  // INSITU_CALIBRATION_SURVEY_SURVEY_HINT_FILE_H

@@ -1,0 +1,137 @@
+// The survey hint file (survey_hint_file.h): what calibrate_survey writes for a refused camera reads back the same,
+// is plain YAML that yaml-cpp reads, and a broken file is refused with its place; the store writes it atomically
+// and a saved calibration removes it.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <string>
+
+#include <unistd.h>
+
+#include <yaml-cpp/yaml.h>
+
+#include "insitu_calibration/io/atomic_file.h"
+#include "insitu_calibration/io/calibration_store.h"
+#include "insitu_calibration/survey/survey_hint_file.h"
+
+namespace ic = insitu_calibration;
+namespace fs = std::filesystem;
+
+namespace
+{
+// Guidance with two regions, as computeSurveyGuidance leaves it.
+ic::SurveyGuidance twoRegions()
+{
+  ic::SurveyGuidance g;
+  g.width = 1280;
+  g.height = 720;
+  g.columns = 8;
+  g.rows = 6;
+  ic::UnmappedRegion left;
+  left.where = "left";
+  left.image_lines = 29;
+  left.robot_position = Eigen::Vector2d(16.7123, 0.4456);
+  left.look_direction = Eigen::Vector2d(-0.97, -0.23).normalized();
+  left.floor_polygon = {{14.0, -1.0}, {15.5, -1.2}, {15.9, 2.25}, {13.1, 1.0}};
+  ic::UnmappedRegion top;
+  top.where = "top right";
+  top.image_lines = 3;
+  top.robot_position = Eigen::Vector2d(-2.0, 5.5);
+  top.look_direction = Eigen::Vector2d(0.0, 1.0);
+  top.floor_polygon = {{-3.0, 7.0}, {-1.0, 7.0}, {-2.0, 8.0}};
+  g.regions = {left, top};
+  return g;
+}
+}  // namespace
+
+TEST(SurveyHintFile, RoundTripKeepsEveryRegionToTheMillimetre)
+{
+  const ic::SurveyGuidance guidance = twoRegions();
+  const std::string text = ic::surveyHintYaml(ic::surveyHintOf("cam_a", guidance));
+  const auto hint = ic::parseSurveyHint(text);
+  ASSERT_TRUE(hint) << hint.error().describe();
+  EXPECT_EQ(hint->camera, "cam_a");
+  EXPECT_EQ(hint->image_width, 1280);
+  EXPECT_EQ(hint->image_height, 720);
+  ASSERT_EQ(hint->regions.size(), 2u);
+  for (size_t k = 0; k < 2; ++k)
+  {
+    const ic::UnmappedRegion& want = guidance.regions[k];
+    const ic::SurveyHintRegion& got = hint->regions[k];
+    EXPECT_EQ(got.where, want.where);
+    EXPECT_EQ(got.image_lines, want.image_lines);
+    EXPECT_LT((got.standpoint - want.robot_position).norm(), 1e-3);
+    EXPECT_LT((got.look_direction - want.look_direction).norm(), 1e-4);
+    EXPECT_NEAR(got.look_direction.norm(), 1.0, 1e-12);
+    ASSERT_EQ(got.floor_polygon.size(), want.floor_polygon.size());
+    for (size_t i = 0; i < want.floor_polygon.size(); ++i)
+      EXPECT_LT((got.floor_polygon[i] - want.floor_polygon[i]).norm(), 1e-3);
+  }
+  // Plain YAML: yaml-cpp's own reader sees the same numbers.
+  const YAML::Node doc = YAML::Load(text);
+  EXPECT_EQ(doc["frame"].as<std::string>(), "map");
+  EXPECT_NEAR(doc["regions"][0]["standpoint"][0].as<double>(), 16.712, 1e-9);
+  EXPECT_EQ(doc["regions"][1]["where"].as<std::string>(), "top right");
+  EXPECT_EQ(doc["regions"][0]["floor_polygon"].size(), 4u);
+  // No region (nothing to survey): an empty list, read back as such.
+  const auto none = ic::parseSurveyHint(ic::surveyHintYaml(ic::surveyHintOf("cam_b", ic::SurveyGuidance{})));
+  ASSERT_TRUE(none) << none.error().describe();
+  EXPECT_TRUE(none->regions.empty());
+}
+
+TEST(SurveyHintFile, BrokenFilesAreRefusedWithTheirPlace)
+{
+  const std::string good = ic::surveyHintYaml(ic::surveyHintOf("cam_a", twoRegions()));
+  const auto without = [&](const std::string& from, const std::string& to) {
+    std::string text = good;
+    text.replace(text.find(from), from.size(), to);
+    return ic::parseSurveyHint(text, "hint.yaml");
+  };
+  const auto no_stand = without("standpoint: [16.712, 0.446]", "stand: [16.712, 0.446]");
+  ASSERT_FALSE(no_stand);
+  EXPECT_NE(no_stand.error().message().find("regions[0].standpoint"), std::string::npos) << no_stand.error().message();
+  const auto zero = without("look_direction: [0.0000, 1.0000]", "look_direction: [0, 0]");
+  ASSERT_FALSE(zero);
+  EXPECT_NE(zero.error().message().find("regions[1].look_direction"), std::string::npos) << zero.error().message();
+  EXPECT_FALSE(without("standpoint: [16.712, 0.446]", "standpoint: [16.712]"));
+  EXPECT_FALSE(ic::parseSurveyHint("camera: cam_a\n", "hint.yaml"));
+  EXPECT_FALSE(ic::parseSurveyHint("regions: [[", "hint.yaml"));
+  EXPECT_FALSE(ic::readSurveyHint("/nonexistent/cam_a_survey_hint.yaml"));
+}
+
+TEST(SurveyHintFile, StoreWritesItAtomicallyAndASavedCalibrationRemovesIt)
+{
+  const fs::path dir = fs::temp_directory_path() / ("survey_hint_file_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  const ic::CalibrationStore store(dir.string());
+  const std::string text = ic::surveyHintYaml(ic::surveyHintOf("cam_a", twoRegions()));
+  ASSERT_TRUE(store.saveSurveyHintYaml("cam_a", text));
+  EXPECT_EQ(store.surveyHintYamlPath("cam_a"), (dir / "cam_a_survey_hint.yaml").string());
+  const auto read = ic::readSurveyHint(store.surveyHintYamlPath("cam_a"));
+  ASSERT_TRUE(read) << read.error().describe();
+  EXPECT_EQ(read->regions.size(), 2u);
+  // Nothing but the file itself is left in the directory (no temporary).
+  size_t files = 0;
+  for (const auto& entry : fs::directory_iterator(dir))
+    files += entry.is_regular_file() ? 1 : 0;
+  EXPECT_EQ(files, 1u);
+  // A killed write's temporary is stale.
+  ASSERT_TRUE(ic::writeFileAtomically((dir / "cam_a_survey_hint.yaml.tmp.AbC123").string(), "x"));
+  EXPECT_EQ(store.removeStaleTemporaries({"cam_a"}).size(), 1u);
+  // A calibration saved supersedes the refusal.
+  ic::CalibrationFile calibration;
+  calibration.camera_name = "cam_a";
+  calibration.image_width = 640;
+  calibration.image_height = 480;
+  ic::Intrinsics k;
+  k.fx = k.fy = 500.0;
+  k.cx = 320.0;
+  k.cy = 240.0;
+  ic::DivisionModel distortion;
+  distortion.center = Eigen::Vector2d(320.0, 240.0);
+  calibration.camera = ic::CameraModel(k, distortion, ic::CameraPose());
+  const ic::Status saved = store.save("cam_a", calibration, cv::Mat());
+  ASSERT_TRUE(saved) << saved.error().describe();
+  EXPECT_FALSE(fs::exists(store.surveyHintYamlPath("cam_a")));
+  fs::remove_all(dir);
+}
