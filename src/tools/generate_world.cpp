@@ -85,6 +85,68 @@ bool parsePriorError(const std::string& text, sim::PriorError* error)
 }
 }  // namespace
 
+// The generator's options from the command line; the problem with them, empty when they are usable.
+std::string parseOptions(insitu_calibration::CommandLine& cli, sim::WorldGeneratorOptions* options)
+{
+  options->seed = static_cast<uint64_t>(cli.number("seed", -1));
+  options->max_route_s = cli.number("max-route-s", 0.0);
+  options->look_around_spacing_m = cli.number("look-around-spacing", options->look_around_spacing_m);
+  options->view_leg_m = cli.number("view-leg", options->view_leg_m);
+  std::string problem = cli.error();
+  if (problem.empty() && (!cli.has("seed") || !cli.has("out")))
+    problem = "--seed and --out are required";
+  if (problem.empty() && cli.has("kind"))
+  {
+    const auto kind = sim::parseBuildingKind(cli.value("kind"));
+    if (kind)
+      options->kind = *kind;
+    else
+      problem = kind.error().message();
+  }
+  if (problem.empty() && cli.has("appearance"))
+  {
+    const std::string look = cli.value("appearance");
+    if (look == "plain" || look == "realistic")
+      options->realistic_appearance = look == "realistic";
+    else
+      problem = "--appearance must be plain or realistic (got '" + look + "')";
+  }
+  if (problem.empty() && cli.has("prior-error") && !parsePriorError(cli.value("prior-error"), &options->prior_error))
+    problem = "--prior-error needs three non-negative numbers M,DEG,FOV (FOV < 1), e.g. 0.5,10,0.2";
+  if (problem.empty() &&
+      (options->max_route_s < 0.0 || options->look_around_spacing_m < 0.0 || options->view_leg_m < 0.0))
+    problem = "--max-route-s, --look-around-spacing and --view-leg must be 0 or positive";
+  if (problem.empty() && cli.has("visit-hints"))
+  {
+    const auto visits = readVisits(cli.value("visit-hints"));
+    if (visits)
+      options->visits = *visits;
+    else
+      problem = "--visit-hints: " + visits.error().message();
+  }
+  return problem;
+}
+
+// What was generated: the building, its route (and visits) and its fixed cameras.
+void printSummary(const sim::WorldGeneratorOptions& options, const sim::GeneratedWorld& world)
+{
+  std::printf("%s (seed %llu): %s; %zu surfaces, route %zu waypoints, %.1f s\n", world.world.name.c_str(),
+              static_cast<unsigned long long>(options.seed), sim::buildingKindName(world.kind),
+              world.world.surfaces.size(), world.world.route.waypoints.size(), world.route_duration_s);
+  if (!options.visits.empty())
+    std::printf("  visits: %zu of %zu driven after the route's %.1f s (%.1f s more)\n",
+                options.visits.size() - world.visits_skipped, options.visits.size(), world.route_before_visits_s,
+                world.route_duration_s - world.route_before_visits_s);
+  for (const auto& c : world.world.fixed_cameras)
+  {
+    const auto& k = c.camera.intrinsics();
+    const Eigen::Vector3d p = c.camera.pose().center();
+    std::printf("  %s %dx%d fx %.1f (HFOV %.1f deg) at %.2f %.2f %.2f, lambda %.3g\n", c.name.c_str(), c.width,
+                c.height, k.fx, 2.0 * std::atan(0.5 * c.width / k.fx) * 180.0 / M_PI, p.x(), p.y(), p.z(),
+                c.camera.distortion().lambda);
+  }
+}
+
 int main(int argc, char** argv)
 {
   insitu_calibration::CommandLine cli(argc, argv,
@@ -97,41 +159,7 @@ int main(int argc, char** argv)
     return 0;
   }
   sim::WorldGeneratorOptions options;
-  options.seed = static_cast<uint64_t>(cli.number("seed", -1));
-  options.max_route_s = cli.number("max-route-s", 0.0);
-  options.look_around_spacing_m = cli.number("look-around-spacing", options.look_around_spacing_m);
-  options.view_leg_m = cli.number("view-leg", options.view_leg_m);
-  std::string problem = cli.error();
-  if (problem.empty() && (!cli.has("seed") || !cli.has("out")))
-    problem = "--seed and --out are required";
-  if (problem.empty() && cli.has("kind"))
-  {
-    const auto kind = sim::parseBuildingKind(cli.value("kind"));
-    if (kind)
-      options.kind = *kind;
-    else
-      problem = kind.error().message();
-  }
-  if (problem.empty() && cli.has("appearance"))
-  {
-    const std::string look = cli.value("appearance");
-    if (look == "plain" || look == "realistic")
-      options.realistic_appearance = look == "realistic";
-    else
-      problem = "--appearance must be plain or realistic (got '" + look + "')";
-  }
-  if (problem.empty() && cli.has("prior-error") && !parsePriorError(cli.value("prior-error"), &options.prior_error))
-    problem = "--prior-error needs three non-negative numbers M,DEG,FOV (FOV < 1), e.g. 0.5,10,0.2";
-  if (problem.empty() && (options.max_route_s < 0.0 || options.look_around_spacing_m < 0.0 || options.view_leg_m < 0.0))
-    problem = "--max-route-s, --look-around-spacing and --view-leg must be 0 or positive";
-  if (problem.empty() && cli.has("visit-hints"))
-  {
-    const auto visits = readVisits(cli.value("visit-hints"));
-    if (visits)
-      options.visits = *visits;
-    else
-      problem = "--visit-hints: " + visits.error().message();
-  }
+  const std::string problem = parseOptions(cli, &options);
   if (!problem.empty())
   {
     std::cerr << "generate_world: " << problem << "\n\n" << kUsage;
@@ -151,20 +179,6 @@ int main(int argc, char** argv)
         std::cerr << "generate_world: " << written.error().describe() << "\n";
         return 1;
       }
-  std::printf("%s (seed %llu): %s; %zu surfaces, route %zu waypoints, %.1f s\n", world->world.name.c_str(),
-              static_cast<unsigned long long>(options.seed), sim::buildingKindName(world->kind),
-              world->world.surfaces.size(), world->world.route.waypoints.size(), world->route_duration_s);
-  if (!options.visits.empty())
-    std::printf("  visits: %zu of %zu driven after the route's %.1f s (%.1f s more)\n",
-                options.visits.size() - world->visits_skipped, options.visits.size(), world->route_before_visits_s,
-                world->route_duration_s - world->route_before_visits_s);
-  for (const auto& c : world->world.fixed_cameras)
-  {
-    const auto& k = c.camera.intrinsics();
-    const Eigen::Vector3d p = c.camera.pose().center();
-    std::printf("  %s %dx%d fx %.1f (HFOV %.1f deg) at %.2f %.2f %.2f, lambda %.3g\n", c.name.c_str(), c.width,
-                c.height, k.fx, 2.0 * std::atan(0.5 * c.width / k.fx) * 180.0 / M_PI, p.x(), p.y(), p.z(),
-                c.camera.distortion().lambda);
-  }
+  printSummary(options, *world);
   return 0;
 }
