@@ -164,10 +164,17 @@ void writeReport(const std::string& directory, const FixedCameraConfig& camera, 
 }  // namespace
 
 CalibrationServer::CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private_nh)
-    : nh_(nh), private_nh_(private_nh), it_(nh), tf_listener_(tf_buffer_), service_nh_(private_nh), work_nh_(private_nh)
+    : nh_(nh),
+      private_nh_(private_nh),
+      it_(nh),
+      tf_listener_(tf_buffer_),
+      service_nh_(private_nh),
+      work_nh_(private_nh),
+      report_nh_(private_nh)
 {
   service_nh_.setCallbackQueue(&service_queue_);
   work_nh_.setCallbackQueue(&work_queue_);
+  report_nh_.setCallbackQueue(&report_queue_);
   if (!loadParameters())
   {
     ros::shutdown();
@@ -209,6 +216,7 @@ CalibrationServer::CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private
   calibrate_action_->start();
   service_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &service_queue_);
   work_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &work_queue_);
+  report_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &report_queue_);
   setupStatusReporting();
   setupWatchdog();
   setupReconfigure();
@@ -225,6 +233,7 @@ CalibrationServer::CalibrationServer(ros::NodeHandle nh, ros::NodeHandle private
   // Only now: a service call must not see the node before its saved calibrations are loaded.
   service_spinner_->start();
   work_spinner_->start();
+  report_spinner_->start();
   ROS_INFO_STREAM("calibration_node: " << cameras_.size() << " fixed camera(s), world frame '" << world_frame_
                                        << "', calibrations in " << output_directory_
                                        << ". Call ~calibrate once the robot has surveyed the cameras' views.");
@@ -239,6 +248,8 @@ CalibrationServer::~CalibrationServer()
     service_spinner_->stop();
   if (work_spinner_)
     work_spinner_->stop();
+  if (report_spinner_)
+    report_spinner_->stop();
   calibrate_action_.reset();
 }
 

@@ -22,13 +22,14 @@ void CalibrationServer::setupStatusReporting()
       cameraDiagnostics(camera_name, stat);
     });
   }
-  // On the services' thread: /diagnostics and the status topic never wait behind images or a calibration. A wall
-  // timer and force_update: Updater::update() paces itself on ROS time, which stops with a bag's /clock.
-  diagnostics_timer_ = service_nh_.createWallTimer(
+  // On the reports' thread: /diagnostics and the status topic never wait behind images or a calibration, nor
+  // ~status behind them. A wall timer and force_update: Updater::update() paces itself on ROS time, which stops
+  // with a bag's /clock.
+  diagnostics_timer_ = report_nh_.createWallTimer(
       ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
   survey_status_publisher_ = private_nh_.advertise<SurveyStatus>("survey_status", 1, true);
   if (status_period_s_ > 0.0)
-    survey_status_timer_ = service_nh_.createWallTimer(ros::WallDuration(status_period_s_),
+    survey_status_timer_ = report_nh_.createWallTimer(ros::WallDuration(status_period_s_),
                                                        [this](const ros::WallTimerEvent&) { publishSurveyStatus(); });
 }
 

@@ -358,7 +358,9 @@ TEST(Appearance, GeneratorIsRealisticByDefaultAndPlainOnRequest)
     EXPECT_GT(a.blur_sigma_px, 0.0);
     EXPECT_NE(a.exposure, r.appearance.xtion_rgb.exposure);  // each camera its own exposure
     if (k > 0)
+    {
       EXPECT_NE(a.white_balance, r.fixed_cameras[k - 1].appearance.white_balance);
+    }
   }
 }
 

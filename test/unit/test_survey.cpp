@@ -51,3 +51,32 @@ TEST(TemporalMedian, RefusesEmptyAndMismatchedImages)
   EXPECT_EQ(median.size(), 1u);
   EXPECT_TRUE(ic::TemporalMedian().median().empty());
 }
+
+// The median is cached for a set of images and shared by copies (the node's snapshots): each copy must still get
+// the median of its own images, also when copies diverge or the buffer slides, and writing on a returned median
+// must not change the next one.
+TEST(TemporalMedian, CopiesShareTheCacheButEachGetsItsOwnImagesMedian)
+{
+  const auto plain = [](int value) { return cv::Mat(8, 8, CV_8UC1, cv::Scalar(value)); };
+  const auto valueOf = [](const cv::Mat& m) { return static_cast<int>(m.at<uint8_t>(4, 4)); };
+  ic::TemporalMedian live(3);
+  for (int v : {10, 20, 30})
+    ASSERT_TRUE(live.add(plain(v)));
+  cv::Mat first = live.median();
+  EXPECT_EQ(valueOf(first), 20);
+  first.setTo(cv::Scalar(255));  // the caller draws on its copy
+  EXPECT_EQ(valueOf(live.median()), 20);
+
+  ic::TemporalMedian snapshot = live;  // shares the cache
+  EXPECT_EQ(valueOf(snapshot.median()), 20);
+  ASSERT_TRUE(live.add(plain(40)));  // slides: 20, 30, 40
+  EXPECT_EQ(valueOf(live.median()), 30);
+  EXPECT_EQ(valueOf(snapshot.median()), 20);  // still its own images: 10, 20, 30
+  ASSERT_TRUE(snapshot.add(plain(0)));        // diverges: 20, 30, 0
+  EXPECT_EQ(valueOf(snapshot.median()), 20);
+  EXPECT_EQ(valueOf(live.median()), 30);
+  live.clear();
+  EXPECT_TRUE(live.median().empty());
+  ASSERT_TRUE(live.add(plain(7)));
+  EXPECT_EQ(valueOf(live.median()), 7);
+}

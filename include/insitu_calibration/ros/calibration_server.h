@@ -190,13 +190,18 @@ private:
 
   // Services and the action's goals run on their own queue and thread (service_spinner_), calibrations on the
   // ~calibrate service's thread (work_spinner_) or the action's own: neither waits behind the image callbacks of
-  // the global queue, nor ~status behind a calibration.
+  // the global queue, nor ~status behind a calibration. The periodic reports (/diagnostics, ~survey_status) have
+  // a queue and thread of their own (report_spinner_): ~survey_status does ~status's work for every camera, and a
+  // service call must not wait behind it.
   ros::CallbackQueue service_queue_;
   ros::CallbackQueue work_queue_;
+  ros::CallbackQueue report_queue_;
   ros::NodeHandle service_nh_;  // private namespace, service_queue_
   ros::NodeHandle work_nh_;     // private namespace, work_queue_
+  ros::NodeHandle report_nh_;   // private namespace, report_queue_
   std::unique_ptr<ros::AsyncSpinner> service_spinner_;
   std::unique_ptr<ros::AsyncSpinner> work_spinner_;
+  std::unique_ptr<ros::AsyncSpinner> report_spinner_;
   std::unique_ptr<actionlib::SimpleActionServer<CalibrateAction>> calibrate_action_;
   std::mutex calibration_mutex_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;

@@ -1,6 +1,7 @@
 #include "insitu_calibration/survey/temporal_median.h"
 
 #include <algorithm>
+#include <mutex>
 #include <vector>
 
 #include <opencv2/imgproc.hpp>
@@ -41,6 +42,25 @@ cv::Mat TemporalMedian::median() const
 {
   if (images_.empty())
     return cv::Mat();
+  if (!cache_)  // moved from
+    return computeMedian();
+  {
+    std::lock_guard<std::mutex> lock(cache_->mutex);
+    if (cache_->count == images_.size() && cache_->first.data == images_.front().data &&
+        cache_->last.data == images_.back().data)
+      return cache_->median.clone();  // a copy: callers may draw on it
+  }
+  cv::Mat out = computeMedian();  // without the lock: another copy's different images need not wait
+  std::lock_guard<std::mutex> lock(cache_->mutex);
+  cache_->first = images_.front();
+  cache_->last = images_.back();
+  cache_->count = images_.size();
+  cache_->median = out.clone();
+  return out;
+}
+
+cv::Mat TemporalMedian::computeMedian() const
+{
   if (images_.size() == 1)
     return images_.front().clone();
   const cv::Mat& first = images_.front();
