@@ -14,17 +14,17 @@ def row(seed, directory, seconds):
     log = open(directory + "/calibrate.log").read()
     compare = open(directory + "/compare.md").read()
     for line in world[1:]:
-        m = re.match(r"\s+(\S+) (\d+x\d+) fx \S+ \(HFOV (\S+) deg\) at \S+ \S+ (\S+),", line)
+        m = re.match(r"\s+(\S+) (\d+x\d+) fx (\S+) \(HFOV (\S+) deg\) at \S+ \S+ (\S+),", line)
         if not m:
             continue
-        name, size, hfov, height = m.groups()
+        name, size, fx, hfov, height = m.groups()
         failed = re.search(r"^%s: FAILED: (.*)$" % name, log, re.M)
         cells = [seed, kind, name, size, hfov, height]
-        # The map's coverage of the camera's image lines (calibrate_survey --truth-dir), the last column
+        # The map's coverage of the camera's image lines (calibrate_survey --truth-dir), then the focal sigma (%)
         covered = re.search(r"^truth-coverage %s ([0-9.]+) %%" % name, log, re.M)
         coverage = covered.group(1) if covered else ""
         result = re.search(r"^\| %s \| ([-+0-9.]+) %% \|[^|]*\|[^|]*\| ([0-9.]+) deg \| ([0-9.]+) mm \|"
-                           r"[^|]*\|[^|]*\| [0-9.]+ px / ([0-9.]+) mm / ([0-9.]+) deg" % name, compare, re.M)
+                           r"[^|]*\|[^|]*\| ([0-9.]+) px / ([0-9.]+) mm / ([0-9.]+) deg" % name, compare, re.M)
         if failed or not result:
             reason = failed.group(1) if failed else "no result (see calibrate.log)"
             # With the truth, calibrate_survey says how far the refused result was: was the refusal needed?
@@ -32,12 +32,13 @@ def row(seed, directory, seconds):
             truth = re.search(r"^%s: FAILED: .*\n(?:%s: .*\n)*  truth of the refused result: focal ([-+0-9.]+) %%, "
                               r"rotation ([0-9.]+) deg, position ([0-9.]+) mm" % (name, name), log, re.M)
             refused = category(*(abs(float(x)) for x in truth.groups())) if truth else ""
-            print("\t".join(cells + ["refused", "", "", "", reason, seconds, refused, "", "", coverage]))
+            print("\t".join(cells + ["refused", "", "", "", reason, seconds, refused, "", "", coverage, ""]))
             continue
         focal, rotation, position = abs(float(result.group(1))), float(result.group(2)), float(result.group(3))
+        sigma_focal = 100.0 * float(result.group(4)) / float(fx)  # % of the true focal length, as the error
         print("\t".join(cells + [category(focal, rotation, position), "%.3f" % focal, "%.3f" % rotation,
-                                 "%.1f" % position, "", seconds, "", result.group(4), result.group(5),
-                                 coverage]))
+                                 "%.1f" % position, "", seconds, "", result.group(5), result.group(6),
+                                 coverage, "%.4f" % sigma_focal]))
 
 
 def category(focal, rotation, position):
@@ -111,9 +112,13 @@ def summary(path):
     # square root of the covariance's trace, so 2 sigma covers a 3D error more than 95 % of the time).
     sigmas = [r for r in accepted if len(r) > 14 and r[13]]
     if sigmas:
-        covered = lambda err, sig: sum(1 for r in sigmas if float(r[err]) <= 2.0 * float(r[sig]))
-        print("  two-sigma coverage of the accepted results (goal >= 90 %%): position %d of %d, rotation %d of %d" %
-              (covered(9, 13), len(sigmas), covered(8, 14), len(sigmas)))
+        covered = lambda rows, err, sig: sum(1 for r in rows if float(r[err]) <= 2.0 * float(r[sig]))
+        line = ("  two-sigma coverage of the accepted results (goal >= 90 %%): position %d of %d, rotation %d of %d" %
+                (covered(sigmas, 9, 13), len(sigmas), covered(sigmas, 8, 14), len(sigmas)))
+        focal = [r for r in sigmas if len(r) > 16 and r[16]]  # rows of older runs have no focal sigma
+        if focal:
+            line += ", focal %d of %d" % (covered(focal, 7, 16), len(focal))
+        print(line)
     by_kind = {}
     for r in rows:
         k = by_kind.setdefault(r[1], [0, 0, 0])
