@@ -222,7 +222,8 @@ TEST(Refinement, SharedLineErrorsPropagateToTheCamera)
     ASSERT_TRUE(refined) << refined.error().describe();
     ASSERT_TRUE(refined->uncertainty.available) << refined->uncertainty.reason;
     const std::vector<double> sigmas(s.lines.data.lines.size(), shared_m);
-    const auto shared = ic::propagateWorldLineErrors(s.lines.data, refined->camera, options, sigmas);
+    const auto shared = ic::propagateWorldLineErrors(s.lines.data, refined->camera, options,
+                                                     ic::errorsAcrossLines(s.lines.data, sigmas));
     ASSERT_TRUE(shared) << shared.error().describe();
     const ic::CameraErrors e = ic::compareCameras(s.truth, refined->camera);
     const double error[3] = {std::abs(e.focal_relative) * s.truth.intrinsics().fx, e.center_m,

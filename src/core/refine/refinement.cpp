@@ -788,21 +788,14 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
 
 Expected<CameraUncertainty> propagateWorldLineErrors(const CorrespondenceSet& data, const CameraModel& camera,
                                                      const RefinementOptions& options,
-                                                     const std::vector<double>& sigmas_m)
+                                                     const std::vector<std::vector<Eigen::Vector3d>>& error_modes)
 {
-  if (const Status valid = checkLineInput(data, options, sigmas_m.size()); !valid)
+  if (const Status valid = checkLineInput(data, options, error_modes.size()); !valid)
     return valid.error();
-  const auto moves_of = [&](size_t i) {
-    std::vector<Eigen::Vector3d> moves;
-    if (sigmas_m[i] > 0.0)
-      for (const Eigen::Vector3d& e : directionsAcross(data.lines[i].world.front(), data.lines[i].world.back()))
-        moves.push_back(sigmas_m[i] * e);
-    return moves;
-  };
   CameraColumns columns;
   double r_ref2 = 1.0;
-  const std::vector<Eigen::MatrixXd> shifts =
-      cameraShiftsOfLineMoves(data, camera, options, moves_of, &columns, &r_ref2);
+  const std::vector<Eigen::MatrixXd> shifts = cameraShiftsOfLineMoves(
+      data, camera, options, [&](size_t i) { return error_modes[i]; }, &columns, &r_ref2);
   if (shifts.size() != data.lines.size())
     return Error(ErrorCode::kNoSolution, "the lines' errors could not be propagated to the camera");
   Eigen::MatrixXd covariance;
@@ -815,6 +808,17 @@ Expected<CameraUncertainty> propagateWorldLineErrors(const CorrespondenceSet& da
   CameraUncertainty u;
   setSigmasFromCovariance(covariance, columns, r_ref2, options.single_focal, &u);
   return u;
+}
+
+std::vector<std::vector<Eigen::Vector3d>> errorsAcrossLines(const CorrespondenceSet& data,
+                                                            const std::vector<double>& sigmas_m)
+{
+  std::vector<std::vector<Eigen::Vector3d>> modes(data.lines.size());
+  for (size_t i = 0; i < data.lines.size() && i < sigmas_m.size(); ++i)
+    if (sigmas_m[i] > 0.0 && data.lines[i].world.size() >= 2)
+      for (const Eigen::Vector3d& e : directionsAcross(data.lines[i].world.front(), data.lines[i].world.back()))
+        modes[i].push_back(sigmas_m[i] * e);
+  return modes;
 }
 
 Expected<CameraShift> predictCameraShift(const CorrespondenceSet& data, const CameraModel& camera,

@@ -471,6 +471,29 @@ double sharedSigma(const MapLine& line)
   return weight > 0.0 ? sum / weight : 0.0;
 }
 
+// A map line's errors that all its observations share, as independent rigid moves at one sigma: the floor
+// (min_map_line_sigma_m) in both directions across it, and the registration's (sharedSigma) where that error acts,
+// along the rays it was seen on: in the observations' interpretation planes, across the line (in both directions
+// when the sensor is unknown).
+std::vector<Eigen::Vector3d> sharedErrorModes(const MapLine& line, double floor_m)
+{
+  const Eigen::Vector3d u = line.direction.normalized();
+  const Eigen::Vector3d e1 = u.unitOrthogonal(), e2 = u.cross(e1);
+  std::vector<Eigen::Vector3d> modes = {floor_m * e1, floor_m * e2};
+  const double shared = sharedSigma(line);
+  if (!(shared > 0.0))
+    return modes;
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+  for (const auto& o : line.observations)
+    normal += normal.dot(o.normal) < 0.0 ? -o.normal : o.normal;
+  const Eigen::Vector3d along_rays = u.cross(normal);
+  if (along_rays.norm() > 1e-6)
+    modes.push_back(shared * along_rays.normalized());
+  else
+    modes.insert(modes.end(), {shared * e1, shared * e2});
+  return modes;
+}
+
 // The used map line a correspondence's world points were sampled from (they lie on it), or none.
 const MapLine* sourceLineOf(const LineCorrespondence& c, const std::vector<MapLine>& used)
 {
@@ -494,21 +517,21 @@ bool Survey::addSharedMapErrors(FixedCameraResult* result) const
   CameraUncertainty& u = c.uncertainty;
   if (!options_.shared_map_errors_in_sigma || !u.available || !c.refinement)
     return false;
-  // The lines the final refinement used, each with its map line's shared error (the floor and the registration's).
+  // The lines the final refinement used, each with its map line's shared errors.
   const std::vector<MapLine> used = usedLinesOf(latestLineMap());
   CorrespondenceSet inliers = result->correspondences;
   inliers.lines.clear();
-  std::vector<double> sigmas;
+  std::vector<std::vector<Eigen::Vector3d>> modes;
   for (size_t k = 0; k < result->correspondences.lines.size(); ++k)
     if (k < c.inlier_lines.size() && c.inlier_lines[k])
     {
       const MapLine* line = sourceLineOf(result->correspondences.lines[k], used);
       inliers.lines.push_back(result->correspondences.lines[k]);
-      sigmas.push_back(line ? std::hypot(options_.min_map_line_sigma_m, sharedSigma(*line)) : 0.0);
+      modes.push_back(line ? sharedErrorModes(*line, options_.min_map_line_sigma_m) : std::vector<Eigen::Vector3d>());
     }
   RefinementOptions refinement = options_.cameras.matcher.calibration.refinement;
   refinement.estimate_distortion = c.distortion_estimated;
-  const Expected<CameraUncertainty> shared = propagateWorldLineErrors(inliers, c.camera, refinement, sigmas);
+  const Expected<CameraUncertainty> shared = propagateWorldLineErrors(inliers, c.camera, refinement, modes);
   if (!shared)
     return false;
   u.fx = std::hypot(u.fx, shared->fx);
