@@ -121,8 +121,10 @@ Options:
   --truth-dir DIR       the simulator's truth folder (<bag>_truth): also report, per camera, how many matches pair
                         the wrong edges and how far the matched map lines are from the true edges, the localiser's
                         limit (its error averaged over the keyframes, at the camera: "truth-limit" lines) and the
-                        cameras' poses relative to each other against the truth ("truth-relative" lines) and
-                        the map's coverage of each camera's image lines ("truth-coverage" lines)
+                        cameras' poses relative to each other against the truth ("truth-relative" lines),
+                        the map's coverage of each camera's image lines ("truth-coverage" lines) and how much of an
+                        accepted camera's error its lines' true offsets explain, all, wrong matches and right ones
+                        (linearised through the refinement: "truth-line-shift" lines)
   --coverage-diagnosis WORLD
                         with --truth-dir: per image line the map lacks, why (the simulator's WORLD file rendered
                         at each keyframe: never in the Xtion's view, in view without depth, with depth but no 3D
