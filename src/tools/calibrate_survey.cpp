@@ -121,8 +121,10 @@ Options:
   --truth-dir DIR       the simulator's truth folder (<bag>_truth): also report, per camera, how many matches pair
                         the wrong edges and how far the matched map lines are from the true edges, the localiser's
                         limit (its error averaged over the keyframes, at the camera: "truth-limit" lines) and the
-                        cameras' poses relative to each other against the truth ("truth-relative" lines) and
-                        the map's coverage of each camera's image lines ("truth-coverage" lines)
+                        cameras' poses relative to each other against the truth ("truth-relative" lines),
+                        the map's coverage of each camera's image lines ("truth-coverage" lines) and how much of an
+                        accepted camera's error its lines' true offsets explain, all, wrong matches and right ones
+                        (linearised through the refinement: "truth-line-shift" lines)
   --coverage-diagnosis WORLD
                         with --truth-dir: per image line the map lacks, why (the simulator's WORLD file rendered
                         at each keyframe: never in the Xtion's view, in view without depth, with depth but no 3D
@@ -150,9 +152,61 @@ Options:
 Exit status: 0 when every camera calibrated, 1 when one failed, 2 on bad arguments or an unreadable bag.
 )";
 
+// The camera's error the matched lines' true 3D offsets explain (linearised, predictCameraShift): each inlier line
+// moved from its map line onto the true edge its image line shows (for a wrong match, the other edge), all of them,
+// the wrong matches only and the others ("truth-line-shift" lines).
+void reportLineShiftsAgainstTruth(const ic::CameraModel& truth, const std::vector<ic::Segment3d>& segments,
+                                  const std::vector<ic::TrueEdgeImage>& images, const ic::FixedCameraResult& result,
+                                  const ic::RefinementOptions& options, const std::string& name)
+{
+  ic::CorrespondenceSet inliers = result.correspondences;
+  inliers.lines.clear();
+  std::vector<Eigen::Vector3d> moves;
+  std::vector<bool> wrong;
+  for (size_t k = 0; k < result.correspondences.lines.size(); ++k)
+  {
+    if (k >= result.calibration.inlier_lines.size() || !result.calibration.inlier_lines[k])
+      continue;
+    const ic::LineCorrespondence& line = result.correspondences.lines[k];
+    inliers.lines.push_back(line);
+    const ic::ImageLineError shown = ic::measureImageLine(line.image, truth.distortion(), images, 3.0, 1.0, 0.6);
+    const ic::Line3dError mapped = ic::measureLine3d(line.world.front(), line.world.back(), segments, 0.1, 5.0);
+    Eigen::Vector3d move = Eigen::Vector3d::Zero();
+    if (shown.edge >= 0)
+    {
+      const ic::Segment3d& t = segments[shown.edge];
+      const Eigen::Vector3d u = (t.b - t.a).normalized(), mid = 0.5 * (line.world.front() + line.world.back());
+      const Eigen::Vector3d off = (mid - t.a) - (mid - t.a).dot(u) * u;
+      move = -off;
+    }
+    moves.push_back(move);
+    wrong.push_back(shown.edge >= 0 && mapped.edge != shown.edge && move.norm() > 0.03);
+  }
+  const ic::CameraErrors actual = ic::compareCameras(truth, result.calibration.camera);
+  const double f = truth.intrinsics().fx;
+  std::printf("truth-line-shift %s actual: focal %+.3f %%, rotation %.3f deg, position %.1f mm\n", name.c_str(),
+              100.0 * actual.focal_relative, actual.rotation_rad * 180.0 / M_PI, 1000.0 * actual.center_m);
+  for (int group = 0; group < 3; ++group)
+  {
+    std::vector<Eigen::Vector3d> some = moves;
+    for (size_t k = 0; k < some.size(); ++k)
+      if ((group == 1 && !wrong[k]) || (group == 2 && wrong[k]))
+        some[k].setZero();
+    const auto shift = ic::predictCameraShift(inliers, result.calibration.camera, options, some);
+    if (!shift)
+      return;
+    std::printf("truth-line-shift %s %s: focal %+.3f %%, rotation %.3f deg, position %.1f mm\n", name.c_str(),
+                group == 0   ? "all lines"
+                : group == 1 ? "wrong matches"
+                             : "right matches",
+                100.0 * shift->fx_px / f, shift->rotation_rad.norm() * 180.0 / M_PI, 1000.0 * shift->center_m.norm());
+  }
+}
+
 // Diagnostics against the simulator's truth: the true edge of each matched image line (under the true camera) and
 // of each matched map line; a match is wrong when they differ.
-void reportAgainstTruth(const std::string& truth_dir, const std::string& name, const ic::FixedCameraResult& result)
+void reportAgainstTruth(const std::string& truth_dir, const std::string& name, const ic::FixedCameraResult& result,
+                        const ic::RefinementOptions& options)
 {
   const auto truth = ic::loadCalibrationFile(truth_dir + "/" + name + ".yaml");
   const auto edges = ic::simulation::loadTrueEdges(truth_dir + "/edges.yaml");
@@ -202,6 +256,7 @@ void reportAgainstTruth(const std::string& truth_dir, const std::string& name, c
       "  truth: %zu matches, %zu pair different edges, %zu image lines and %zu map lines on no true edge; "
       "matched map lines off their edge by median %.2f mm, max %.2f mm\n",
       result.matched_image_lines.size(), wrong, unknown_image, unknown_map, map_stats.median_px, map_stats.max_px);
+  reportLineShiftsAgainstTruth(truth->camera, segments, images, result, options, name);
 }
 
 // Diagnostic: how far from the truth a result the checks refused was (was the refusal needed?).
@@ -1188,7 +1243,11 @@ bool calibrateAndSave(const ic::CommandLine& cli, ic::Survey& survey, const std:
               store.calibrationPath(name).c_str());
   writeReport(cli, survey, name, map, *result, "");
   if (cli.has("truth-dir"))
-    reportAgainstTruth(cli.value("truth-dir"), name, *result);
+  {
+    ic::RefinementOptions refinement = survey.options().cameras.matcher.calibration.refinement;
+    refinement.estimate_distortion = result->calibration.distortion_estimated;
+    reportAgainstTruth(cli.value("truth-dir"), name, *result, refinement);
+  }
   return true;
 }
 

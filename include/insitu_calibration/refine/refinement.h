@@ -145,6 +145,32 @@ void quietSolverLogging();
 Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const CameraModel& initial,
                                         const RefinementOptions& options = {}, const std::vector<bool>& use_line = {});
 
+// The camera's uncertainty from errors of the lines' 3D positions that the residuals cannot show, such as an error
+// every observation of a map line shares (the depth registration's, README "Honest sigmas"): line i's error is the
+// sum of independent modes error_modes[i][k] x N(0, 1), each a rigid move of its 3D line at one sigma (m; e.g.
+// sigma along the rays it was seen on; none: exact), independent of the other lines'; propagated linearly through
+// the refinement's least squares at `camera` (refineCamera's optimum on the same data and options; kJoint is
+// refused). Sets the standard deviations of fx, fy, cx, cy, lambda, rotation and position.
+Expected<CameraUncertainty> propagateWorldLineErrors(const CorrespondenceSet& data, const CameraModel& camera,
+                                                     const RefinementOptions& options,
+                                                     const std::vector<std::vector<Eigen::Vector3d>>& error_modes);
+// The same with sigmas_m[i] in each of the two directions across line i.
+std::vector<std::vector<Eigen::Vector3d>> errorsAcrossLines(const CorrespondenceSet& data,
+                                                            const std::vector<double>& sigmas_m);
+
+// How the refined camera moves when line i's 3D line moves rigidly by moves_m[i] (linearised at `camera` as above;
+// zero: the line stays): the change of fx, of the rotation (the small turn R_new R^T as an angle-axis vector, in
+// the refinement's parametrisation) and of the optical centre. With the lines' true offsets as moves (a simulator's
+// truth) it says which lines put the camera where it is.
+struct CameraShift
+{
+  double fx_px = 0.0;
+  Eigen::Vector3d rotation_rad = Eigen::Vector3d::Zero();
+  Eigen::Vector3d center_m = Eigen::Vector3d::Zero();
+};
+Expected<CameraShift> predictCameraShift(const CorrespondenceSet& data, const CameraModel& camera,
+                                         const RefinementOptions& options, const std::vector<Eigen::Vector3d>& moves_m);
+
 }  // namespace insitu_calibration
 
 #endif  // INSITU_CALIBRATION_REFINE_REFINEMENT_H

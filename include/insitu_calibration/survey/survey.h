@@ -37,6 +37,12 @@ struct SurveyOptions
   // sigmas cover their offsets (median offset / sigma 1.3-5.9 -> 0.9-1.6), but the calibration's refinement then
   // weighs the lines so unevenly that one held-out camera came out 1.5 deg off with a 0.33 deg sigma (README).
   bool shared_map_line_sigma = false;
+  // The calibration's reported uncertainty includes the map lines' shared errors (min_map_line_sigma_m and the
+  // registration's, as mapLineSigmas adds them with shared_map_line_sigma), propagated through its least squares
+  // (propagateWorldLineErrors): errors common to every observation of an edge move the map line as a whole, and a
+  // camera fitted to such lines takes up what their residuals cannot show. Only the reported sigmas change, after the
+  // checks (like the map's placement): not the estimate, nor which cameras are accepted.
+  bool shared_map_errors_in_sigma = true;
   double fixed_image_period_s = 0.5;  // one image per period per camera goes into its median
   // The localiser behind the keyframes' poses (tf): its error's standard deviation in x, y and yaw, and its
   // correlation time. With a sigma above 0 the map is adjusted jointly with the keyframe poses
@@ -142,6 +148,7 @@ public:
   // The map's placement uncertainty added to a calibration made against mapSegments() (its pose sigmas and its
   // file's quality), for callers that calibrate a copy of a camera (the node, outside its lock). False when there is
   // none to add (tf trusted, or no uncertainty available).
+  // Also adds the map lines' shared errors (SurveyOptions::shared_map_errors_in_sigma).
   bool addMapPlacement(FixedCameraResult* result) const;
 
   bool hasCamera(const std::string& name) const { return cameras_.count(name) > 0; }
@@ -182,6 +189,7 @@ private:
   void cacheAdjustment(MapAdjustment adjustment) const;  // the cache's members are mutable
   std::vector<MapLine> usedLinesOf(const LineMap& map) const;
   std::vector<double> sigmasOf(const std::vector<MapLine>& used) const;
+  bool addSharedMapErrors(FixedCameraResult* result) const;
   // The map as inserted with the lines beyond the depth range (cached per keyframe generation).
   const LineMap& unadjustedMap() const;
   std::vector<FloorObservation> floorObservations(const RgbdFrame& frame, const std::vector<Line3d>& lines,

@@ -599,6 +599,99 @@ void analyseSolution(RefinementState& s, BuiltProblem& built, RefinementResult* 
   if (u.available && s.options.per_line_uncertainty && groups.jackknife.rows() == free.columns())
     widenByJackknife(groups.jackknife, free, s.p, s.projector.r_ref2, s.options.single_focal, &u);
 }
+
+// Two orthonormal directions across a 3D line.
+std::array<Eigen::Vector3d, 2> directionsAcross(const Eigen::Vector3d& a, const Eigen::Vector3d& b)
+{
+  const Eigen::Vector3d u = (b - a).normalized();
+  const Eigen::Vector3d e1 = u.unitOrthogonal();
+  return {e1, u.cross(e1)};
+}
+
+// How line i's residual rows (in buildProblem's order) change when its 3D line moves rigidly by each of `moves`
+// (one column each): central differences of its own functors (the residuals are linear in so small a move).
+Eigen::MatrixXd lineMoveRows(const RefinementState& s, size_t i, const std::vector<Eigen::Vector3d>& moves)
+{
+  const auto& line = s.data.lines[i];
+  const Parameters& p = s.p;
+  const bool image_points = s.options.line_residual != LineResidual::kWorldPoints && s.hasLine(i);
+  const bool world_points = !image_points || s.options.line_residual == LineResidual::kBoth;
+  std::vector<Eigen::VectorXd> rows;
+  const auto move = [&](const auto& residual_at) {
+    Eigen::VectorXd row(moves.size());
+    for (size_t k = 0; k < moves.size(); ++k)
+      row(k) = 0.5 * (residual_at(moves[k]) - residual_at(-moves[k]));
+    rows.push_back(row);
+  };
+  for (size_t v = 0; image_points && v < line.image.size(); ++v)
+    if (s.vertex_used[i][v])
+      move([&](const Eigen::Vector3d& d) {
+        const ImagePointToLineResidual f{s.projector, s.models[i].ends.a + d, s.models[i].ends.b + d, line.image[v],
+                                         s.line_weight[i]};
+        double r = 0.0;
+        f(p.focal, p.principal, p.skew, p.distortion, p.delta, p.center, &r);
+        return r;
+      });
+  for (size_t k = 0; world_points && k < line.world.size(); ++k)
+    move([&](const Eigen::Vector3d& d) {
+      const Eigen::Vector2d a = line.image[s.assignment[i][k]], b = line.image[s.assignment[i][k] + 1];
+      const Eigen::Vector2d dir = (b - a).normalized();
+      const PointToPartResidual f{s.projector, line.world[k] + d, a, Eigen::Vector2d(-dir.y(), dir.x()),
+                                  s.line_weight[i]};
+      double r = 0.0;
+      f(p.focal, p.principal, p.skew, p.distortion, p.delta, p.center, &r);
+      return r;
+    });
+  Eigen::MatrixXd out(rows.size(), moves.size());
+  for (size_t r = 0; r < rows.size(); ++r)
+    out.row(r) = rows[r].transpose();
+  return out;
+}
+
+// The camera's parameters moved by each line's moves (moves_of(i): rigid moves of line i's 3D line, none to leave
+// it), linearised through the problem refineCamera solves at its optimum `camera` (the same weights, plumb lines,
+// pairing and priors): per line, free parameters x moves. Empty on failure.
+template <typename MovesOf>
+std::vector<Eigen::MatrixXd> cameraShiftsOfLineMoves(const CorrespondenceSet& data, const CameraModel& camera,
+                                                     const RefinementOptions& options, const MovesOf& moves_of,
+                                                     CameraColumns* columns, double* r_ref2)
+{
+  const std::vector<bool> all_lines;
+  RefinementState s(data, options, all_lines, camera);
+  s.line_weight = worldSigmaWeights(s);
+  s.models = makeLineModels(data, options, NoiseLevels());
+  s.straight = fitStraightLines(s);
+  s.assignment.resize(data.lines.size());
+  for (const auto& line : data.lines)
+    s.vertex_used.emplace_back(line.image.size(), true);
+  pairWorldPointsWithParts(s);
+  Expected<BuiltProblem> built = buildProblem(s);
+  if (!built)
+    return {};
+  std::vector<Eigen::MatrixXd> rows(data.lines.size());
+  for (size_t i = 0; i < data.lines.size(); ++i)
+  {
+    const std::vector<Eigen::Vector3d> moves = moves_of(i);
+    if (!moves.empty() && data.lines[i].world.size() >= 2)
+      rows[i] = lineMoveRows(s, i, moves);
+  }
+  const FreeBlocks free = freeBlocksOf(s);
+  *columns = cameraColumns(free, s.p);
+  *r_ref2 = s.projector.r_ref2;
+  return groupShifts(*built->problem, free, built->row_group, rows);
+}
+
+Status checkLineInput(const CorrespondenceSet& data, const RefinementOptions& options, size_t per_line)
+{
+  if (const Status valid = data.validate(); !valid)
+    return valid.error();
+  if (per_line != data.lines.size())
+    return Error(ErrorCode::kInvalidInput,
+                 std::to_string(per_line) + " line errors for " + std::to_string(data.lines.size()) + " lines");
+  if (options.line_residual == LineResidual::kJoint)
+    return Error(ErrorCode::kInvalidInput, "the joint error model estimates the 3D lines itself");
+  return Success{};
+}
 }  // namespace
 
 std::optional<RobustLoss> parseRobustLoss(const std::string& name)
@@ -691,6 +784,67 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
   result.final_rms_px = rootMeanSquare(selectedLineResiduals(s, result.camera));
   analyseSolution(s, *built, &result);
   return result;
+}
+
+Expected<CameraUncertainty> propagateWorldLineErrors(const CorrespondenceSet& data, const CameraModel& camera,
+                                                     const RefinementOptions& options,
+                                                     const std::vector<std::vector<Eigen::Vector3d>>& error_modes)
+{
+  if (const Status valid = checkLineInput(data, options, error_modes.size()); !valid)
+    return valid.error();
+  CameraColumns columns;
+  double r_ref2 = 1.0;
+  const std::vector<Eigen::MatrixXd> shifts = cameraShiftsOfLineMoves(
+      data, camera, options, [&](size_t i) { return error_modes[i]; }, &columns, &r_ref2);
+  if (shifts.size() != data.lines.size())
+    return Error(ErrorCode::kNoSolution, "the lines' errors could not be propagated to the camera");
+  Eigen::MatrixXd covariance;
+  for (const Eigen::MatrixXd& shift : shifts)
+    if (shift.size() > 0)
+      covariance = covariance.size() > 0 ? Eigen::MatrixXd(covariance + shift * shift.transpose())
+                                         : Eigen::MatrixXd(shift * shift.transpose());
+  if (covariance.size() == 0)
+    return Error(ErrorCode::kInvalidInput, "no line has an error to propagate");
+  CameraUncertainty u;
+  setSigmasFromCovariance(covariance, columns, r_ref2, options.single_focal, &u);
+  return u;
+}
+
+std::vector<std::vector<Eigen::Vector3d>> errorsAcrossLines(const CorrespondenceSet& data,
+                                                            const std::vector<double>& sigmas_m)
+{
+  std::vector<std::vector<Eigen::Vector3d>> modes(data.lines.size());
+  for (size_t i = 0; i < data.lines.size() && i < sigmas_m.size(); ++i)
+    if (sigmas_m[i] > 0.0 && data.lines[i].world.size() >= 2)
+      for (const Eigen::Vector3d& e : directionsAcross(data.lines[i].world.front(), data.lines[i].world.back()))
+        modes[i].push_back(sigmas_m[i] * e);
+  return modes;
+}
+
+Expected<CameraShift> predictCameraShift(const CorrespondenceSet& data, const CameraModel& camera,
+                                         const RefinementOptions& options, const std::vector<Eigen::Vector3d>& moves_m)
+{
+  if (const Status valid = checkLineInput(data, options, moves_m.size()); !valid)
+    return valid.error();
+  const auto moves_of = [&](size_t i) {
+    return moves_m[i].norm() > 0.0 ? std::vector<Eigen::Vector3d>{moves_m[i]} : std::vector<Eigen::Vector3d>{};
+  };
+  CameraColumns columns;
+  double r_ref2 = 1.0;
+  const std::vector<Eigen::MatrixXd> shifts =
+      cameraShiftsOfLineMoves(data, camera, options, moves_of, &columns, &r_ref2);
+  if (shifts.size() != data.lines.size())
+    return Error(ErrorCode::kNoSolution, "the lines' moves could not be propagated to the camera");
+  CameraShift out;
+  const int f = columns.focal, d = columns.delta, c = columns.center;
+  for (const Eigen::MatrixXd& shift : shifts)
+    if (shift.size() > 0)
+    {
+      out.fx_px += shift(f, 0);
+      out.rotation_rad += shift.block(d, 0, 3, 1);
+      out.center_m += shift.block(c, 0, 3, 1);
+    }
+  return out;
 }
 
 }  // namespace insitu_calibration

@@ -210,5 +210,56 @@ void widenByJackknife(const Eigen::MatrixXd& jackknife, const FreeBlocks& free, 
   widen(&u->position_m, jackknife.block(x, x, 3, 3).trace());
 }
 
+std::vector<Eigen::MatrixXd> groupShifts(ceres::Problem& problem, const FreeBlocks& free,
+                                         const std::vector<size_t>& row_group,
+                                         const std::vector<Eigen::MatrixXd>& data_moves)
+{
+  Eigen::MatrixXd j;
+  std::vector<double> residuals;
+  if (!denseJacobian(problem, free, &j, &residuals) || residuals.size() != row_group.size())
+    return {};
+  double reciprocal_condition = 0.0;
+  const Eigen::MatrixXd h_inverse = scaledNormalInverse(j, &reciprocal_condition);
+  std::vector<std::vector<int>> rows_of(data_moves.size());
+  for (size_t r = 0; r < row_group.size(); ++r)
+    if (row_group[r] < data_moves.size())
+      rows_of[row_group[r]].push_back(static_cast<int>(r));
+  std::vector<Eigen::MatrixXd> shifts(data_moves.size());
+  for (size_t g = 0; g < data_moves.size(); ++g)
+  {
+    const std::vector<int>& own = rows_of[g];
+    if (data_moves[g].size() == 0 || own.empty())
+      continue;
+    if (data_moves[g].rows() != static_cast<Eigen::Index>(own.size()))
+      return {};
+    Eigen::MatrixXd jg(own.size(), j.cols());
+    for (size_t k = 0; k < own.size(); ++k)
+      jg.row(k) = j.row(own[k]);
+    shifts[g] = -h_inverse * jg.transpose() * data_moves[g];
+  }
+  return shifts;
+}
+
+CameraColumns cameraColumns(const FreeBlocks& free, const Parameters& p)
+{
+  return {free.columnOf(p.focal), free.columnOf(p.principal), free.columnOf(p.distortion), free.columnOf(p.delta),
+          free.columnOf(p.center)};
+}
+
+void setSigmasFromCovariance(const Eigen::MatrixXd& covariance, const CameraColumns& columns, double r_ref2,
+                             bool single_focal, CameraUncertainty* u)
+{
+  const auto sigma = [](double variance) { return std::sqrt(std::max(0.0, variance)); };
+  const int f = columns.focal, c = columns.principal, d = columns.delta, x = columns.center, k = columns.distortion;
+  u->available = true;
+  u->fx = sigma(covariance(f, f));
+  u->fy = single_focal ? u->fx : sigma(covariance(f + 1, f + 1));
+  u->cx = c >= 0 ? sigma(covariance(c, c)) : 0.0;
+  u->cy = c >= 0 ? sigma(covariance(c + 1, c + 1)) : 0.0;
+  u->lambda = k >= 0 ? sigma(covariance(k, k)) / r_ref2 : 0.0;
+  u->rotation_deg = sigma(covariance.block(d, d, 3, 3).trace()) * 180.0 / M_PI;
+  u->position_m = sigma(covariance.block(x, x, 3, 3).trace());
+}
+
 }  // namespace refinement
 }  // namespace insitu_calibration

@@ -58,6 +58,29 @@ void computeCameraCovariance(ceres::Problem& problem, const Parameters& p, size_
 void widenByJackknife(const Eigen::MatrixXd& jackknife, const FreeBlocks& free, const Parameters& p, double r_ref2,
                       bool single_focal, CameraUncertainty* u);
 
+// How the least-squares solution moves when the data move in ways the residuals do not see (a line's 3D position):
+// group g's rows move by data_moves[g] (one column per move; an empty matrix: none) and the solution, linearised,
+// by -H^-1 J_g^T data_moves[g], returned per group (columns x moves; empty for an empty group). Empty on failure.
+std::vector<Eigen::MatrixXd> groupShifts(ceres::Problem& problem, const FreeBlocks& free,
+                                         const std::vector<size_t>& row_group,
+                                         const std::vector<Eigen::MatrixXd>& data_moves);
+
+// The camera's blocks among the Jacobian's columns (-1: not free).
+struct CameraColumns
+{
+  int focal = -1;
+  int principal = -1;
+  int distortion = -1;
+  int delta = -1;
+  int center = -1;
+};
+CameraColumns cameraColumns(const FreeBlocks& free, const Parameters& p);
+
+// The standard deviations of focal, principal point, distortion, rotation and centre from a covariance of the free
+// parameters; u.available set.
+void setSigmasFromCovariance(const Eigen::MatrixXd& covariance, const CameraColumns& columns, double r_ref2,
+                             bool single_focal, CameraUncertainty* u);
+
 }  // namespace refinement
 }  // namespace insitu_calibration
 

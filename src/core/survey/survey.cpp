@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "insitu_calibration/cpu_time.h"
+#include "insitu_calibration/refine/refinement.h"
 
 namespace insitu_calibration
 {
@@ -431,12 +432,13 @@ Expected<FixedCameraResult> Survey::calibrate(const std::string& name, const std
 
 bool Survey::addMapPlacement(FixedCameraResult* result) const
 {
+  const bool shared = addSharedMapErrors(result);
   // The whole map may be off by the placement: a shift of the camera, and a turn about the survey's centre that
   // turns the camera and moves it by the turn times its horizontal distance from the centre.
   const MapPlacementUncertainty placement = mapPlacement();
   CameraUncertainty& u = result->calibration.uncertainty;
   if (!u.available || !(placement.sigma_m > 0.0 || placement.sigma_deg > 0.0))
-    return false;
+    return shared;
   const Eigen::Vector3d arm = result->calibration.camera.pose().center() - placement.centre;
   const double turn_m = placement.sigma_deg * M_PI / 180.0 * arm.head<2>().norm();
   u.position_m = std::sqrt(u.position_m * u.position_m + 2.0 * placement.sigma_m * placement.sigma_m + turn_m * turn_m);
@@ -450,20 +452,6 @@ bool Survey::addMapPlacement(FixedCameraResult* result) const
     extra["sigma_map_placement_deg"] = placement.sigma_deg;
   }
   return true;
-}
-
-std::vector<MapLine> Survey::usedLinesOf(const LineMap& map) const
-{
-  std::vector<MapLine> out;
-  for (const auto& line : map.lines(options_.min_map_support))
-    if (usedByCalibration(line, options_))
-      out.push_back(line);
-  return out;
-}
-
-std::vector<MapLine> Survey::usedMapLines() const
-{
-  return usedLinesOf(lineMap());
 }
 
 namespace
@@ -482,7 +470,107 @@ double sharedSigma(const MapLine& line)
     }
   return weight > 0.0 ? sum / weight : 0.0;
 }
+
+// A map line's errors that all its observations share, as independent rigid moves at one sigma: the floor
+// (min_map_line_sigma_m) in both directions across it, and the registration's (sharedSigma) where that error acts,
+// along the rays it was seen on: in the observations' interpretation planes, across the line (in both directions
+// when the sensor is unknown).
+std::vector<Eigen::Vector3d> sharedErrorModes(const MapLine& line, double floor_m)
+{
+  const Eigen::Vector3d u = line.direction.normalized();
+  const Eigen::Vector3d e1 = u.unitOrthogonal(), e2 = u.cross(e1);
+  std::vector<Eigen::Vector3d> modes = {floor_m * e1, floor_m * e2};
+  const double shared = sharedSigma(line);
+  if (!(shared > 0.0))
+    return modes;
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+  for (const auto& o : line.observations)
+    normal += normal.dot(o.normal) < 0.0 ? -o.normal : o.normal;
+  const Eigen::Vector3d along_rays = u.cross(normal);
+  if (along_rays.norm() > 1e-6)
+    modes.push_back(shared * along_rays.normalized());
+  else
+    modes.insert(modes.end(), {shared * e1, shared * e2});
+  return modes;
+}
+
+// The used map line a correspondence's world points were sampled from (they lie on it), or none.
+const MapLine* sourceLineOf(const LineCorrespondence& c, const std::vector<MapLine>& used)
+{
+  if (c.world.empty())
+    return nullptr;
+  const auto on = [](const MapLine& line, const Eigen::Vector3d& x) {
+    const Eigen::Vector3d d = x - line.point;
+    const double s = d.dot(line.direction);
+    return (d - s * line.direction).norm() < 1e-6 && s > line.s_min - 1e-6 && s < line.s_max + 1e-6;
+  };
+  for (const MapLine& line : used)
+    if (on(line, c.world.front()) && on(line, c.world.back()))
+      return &line;
+  return nullptr;
+}
 }  // namespace
+
+bool Survey::addSharedMapErrors(FixedCameraResult* result) const
+{
+  CameraCalibration& c = result->calibration;
+  CameraUncertainty& u = c.uncertainty;
+  if (!options_.shared_map_errors_in_sigma || !u.available || !c.refinement)
+    return false;
+  // The lines the final refinement used, each with its map line's shared errors.
+  const std::vector<MapLine> used = usedLinesOf(latestLineMap());
+  CorrespondenceSet inliers = result->correspondences;
+  inliers.lines.clear();
+  std::vector<std::vector<Eigen::Vector3d>> modes;
+  for (size_t k = 0; k < result->correspondences.lines.size(); ++k)
+    if (k < c.inlier_lines.size() && c.inlier_lines[k])
+    {
+      const MapLine* line = sourceLineOf(result->correspondences.lines[k], used);
+      inliers.lines.push_back(result->correspondences.lines[k]);
+      modes.push_back(line ? sharedErrorModes(*line, options_.min_map_line_sigma_m) : std::vector<Eigen::Vector3d>());
+    }
+  RefinementOptions refinement = options_.cameras.matcher.calibration.refinement;
+  refinement.estimate_distortion = c.distortion_estimated;
+  const Expected<CameraUncertainty> shared = propagateWorldLineErrors(inliers, c.camera, refinement, modes);
+  if (!shared)
+    return false;
+  u.fx = std::hypot(u.fx, shared->fx);
+  u.fy = std::hypot(u.fy, shared->fy);
+  u.cx = std::hypot(u.cx, shared->cx);
+  u.cy = std::hypot(u.cy, shared->cy);
+  u.lambda = std::hypot(u.lambda, shared->lambda);
+  u.position_m = std::hypot(u.position_m, shared->position_m);
+  u.rotation_deg = std::hypot(u.rotation_deg, shared->rotation_deg);
+  if (result->file.quality)
+  {
+    auto& extra = result->file.quality->extra;
+    extra["sigma_fx_px"] = u.fx;
+    extra["sigma_fy_px"] = u.fy;
+    extra["sigma_cx_px"] = u.cx;
+    extra["sigma_cy_px"] = u.cy;
+    extra["sigma_lambda"] = u.lambda;
+    extra["sigma_position_m"] = u.position_m;
+    extra["sigma_rotation_deg"] = u.rotation_deg;
+    extra["sigma_shared_map_fx_px"] = shared->fx;
+    extra["sigma_shared_map_position_m"] = shared->position_m;
+    extra["sigma_shared_map_rotation_deg"] = shared->rotation_deg;
+  }
+  return true;
+}
+
+std::vector<MapLine> Survey::usedLinesOf(const LineMap& map) const
+{
+  std::vector<MapLine> out;
+  for (const auto& line : map.lines(options_.min_map_support))
+    if (usedByCalibration(line, options_))
+      out.push_back(line);
+  return out;
+}
+
+std::vector<MapLine> Survey::usedMapLines() const
+{
+  return usedLinesOf(lineMap());
+}
 
 std::vector<double> Survey::sigmasOf(const std::vector<MapLine>& used) const
 {

@@ -41,6 +41,7 @@ void readMapParameters(ParameterSource& read, SurveyOptions& options)
   double& registration_sigma = options.rgbd.sampler.registration_sigma_px;
   registration_sigma = read.number("depth_registration/sigma_px", registration_sigma, Range::closed(0.0, 10.0, "px"));
   options.shared_map_line_sigma = read.flag("depth_registration/in_map_line_sigma", options.shared_map_line_sigma);
+  options.shared_map_errors_in_sigma = read.flag("uncertainty/shared_map_errors", options.shared_map_errors_in_sigma);
 }
 
 // Lines on the floor beyond the depth range (map/floor_lines.h).
