@@ -556,6 +556,7 @@ void CalibrationServer::calibrateOne(const std::string& name, const std::functio
   std::optional<FixedCamera> camera;
   std::vector<Segment3d> map;
   std::vector<double> sigmas;
+  std::vector<MapLine> used_lines;  // behind map: their shared errors widen the result's sigmas
   uint64_t generation = 0;
   size_t keyframes = 0;
   refreshMapAdjustment();
@@ -566,6 +567,7 @@ void CalibrationServer::calibrateOne(const std::string& name, const std::functio
     keyframes = survey_->stats().keyframes;
     map = survey_->latestMapSegments();
     sigmas = survey_->latestMapLineSigmas();
+    used_lines = survey_->latestUsedMapLines();
     generation = reset_generation_;
   }
   const std::optional<CalibrationFile> previous = camera->calibration();
@@ -579,9 +581,10 @@ void CalibrationServer::calibrateOne(const std::string& name, const std::functio
   }
   forgetSurveyGuidance(name);
   {
-    // The map's placement in world_frame_ (the localiser's error over the survey) widens the pose's sigmas.
+    // The map's placement in world_frame_ (the localiser's error over the survey) and the errors the used map lines'
+    // observations share widen the sigmas.
     std::lock_guard<std::mutex> lock(mutex_);
-    if (survey_->addMapPlacement(&*result))
+    if (survey_->addMapPlacement(&*result, used_lines))
       camera->setCalibration(result->file);
   }
   auto msg = toResultMsg(result->file, &result->calibration, world_frame_);

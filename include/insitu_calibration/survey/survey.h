@@ -145,11 +145,11 @@ public:
   // Calibrates one camera against the map in use (FixedCamera::calibrate with the map's segments and sigmas) and
   // adds the map's placement uncertainty to the result's pose sigmas. Errors as FixedCamera::calibrate.
   Expected<FixedCameraResult> calibrate(const std::string& name, const std::string& world_frame);
-  // The map's placement uncertainty added to a calibration made against mapSegments() (its pose sigmas and its
-  // file's quality), for callers that calibrate a copy of a camera (the node, outside its lock). False when there is
-  // none to add (tf trusted, or no uncertainty available).
-  // Also adds the map lines' shared errors (SurveyOptions::shared_map_errors_in_sigma).
-  bool addMapPlacement(FixedCameraResult* result) const;
+  // The map's placement uncertainty added to a calibration made against used_lines (usedMapLines() or
+  // latestUsedMapLines() when the calibration began: the node calibrates a copy of a camera outside its lock, and
+  // the map may be adjusted meanwhile) to its sigmas and its file's quality, with the used lines' shared errors
+  // (SurveyOptions::shared_map_errors_in_sigma). False when there is none to add.
+  bool addMapPlacement(FixedCameraResult* result, const std::vector<MapLine>& used_lines) const;
 
   bool hasCamera(const std::string& name) const { return cameras_.count(name) > 0; }
   std::vector<std::string> cameraNames() const;
@@ -182,6 +182,7 @@ public:
   const LineMap& latestLineMap() const;
   std::vector<Segment3d> latestMapSegments() const;
   std::vector<double> latestMapLineSigmas() const;
+  std::vector<MapLine> latestUsedMapLines() const;
 
 private:
   bool adjusting() const;
@@ -189,7 +190,7 @@ private:
   void cacheAdjustment(MapAdjustment adjustment) const;  // the cache's members are mutable
   std::vector<MapLine> usedLinesOf(const LineMap& map) const;
   std::vector<double> sigmasOf(const std::vector<MapLine>& used) const;
-  bool addSharedMapErrors(FixedCameraResult* result) const;
+  bool addSharedMapErrors(FixedCameraResult* result, const std::vector<MapLine>& used_lines) const;
   // The map as inserted with the lines beyond the depth range (cached per keyframe generation).
   const LineMap& unadjustedMap() const;
   std::vector<FloorObservation> floorObservations(const RgbdFrame& frame, const std::vector<Line3d>& lines,

@@ -425,14 +425,14 @@ Expected<FixedCameraResult> Survey::calibrate(const std::string& name, const std
   camera(name).setOccluders(nullptr);
   if (!result)
     return result;
-  if (addMapPlacement(&*result))
+  if (addMapPlacement(&*result, usedMapLines()))
     camera(name).setCalibration(result->file);
   return result;
 }
 
-bool Survey::addMapPlacement(FixedCameraResult* result) const
+bool Survey::addMapPlacement(FixedCameraResult* result, const std::vector<MapLine>& used_lines) const
 {
-  const bool shared = addSharedMapErrors(result);
+  const bool shared = addSharedMapErrors(result, used_lines);
   // The whole map may be off by the placement: a shift of the camera, and a turn about the survey's centre that
   // turns the camera and moves it by the turn times its horizontal distance from the centre.
   const MapPlacementUncertainty placement = mapPlacement();
@@ -511,14 +511,13 @@ const MapLine* sourceLineOf(const LineCorrespondence& c, const std::vector<MapLi
 }
 }  // namespace
 
-bool Survey::addSharedMapErrors(FixedCameraResult* result) const
+bool Survey::addSharedMapErrors(FixedCameraResult* result, const std::vector<MapLine>& used) const
 {
   CameraCalibration& c = result->calibration;
   CameraUncertainty& u = c.uncertainty;
   if (!options_.shared_map_errors_in_sigma || !u.available || !c.refinement)
     return false;
   // The lines the final refinement used, each with its map line's shared errors.
-  const std::vector<MapLine> used = usedLinesOf(latestLineMap());
   CorrespondenceSet inliers = result->correspondences;
   inliers.lines.clear();
   std::vector<std::vector<Eigen::Vector3d>> modes;
@@ -596,6 +595,11 @@ std::vector<double> Survey::mapLineSigmas() const
 std::vector<double> Survey::latestMapLineSigmas() const
 {
   return sigmasOf(usedLinesOf(latestLineMap()));
+}
+
+std::vector<MapLine> Survey::latestUsedMapLines() const
+{
+  return usedLinesOf(latestLineMap());
 }
 
 namespace
