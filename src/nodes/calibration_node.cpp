@@ -1,5 +1,5 @@
 // calibration_node: accumulates the robot's survey into a 3D line map and calibrates the building's fixed cameras
-// on request (~calibrate), publishing them into tf2 (see README, "The calibration node").
+// on request (~calibrate), publishing them into tf2 (see README, "On the robot: calibration_node").
 #include <cstdio>
 #include <cstring>
 
@@ -11,8 +11,8 @@
 namespace
 {
 const char* const kUsage =
-    "calibration_node: calibrates a building's fixed cameras from a robot's RGB-D survey (README, \"The calibration\n"
-    "node\").\n"
+    "calibration_node: calibrates a building's fixed cameras from a robot's RGB-D survey (README, \"On the robot:\n"
+    "calibration_node\").\n"
     "Usage: roslaunch insitu_calibration survey.launch [cameras:=/path/cameras.yaml]\n"
     "       rosrun insitu_calibration calibration_node (with the private parameter ~cameras loaded)\n"
     "Services: ~calibrate, ~status, ~reset, ~save. Exit status: 0 after a normal shutdown, 1 on a configuration\n"

@@ -23,7 +23,7 @@ INPUT.yaml is a correspondence file (see README, "Correspondence file").
 Options:
   --output FILE           calibration YAML to write (atomically; nothing is written on failure)
   --report DIR            also write the calibration report there: DIR/<camera>_report.html with its PNG figures
-                          (overlay, residuals, per-line RMS, coverage; README, "Calibration report"). <camera> is
+                          (overlay, residuals, per-line RMS, coverage; README, "The calibration report"). <camera> is
                           the file's camera_name, else the name of --output without .yaml
   --distortion MODE       auto (default): estimate lambda when the data identify it (curved lines or points);
                           on: always estimate it; off: pin-hole model only

@@ -44,7 +44,7 @@ Runs the calibration node's pipeline offline on a survey bag (no ROS master need
 in the world frame) build the 3D line map; each configured fixed camera's images (its image_topic) build its temporal
 median; then every camera is calibrated (prior matching or correspondence file) and DIR/<camera>.yaml and
 DIR/<camera>_overlay.png are written, as the node writes them, with the calibration report DIR/<camera>_report.html
-and its PNG figures (README, "Calibration report"; also for a result the checks refused, saying why). A refused
+and its PNG figures (README, "The calibration report"; also for a result the checks refused, saying why). A refused
 camera also gets DIR/<camera>_survey_hint.png (the parts of its view without map lines) and
 DIR/<camera>_survey_hint.yaml (the same for programs: per region a standpoint and look direction in the map frame,
 the floor polygon; generate_world --visit-hints reads it), and its message says where to drive the robot (README
@@ -52,7 +52,7 @@ the floor polygon; generate_world --visit-hints reads it), and its message says 
 
 Options:
   --cameras FILE        fixed-camera configuration (config/cameras.yaml format)
-  --params FILE         calibration_node's parameters (README "Parameters": max_rms_px, ransac_threshold_px,
+  --params FILE         calibration_node's parameters (README, "On the robot": max_rms_px, ransac_threshold_px,
                         localization_sigma_m, keyframe/min_translation, ...) as YAML, e.g. from
                         `rosparam dump FILE /calibration_node` (default: the --cameras file, which the node loads as
                         its parameters too); the flags below override them
@@ -74,7 +74,7 @@ Options:
                         the Xtion's depth image misregistered with its RGB image: the depth pixel (u, v) measures
                         the RGB pixel (u + X, v + Y) (default 0,0; parameters depth_registration/x_px, y_px): the
                         edges' depth is read where it belongs (a surface seen at a grazing angle otherwise puts the
-                        map lines millimetres to centimetres off, README "Generalisation")
+                        map lines millimetres to centimetres off, docs/measurements.md)
   --depth-registration auto | estimate
                         estimate X,Y from the survey itself (a first pass over the bag's RGB-D frames: the creases
                         where two surfaces meet, seen in depth and in RGB; lines/depth_registration.h) and print it

@@ -74,8 +74,9 @@ struct LineMapOptions
   // median 10.5 -> 34.4 % (realistic look), 35.0 -> 42.2 % (plain); accepted 3 -> 4 and 6 -> 8, none wrong. With the
   // floor 1.5 mm instead of 5 the realistic look's fused lines lay a median 6.7 mm off (p90 12 mm; plain 1.7 mm),
   // 47 of 102 beyond 3 predicted sigmas, and fewer cameras were accepted; with 5 mm, 18 of 621 over every run
-  // (README "Generalisation"). Off by default: on a fresh held-out set (plain corridor 920552) it let cam_c through
-  // 3.5 % / 0.56 deg / 140 mm off (focal 13 of its sigmas), which without it is refused. 0.012 is the measured value.
+  // (docs/measurements.md, "Fusion of uncertain depth lines"). Off by default: on a fresh held-out set (plain corridor
+  // 920552) it let cam_c through 3.5 % / 0.56 deg / 140 mm off (focal 13 of its sigmas), which without it is refused.
+  // 0.012 is the measured value.
   double max_fusion_sigma_m = 0.0;
   int min_fusion_keyframes = 4;
   double fusion_floor_m = 0.005;

@@ -44,7 +44,7 @@ struct SurfaceVoxelOptions
   double kept_cell_m = 0.025;
   // Whether the surfaces follow the map adjustment (keyframes keep their samples, kept_cell_m); off by default: on
   // the default world it rescued one of the four cameras refused at 2 cm / 0.5 deg (seed 2, tuned on), none of the
-  // three held out (README, "Survey calibration on the default world").
+  // three held out (docs/measurements.md, occluders under the adjusted poses).
   bool follow_adjustment = false;
 };
 

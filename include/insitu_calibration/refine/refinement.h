@@ -146,9 +146,9 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
                                         const RefinementOptions& options = {}, const std::vector<bool>& use_line = {});
 
 // The camera's uncertainty from errors of the lines' 3D positions that the residuals cannot show, such as an error
-// every observation of a map line shares (the depth registration's, README "Honest sigmas"): line i's error is the
-// sum of independent modes error_modes[i][k] x N(0, 1), each a rigid move of its 3D line at one sigma (m; e.g.
-// sigma along the rays it was seen on; none: exact), independent of the other lines'; propagated linearly through
+// every observation of a map line shares (the depth registration's, docs/measurements.md, "Honest sigmas"): line i's
+// error is the sum of independent modes error_modes[i][k] x N(0, 1), each a rigid move of its 3D line at one sigma (m;
+// e.g. sigma along the rays it was seen on; none: exact), independent of the other lines'; propagated linearly through
 // the refinement's least squares at `camera` (refineCamera's optimum on the same data and options; kJoint is
 // refused). Sets the standard deviations of fx, fy, cx, cy, lambda, rotation and position.
 Expected<CameraUncertainty> propagateWorldLineErrors(const CorrespondenceSet& data, const CameraModel& camera,

@@ -1,5 +1,6 @@
-// The documented limits of a world file (README, "World file"): what the simulator can render in bounded time and
-// memory. parseWorld checks them after reading, before anything is sized from them (images, frames, samples).
+// The documented limits of a world file (docs/simulator.md, "World file format"): what the simulator can render in
+// bounded time and memory. parseWorld checks them after reading, before anything is sized from them (images, frames,
+// samples).
 #ifndef INSITU_CALIBRATION_SIMULATION_WORLD_LIMITS_H
 #define INSITU_CALIBRATION_SIMULATION_WORLD_LIMITS_H
 
