@@ -300,6 +300,36 @@ TEST_F(SurveyGuidanceTest, FixedCameraFromItsPriorAndTheRefusalMessage)
             ic::Error(ic::ErrorCode::kNotEnoughData, "x").describe());
 }
 
+// A view too weakly determined whose image lines all have map lines: the advice is not "survey more of the view"
+// (the robot has been there) but edges at other depths; with unmapped parts the regions to survey come first.
+TEST_F(SurveyGuidanceTest, AWeakViewAlreadyMappedIsToldWhatHelpsInstead)
+{
+  const RenderedCamera& r = cameras_->front();
+  const ic::Error weak(ic::ErrorCode::kDegenerate, "the matched lines determine the camera too weakly");
+  const ic::SurveyGuidanceOptions options;
+  // Every edge the camera sees in the map (a few unexplained pieces of lines may leave a small region).
+  const auto mapped = ic::computeSurveyGuidance(r.camera->camera, r.camera->width, r.camera->height, r.lines,
+                                                segmentsOf(r.edges), options.tolerance_px, options);
+  const size_t covered = mapped.count(ic::GuidanceCell::kCovered);
+  ASSERT_GT(covered, 0u);
+  ASSERT_LE(8 * mapped.count(ic::GuidanceCell::kUnmapped), covered + mapped.count(ic::GuidanceCell::kUnmapped));
+  const std::string advice = ic::describeRefusal(weak, mapped);
+  std::printf("%s\n", advice.c_str());
+  EXPECT_EQ(advice.find(weak.describe() + ". What to do: "), 0u);
+  EXPECT_NE(advice.find("the view is mapped already where it has image lines (" + std::to_string(covered) + " of "),
+            std::string::npos);
+  EXPECT_NE(advice.find("Survey edges at other depths"), std::string::npos);
+  // Not for the other refusals (a wrong match, not enough data), nor for a view the map barely covers.
+  EXPECT_EQ(ic::describeRefusal(ic::Error(ic::ErrorCode::kNoSolution, "x"), mapped).find("mapped already"),
+            std::string::npos);
+  const auto unmapped = ic::computeSurveyGuidance(r.camera->camera, r.camera->width, r.camera->height, r.lines, {},
+                                                  options.tolerance_px, options);
+  ASSERT_FALSE(unmapped.regions.empty());
+  const std::string survey_more = ic::describeRefusal(weak, unmapped);
+  EXPECT_NE(survey_more.find(". What to do: survey the "), std::string::npos);
+  EXPECT_EQ(survey_more.find("mapped already"), std::string::npos);
+}
+
 // The hint beside the overlay: written atomically (what a killed write left is removed at start-up), and removed by
 // the calibration that supersedes the refusal.
 TEST_F(SurveyGuidanceTest, TheStoreKeepsTheHintBesideTheOverlayUntilACalibration)

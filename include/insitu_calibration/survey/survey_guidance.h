@@ -104,7 +104,9 @@ Expected<SurveyGuidance> guideSurvey(const FixedCamera& camera, const std::vecto
 // The region's floor polygon as triangles (a fan: the polygon is convex) at a height, for a triangle-list marker.
 std::vector<Eigen::Vector3d> floorTriangles(const UnmappedRegion& region, double height_m = 0.02);
 
-// The refusal's text with the guidance's sentence appended ("<error>. To fix: <sentence>"), or the error alone.
+// The refusal's text with the guidance's sentence appended ("<error>. What to do: <sentence>"), or the error alone;
+// for a view too weakly determined (kDegenerate) that is mapped already where it has image lines (at most an eighth
+// of those cells unmapped), also what helps instead of more of the same survey.
 std::string describeRefusal(const Error& error, const SurveyGuidance& guidance);
 
 // The image (grey or colour; black canvas when empty) with the unmapped cells shaded orange and numbered by

@@ -404,7 +404,22 @@ std::vector<Eigen::Vector3d> floorTriangles(const UnmappedRegion& region, double
 std::string describeRefusal(const Error& error, const SurveyGuidance& guidance)
 {
   const std::string sentence = guidance.sentence();
-  return sentence.empty() ? error.describe() : error.describe() + ". What to do: " + sentence;
+  std::string text = error.describe();
+  if (!sentence.empty())
+    text += ". What to do: " + sentence;
+  // A view too weakly determined that is mapped already, all but an eighth of it: more of the same survey will not
+  // help, and "survey more of the view" alone sends the operator back to where the robot has been.
+  const size_t covered = guidance.count(GuidanceCell::kCovered);
+  const size_t unmapped = guidance.count(GuidanceCell::kUnmapped);
+  if (error.code() == ErrorCode::kDegenerate && covered > 0 && 8 * unmapped <= covered + unmapped)
+    text += std::string(sentence.empty() ? ". What to do: " : "; but ") +
+            "the view is mapped already where it has image lines (" + std::to_string(covered) + " of " +
+            std::to_string(covered + unmapped) +
+            " cells), so more of the same survey will hardly help: the edges it sees fix the camera too weakly (a "
+            "narrow field of view, or edges mostly on one wall or the floor). Survey edges at other depths in its "
+            "view (furniture, door frames, or a tall box placed in the middle of the view), or calibrate it from "
+            "CAD lines (calibrate_lines)";
+  return text;
 }
 
 cv::Mat drawSurveyHint(const cv::Mat& image, const SurveyGuidance& g)
