@@ -90,6 +90,10 @@ struct RefinementOptions
   // usual ones (independent residuals, scaled by their variance) and a jackknife over lines (each line left out in
   // turn, linearised), which holds whatever the correlation within a line.
   bool per_line_uncertainty = true;
+  // ... and of a jackknife leaving out two lines at a time (with per_line_uncertainty, up to 32 lines): two wrong
+  // correspondences that agree hold the camera between them, each alone moving it little, so that the delete-1
+  // jackknife does not see them.
+  bool pair_uncertainty = true;
 };
 
 // One-sigma uncertainties from the covariance at the optimum.

@@ -585,8 +585,9 @@ void analyseSolution(RefinementState& s, BuiltProblem& built, RefinementResult* 
 {
   const size_t lines = s.data.lines.size();
   const FreeBlocks free = freeBlocksOf(s);
-  const GroupDiagnostics groups =
-      analyseGroups(*built.problem, free, built.row_group, lines + s.data.points.size() + s.straight.params.size());
+  const GroupDiagnostics groups = analyseGroups(
+      *built.problem, free, built.row_group, lines + s.data.points.size() + s.straight.params.size(),
+      s.options.compute_uncertainty && s.options.per_line_uncertainty && s.options.pair_uncertainty ? lines : 0);
   result->line_rms_px.assign(groups.rms_px.begin(), groups.rms_px.begin() + lines);
   result->line_loo_rms_px.assign(groups.loo_rms_px.begin(), groups.loo_rms_px.begin() + lines);
   result->line_influence.assign(groups.influence.begin(), groups.influence.begin() + lines);
@@ -598,6 +599,8 @@ void analyseSolution(RefinementState& s, BuiltProblem& built, RefinementResult* 
                           s.options.single_focal, &u);
   if (u.available && s.options.per_line_uncertainty && groups.jackknife.rows() == free.columns())
     widenByJackknife(groups.jackknife, free, s.p, s.projector.r_ref2, s.options.single_focal, &u);
+  if (u.available && s.options.per_line_uncertainty && groups.pair_jackknife.rows() == free.columns())
+    widenByJackknife(groups.pair_jackknife, free, s.p, s.projector.r_ref2, s.options.single_focal, &u);
 }
 
 // Two orthonormal directions across a 3D line.

@@ -86,12 +86,53 @@ bool leaveGroupOut(const Eigen::MatrixXd& jg, const Eigen::VectorXd& rg, const E
 }
 }  // namespace
 
+// The delete-2 jackknife over the groups with rows among the first `pairable` (Shao and Wu's delete-d jackknife,
+// d = 2: (n - 2) / (2 C(n, 2)) times the sum of the pairs' shifts' outer products); empty outside 3 to
+// kMaxPairJackknifeGroups groups, and when a pair leaves the problem singular (that pair alone holds a direction: no
+// pair widening then, the covariance and the delete-1 jackknife stand; skipping the pair would bias the sum).
+Eigen::MatrixXd pairJackknife(const Eigen::MatrixXd& j, const Eigen::VectorXd& res, const Eigen::MatrixXd& h_inverse,
+                              const std::vector<std::vector<int>>& rows_of, size_t pairable)
+{
+  std::vector<size_t> used;
+  for (size_t g = 0; g < std::min(pairable, rows_of.size()); ++g)
+    if (!rows_of[g].empty())
+      used.push_back(g);
+  if (used.size() < 3 || used.size() > kMaxPairJackknifeGroups)
+    return {};
+  Eigen::MatrixXd sum = Eigen::MatrixXd::Zero(j.cols(), j.cols());
+  for (size_t a = 0; a < used.size(); ++a)
+    for (size_t b = a + 1; b < used.size(); ++b)
+    {
+      const std::vector<int>& first = rows_of[used[a]];
+      const std::vector<int>& second = rows_of[used[b]];
+      Eigen::MatrixXd jp(first.size() + second.size(), j.cols());
+      Eigen::VectorXd rp(jp.rows());
+      int k = 0;
+      for (const std::vector<int>* own : {&first, &second})
+        for (const int r : *own)
+        {
+          jp.row(k) = j.row(r);
+          rp(k++) = res(r);
+        }
+      Eigen::VectorXd loo, shift;
+      if (!leaveGroupOut(jp, rp, h_inverse, &loo, &shift))
+        return {};
+      sum += shift * shift.transpose();
+    }
+  const double n = static_cast<double>(used.size());
+  return sum * ((n - 2.0) / (n * (n - 1.0)));  // (n - 2) / (2 C(n, 2))
+}
+
 GroupDiagnostics analyseGroups(ceres::Problem& problem, const FreeBlocks& free, const std::vector<size_t>& row_group,
-                               size_t groups)
+                               size_t groups, size_t pairable)
 {
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  GroupDiagnostics out{std::vector<double>(groups, nan), std::vector<double>(groups, nan),
-                       std::vector<double>(groups, nan), Eigen::MatrixXd(), 0.0};
+  GroupDiagnostics out{std::vector<double>(groups, nan),
+                       std::vector<double>(groups, nan),
+                       std::vector<double>(groups, nan),
+                       Eigen::MatrixXd(),
+                       Eigen::MatrixXd(),
+                       0.0};
   Eigen::MatrixXd j;
   std::vector<double> residuals;
   if (!denseJacobian(problem, free, &j, &residuals) || residuals.size() != row_group.size())
@@ -131,6 +172,7 @@ GroupDiagnostics analyseGroups(ceres::Problem& problem, const FreeBlocks& free, 
   }
   if (used_groups > 1)
     out.jackknife *= static_cast<double>(used_groups - 1) / used_groups;
+  out.pair_jackknife = pairJackknife(j, res, h_inverse, rows_of, pairable);
   return out;
 }
 

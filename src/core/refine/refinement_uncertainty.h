@@ -40,13 +40,19 @@ struct GroupDiagnostics
   std::vector<double> loo_rms_px;
   std::vector<double> influence;
   Eigen::MatrixXd jackknife;  // covariance of the parameters from leaving out one group at a time; empty on failure
+  // The same from leaving out two of the first `pairable` groups at a time (the delete-2 jackknife), when there are
+  // 3 to kMaxPairJackknifeGroups of them; else empty. Two wrong correspondences that agree hold the camera between
+  // them, each alone moving it little: only leaving out both shows how far they hold it.
+  Eigen::MatrixXd pair_jackknife;
   double reciprocal_condition = 0.0;
 };
+
+constexpr size_t kMaxPairJackknifeGroups = 32;  // C(32, 2) = 496 pairs, each a small linear solve
 
 // row_group[r] is residual row r's group (>= groups: a prior, in no group). The problem's residuals are evaluated
 // without the robust loss.
 GroupDiagnostics analyseGroups(ceres::Problem& problem, const FreeBlocks& free, const std::vector<size_t>& row_group,
-                               size_t groups);
+                               size_t groups, size_t pairable = 0);
 
 // The covariance of focal, principal point, distortion, rotation and centre, scaled by the residual variance over
 // residual_count - free_parameters degrees of freedom; u.reason says why when it cannot be given.
