@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <initializer_list>
 #include <limits>
 #include <numeric>
 #include <utility>
@@ -84,7 +85,24 @@ bool leaveGroupOut(const Eigen::MatrixXd& jg, const Eigen::VectorXd& rg, const E
   *shift = h_inverse * jg.transpose() * *loo_residuals;
   return true;
 }
-}  // namespace
+
+// The Jacobian rows and residuals of the given row sets, stacked in order.
+void gatherRows(const Eigen::MatrixXd& j, const Eigen::VectorXd& res,
+                std::initializer_list<const std::vector<int>*> row_sets, Eigen::MatrixXd* jg, Eigen::VectorXd* rg)
+{
+  size_t count = 0;
+  for (const std::vector<int>* rows : row_sets)
+    count += rows->size();
+  jg->resize(static_cast<Eigen::Index>(count), j.cols());
+  rg->resize(static_cast<Eigen::Index>(count));
+  Eigen::Index k = 0;
+  for (const std::vector<int>* rows : row_sets)
+    for (const int r : *rows)
+    {
+      jg->row(k) = j.row(r);
+      (*rg)(k++) = res(r);
+    }
+}
 
 // The delete-2 jackknife over the groups with rows among the first `pairable` (Shao and Wu's delete-d jackknife,
 // d = 2: (n - 2) / (2 C(n, 2)) times the sum of the pairs' shifts' outer products); empty outside 3 to
@@ -103,18 +121,9 @@ Eigen::MatrixXd pairJackknife(const Eigen::MatrixXd& j, const Eigen::VectorXd& r
   for (size_t a = 0; a < used.size(); ++a)
     for (size_t b = a + 1; b < used.size(); ++b)
     {
-      const std::vector<int>& first = rows_of[used[a]];
-      const std::vector<int>& second = rows_of[used[b]];
-      Eigen::MatrixXd jp(first.size() + second.size(), j.cols());
-      Eigen::VectorXd rp(jp.rows());
-      int k = 0;
-      for (const std::vector<int>* own : {&first, &second})
-        for (const int r : *own)
-        {
-          jp.row(k) = j.row(r);
-          rp(k++) = res(r);
-        }
-      Eigen::VectorXd loo, shift;
+      Eigen::MatrixXd jp;
+      Eigen::VectorXd rp, loo, shift;
+      gatherRows(j, res, {&rows_of[used[a]], &rows_of[used[b]]}, &jp, &rp);
       if (!leaveGroupOut(jp, rp, h_inverse, &loo, &shift))
         return {};
       sum += shift * shift.transpose();
@@ -122,6 +131,7 @@ Eigen::MatrixXd pairJackknife(const Eigen::MatrixXd& j, const Eigen::VectorXd& r
   const double n = static_cast<double>(used.size());
   return sum * ((n - 2.0) / (n * (n - 1.0)));  // (n - 2) / (2 C(n, 2))
 }
+}  // namespace
 
 GroupDiagnostics analyseGroups(ceres::Problem& problem, const FreeBlocks& free, const std::vector<size_t>& row_group,
                                size_t groups, size_t pairable)
@@ -154,13 +164,9 @@ GroupDiagnostics analyseGroups(ceres::Problem& problem, const FreeBlocks& free, 
     if (own.empty())
       continue;
     ++used_groups;
-    Eigen::MatrixXd jg(own.size(), columns);
-    Eigen::VectorXd rg(own.size());
-    for (size_t k = 0; k < own.size(); ++k)
-    {
-      jg.row(k) = j.row(own[k]);
-      rg(k) = res(own[k]);
-    }
+    Eigen::MatrixXd jg;
+    Eigen::VectorXd rg;
+    gatherRows(j, res, {&own}, &jg, &rg);
     out.rms_px[g] = std::sqrt(rg.squaredNorm() / own.size());
     out.loo_rms_px[g] = out.influence[g] = std::numeric_limits<double>::infinity();
     Eigen::VectorXd loo, shift;
