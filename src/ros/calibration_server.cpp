@@ -16,6 +16,7 @@
 #include "insitu_calibration/ros/parameter_reader.h"
 #include "insitu_calibration/survey/calibration_report.h"
 #include "insitu_calibration/survey/survey_parameters.h"
+#include "insitu_calibration/survey/uncertainty_budget.h"
 #include "insitu_calibration/survey/camera_config.h"
 #include "insitu_calibration/survey/overlay.h"
 #include "insitu_calibration/io/calibration_store.h"
@@ -624,8 +625,10 @@ void CalibrationServer::calibrateOne(const std::string& name, const std::functio
     saved_note += " (the previous calibration kept as " + kept_as + ")";
   saved_note += commitToDriver(name, toCameraInfo(result->file, cameras_.at(name).optical_frame));
   outcome->results.push_back(msg);
-  outcome->message += name + ": " + result->summary + change_note + "; " + saved_note + "\n";
-  ROS_INFO_STREAM("calibration_node: " << name << ": " << result->summary);
+  const std::string saved_sigma = result->file.quality ? describeSavedSigma(result->file.quality->extra) : "";
+  const std::string summary = result->summary + (saved_sigma.empty() ? "" : "; " + saved_sigma);
+  outcome->message += name + ": " + summary + change_note + "; " + saved_note + "\n";
+  ROS_INFO_STREAM("calibration_node: " << name << ": " << summary);
 }
 
 CalibrationServer::CalibrationOutcome CalibrationServer::calibrateCameras(const std::vector<std::string>& names,

@@ -6,6 +6,7 @@
 #include <diagnostic_msgs/DiagnosticStatus.h>
 
 #include "insitu_calibration/ros/calibration_server.h"
+#include "insitu_calibration/survey/uncertainty_budget.h"
 
 namespace insitu_calibration
 {
@@ -153,6 +154,8 @@ void CalibrationServer::cameraDiagnostics(const std::string& name, diagnostic_up
     stat.add("rms (px)", calibration->quality->rms_px);
     stat.add("sigma position (m)", sigma_position);
     stat.add("sigma rotation (deg)", sigma_rotation);
+    if (const auto budget = uncertaintyBudgetOf(extra))
+      stat.add("sigma parts (position / rotation)", describeBudget(*budget));
   }
   const std::optional<CameraMotion> motion = calibration ? lastMotion(name) : std::nullopt;
   if (motion)
@@ -173,9 +176,8 @@ void CalibrationServer::cameraDiagnostics(const std::string& name, diagnostic_up
     stat.summaryf(DiagnosticStatus::WARN, "camera moved by %.1f px / %.2f deg since calibration: recalibrate",
                   motion->displacement_px, motion->rotation_deg);
   else if (sigma_position > limits.max_sigma_position_m || sigma_rotation > limits.max_sigma_rotation_deg)
-    stat.summaryf(DiagnosticStatus::WARN,
-                  "calibration too uncertain: 1 sigma %.3f m, %.2f deg (limits %.3f m, %.2f deg)", sigma_position,
-                  sigma_rotation, limits.max_sigma_position_m, limits.max_sigma_rotation_deg);
+    stat.summary(DiagnosticStatus::WARN, describeTooUncertain(calibration->quality->extra, limits.max_sigma_position_m,
+                                                              limits.max_sigma_rotation_deg));
   else
     stat.summary(DiagnosticStatus::OK, "calibrated");
 }

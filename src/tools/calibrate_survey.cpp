@@ -29,6 +29,7 @@
 #include "insitu_calibration/io/calibration_store.h"
 #include "insitu_calibration/survey/survey.h"
 #include "insitu_calibration/survey/survey_guidance.h"
+#include "insitu_calibration/survey/uncertainty_budget.h"
 #include "insitu_calibration/survey/survey_hint_file.h"
 #include "insitu_calibration/survey/survey_parameters.h"
 #include "insitu_calibration/geometry/optical_frame.h"
@@ -1241,6 +1242,9 @@ bool calibrateAndSave(const ic::CommandLine& cli, ic::Survey& survey, const std:
   }
   std::printf("%s: %s (%.1f s) -> %s\n", name.c_str(), result->summary.c_str(), seconds(calibration_start),
               store.calibrationPath(name).c_str());
+  if (const std::string saved_sigma = result->file.quality ? ic::describeSavedSigma(result->file.quality->extra) : "";
+      !saved_sigma.empty())
+    std::printf("%s: %s\n", name.c_str(), saved_sigma.c_str());
   writeReport(cli, survey, name, map, *result, "");
   if (cli.has("truth-dir"))
   {

@@ -178,6 +178,10 @@ TEST(CalibrationNodeAsync, ServiceStillCalibrates)
   ASSERT_TRUE(ros::service::call("/calibration_node/calibrate", srv));
   std::printf("service: %s\n", srv.response.message.c_str());
   ASSERT_EQ(srv.response.results.size(), 1u);
+  // The answer carries the sigma as saved (in the map frame) and its parts.
+  EXPECT_NE(srv.response.message.find("1 sigma in the map frame (as saved)"), std::string::npos)
+      << srv.response.message;
+  EXPECT_NE(srv.response.message.find("map placement"), std::string::npos) << srv.response.message;
   EXPECT_TRUE(srv.response.success) << srv.response.message;
 }
 
@@ -193,6 +197,12 @@ TEST(CalibrationNodeAsync, DiagnosticsAndSurveyStatus)
     // Calibrated; the bag has ended, so its images are stale (older than 10 s) or about to be.
     EXPECT_TRUE(status->message == "calibrated" || status->message.rfind("stale images", 0) == 0) << status->message;
     EXPECT_NE(status->level, diagnostic_msgs::DiagnosticStatus::ERROR);
+    // The saved sigma's parts (uncertainty_budget.h), also what a "too uncertain" WARN names.
+    const auto parts = std::find_if(status->values.begin(), status->values.end(),
+                                    [](const auto& v) { return v.key == "sigma parts (position / rotation)"; });
+    ASSERT_NE(parts, status->values.end()) << camera;
+    EXPECT_NE(parts->value.find("matched lines"), std::string::npos) << parts->value;
+    EXPECT_NE(parts->value.find("map placement"), std::string::npos) << parts->value;
   }
   const auto survey = diagnostics("calibration_node: survey");
   ASSERT_TRUE(survey);

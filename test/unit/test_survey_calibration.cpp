@@ -7,6 +7,7 @@
 // one not used while tuning the matcher (1-7 were).
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 
 #include <opencv2/imgproc.hpp>
@@ -16,6 +17,7 @@
 #include "insitu_calibration/simulation/world.h"
 #include "insitu_calibration/survey/camera_config.h"
 #include "insitu_calibration/survey/survey.h"
+#include "insitu_calibration/survey/uncertainty_budget.h"
 #include "insitu_calibration/test_support/simulated_survey.h"
 
 namespace ic = insitu_calibration;
@@ -46,6 +48,20 @@ void expectReportedSigmasCover(const ic::Survey& survey, const ic::FixedCameraRe
   EXPECT_GT(after.fx, before.fx) << name;
   EXPECT_GE(after.rotation_deg, before.rotation_deg) << name;
   EXPECT_GE(after.position_m, before.position_m) << name;
+  // The budget's parts are what was added: the matched lines' part is the refinement's, and the parts add up.
+  const auto budget = ic::uncertaintyBudgetOf(extra);
+  ASSERT_TRUE(budget) << name;
+  EXPECT_DOUBLE_EQ(budget->matched_lines.position_m, before.position_m) << name;
+  EXPECT_DOUBLE_EQ(budget->matched_lines.rotation_deg, before.rotation_deg) << name;
+  EXPECT_GT(budget->map_placement.position_m, 0.0) << name;
+  const auto sum = [](double a, double b, double c) { return std::sqrt(a * a + b * b + c * c); };
+  EXPECT_NEAR(sum(budget->matched_lines.position_m, budget->map_lines.position_m, budget->map_placement.position_m),
+              after.position_m, 1e-9)
+      << name;
+  EXPECT_NEAR(sum(budget->matched_lines.rotation_deg, budget->map_lines.rotation_deg,
+                  budget->map_placement.rotation_deg),
+              after.rotation_deg, 1e-9)
+      << name;
   const ic::CameraErrors e = ic::compareCameras(truth.camera, reported.calibration.camera);
   EXPECT_LT(std::abs(e.focal_relative) * truth.camera.intrinsics().fx, 2.0 * after.fx) << name;
   EXPECT_LT(e.rotation_rad * 180.0 / M_PI, 2.0 * after.rotation_deg) << name;

@@ -5,6 +5,7 @@
 
 #include "insitu_calibration/cpu_time.h"
 #include "insitu_calibration/refine/refinement.h"
+#include "insitu_calibration/survey/uncertainty_budget.h"
 
 namespace insitu_calibration
 {
@@ -432,6 +433,12 @@ Expected<FixedCameraResult> Survey::calibrate(const std::string& name, const std
 
 bool Survey::addMapPlacement(FixedCameraResult* result, const std::vector<MapLine>& used_lines) const
 {
+  // The matched lines' own part first (what the checks used): the uncertainty budget's first term.
+  if (result->file.quality && result->calibration.uncertainty.available)
+  {
+    result->file.quality->extra[kSigmaLinesPositionKey] = result->calibration.uncertainty.position_m;
+    result->file.quality->extra[kSigmaLinesRotationKey] = result->calibration.uncertainty.rotation_deg;
+  }
   const bool shared = addSharedMapErrors(result, used_lines);
   // The whole map may be off by the placement: a shift of the camera, and a turn about the survey's centre that
   // turns the camera and moves it by the turn times its horizontal distance from the centre.
@@ -441,7 +448,8 @@ bool Survey::addMapPlacement(FixedCameraResult* result, const std::vector<MapLin
     return shared;
   const Eigen::Vector3d arm = result->calibration.camera.pose().center() - placement.centre;
   const double turn_m = placement.sigma_deg * M_PI / 180.0 * arm.head<2>().norm();
-  u.position_m = std::sqrt(u.position_m * u.position_m + 2.0 * placement.sigma_m * placement.sigma_m + turn_m * turn_m);
+  const double placement_m = std::sqrt(2.0 * placement.sigma_m * placement.sigma_m + turn_m * turn_m);
+  u.position_m = std::hypot(u.position_m, placement_m);
   u.rotation_deg = std::hypot(u.rotation_deg, placement.sigma_deg);
   if (result->file.quality)
   {
@@ -450,6 +458,7 @@ bool Survey::addMapPlacement(FixedCameraResult* result, const std::vector<MapLin
     extra["sigma_rotation_deg"] = u.rotation_deg;
     extra["sigma_map_placement_m"] = std::hypot(placement.sigma_m, placement.sigma_m);
     extra["sigma_map_placement_deg"] = placement.sigma_deg;
+    extra[kSigmaPlacementAtCameraKey] = placement_m;
   }
   return true;
 }
