@@ -58,9 +58,9 @@ void expectReportedSigmasCover(const ic::Survey& survey, const ic::FixedCameraRe
   EXPECT_NEAR(sum(budget->matched_lines.position_m, budget->map_lines.position_m, budget->map_placement.position_m),
               after.position_m, 1e-9)
       << name;
-  EXPECT_NEAR(sum(budget->matched_lines.rotation_deg, budget->map_lines.rotation_deg,
-                  budget->map_placement.rotation_deg),
-              after.rotation_deg, 1e-9)
+  EXPECT_NEAR(
+      sum(budget->matched_lines.rotation_deg, budget->map_lines.rotation_deg, budget->map_placement.rotation_deg),
+      after.rotation_deg, 1e-9)
       << name;
   const ic::CameraErrors e = ic::compareCameras(truth.camera, reported.calibration.camera);
   EXPECT_LT(std::abs(e.focal_relative) * truth.camera.intrinsics().fx, 2.0 * after.fx) << name;

@@ -10,8 +10,8 @@ namespace ic = insitu_calibration;
 
 namespace
 {
-std::map<std::string, double> extras(double lines_m, double lines_deg, double map_m, double map_deg,
-                                     double placement_m, double placement_deg)
+std::map<std::string, double> extras(double lines_m, double lines_deg, double map_m, double map_deg, double placement_m,
+                                     double placement_deg)
 {
   const auto sum = [](double a, double b, double c) { return std::sqrt(a * a + b * b + c * c); };
   return {{"sigma_position_m", sum(lines_m, map_m, placement_m)},
