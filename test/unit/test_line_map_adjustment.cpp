@@ -98,14 +98,20 @@ double lineOffset(const ic::AdjustedLine& line, const ic::AdjustedLine& truth)
 }
 }  // namespace
 
-TEST(LineMapAdjustment, NoiseFreeRecoversPosesAndLines)
+// Both linear solvers: the factorisation, and conjugate gradients (iterative_above_keyframes below the scene's).
+class LineMapAdjustmentSolver : public testing::TestWithParam<size_t>
+{};
+
+TEST_P(LineMapAdjustmentSolver, NoiseFreeRecoversPosesAndLines)
 {
   std::mt19937 rng(kSeed);
   const Scene s = makeScene(0.0, 0.0, rng);
   ic::LineMapAdjustmentOptions options;
   options.depth_floor_m = 1e-4;
+  options.iterative_above_keyframes = GetParam();
   const auto result = ic::adjustLineMap(s.keyframes, perturbedLines(s, rng), s.observations, {}, options);
   ASSERT_TRUE(result) << result.error().describe();
+  EXPECT_EQ(result->iterative, GetParam() > 0);
   EXPECT_EQ(result->dropped, 0u);
   for (size_t k = 0; k < s.keyframes.size(); ++k)
   {
@@ -118,6 +124,34 @@ TEST(LineMapAdjustment, NoiseFreeRecoversPosesAndLines)
   {
     EXPECT_LT(lineOffset(result->lines[j], s.truth[j]), 1e-6) << j;
     EXPECT_GT(std::abs(result->lines[j].direction.dot(s.truth[j].direction)), 1.0 - 1e-12) << j;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(FactorisedAndIterative, LineMapAdjustmentSolver, testing::Values(size_t{0}, size_t{1}));
+
+// On a noisy scene conjugate gradients reach the factorisation's solution: the poses agree to a tenth of their sigma.
+TEST(LineMapAdjustment, IterativeStepsReachTheFactorisedSolution)
+{
+  std::mt19937 rng(kSeed + 1);
+  const Scene s = makeScene(0.3, 1.425e-3, rng);
+  const std::vector<ic::AdjustedLine> starts = perturbedLines(s, rng);
+  ic::LineMapAdjustmentOptions options;
+  options.covariance = true;
+  options.depth_floor_m = 1e-4;
+  const auto factorised = ic::adjustLineMap(s.keyframes, starts, s.observations, {}, options);
+  options.iterative_above_keyframes = 1;
+  const auto iterative = ic::adjustLineMap(s.keyframes, starts, s.observations, {}, options);
+  ASSERT_TRUE(factorised && iterative);
+  EXPECT_FALSE(factorised->iterative);
+  EXPECT_TRUE(iterative->iterative);
+  ASSERT_EQ(factorised->pose_sigmas.size(), s.keyframes.size());
+  EXPECT_EQ(iterative->dropped, factorised->dropped);
+  for (size_t k = 0; k < s.keyframes.size(); ++k)
+  {
+    const ic::PoseCorrection &a = factorised->corrections[k], &b = iterative->corrections[k];
+    const Eigen::Vector3d difference(a.x - b.x, a.y - b.y, a.yaw - b.yaw);
+    for (int i = 0; i < 3; ++i)
+      EXPECT_LT(std::abs(difference(i)), 0.1 * factorised->pose_sigmas[k](i)) << k << " " << i;
   }
 }
 

@@ -112,6 +112,11 @@ struct LineMapAdjustmentOptions
   double loss_sigmas = 3.0;             // Cauchy scale, in sigmas
   double outlier_sigmas = 5.0;          // observations with a residual beyond are dropped (second solve)
   int max_iterations = 50;
+  // Above this many keyframes the solver's linear steps are conjugate gradients on the keyframes' reduced system
+  // (Ceres ITERATIVE_SCHUR, Schur-Jacobi preconditioner) instead of its sparse Cholesky factorisation (SPARSE_SCHUR),
+  // whose cost grows with the cube of the keyframes: 0 = always the factorisation. The default keeps the
+  // factorisation for surveys up to about 2 min (a 40 s survey has 80-100 keyframes).
+  size_t iterative_above_keyframes = 300;
   // Odometry between consecutive keyframes: translation sigma sigma_m + per_m times the distance, rotation sigma
   // sigma_deg + per_deg times the turn. 0 odometry_sigma_m: odometry not used.
   // Defaults: good wheel odometry over the 0.1 m / 5 degree steps between keyframes (the simulator's odometry is
@@ -137,6 +142,7 @@ struct LineMapAdjustmentResult
   double initial_cost = 0.0;
   double final_cost = 0.0;
   double cpu_ms = 0.0;
+  bool iterative = false;  // the linear steps were conjugate gradients (options.iterative_above_keyframes)
 };
 
 // Adjusts keyframe poses and map lines jointly, from the given starts (corrections: empty or one per keyframe).

@@ -34,6 +34,9 @@ void readMapParameters(ParameterSource& read, SurveyOptions& options)
   a.odometry_sigma_per_m = read.number("odometry/sigma_per_m", a.odometry_sigma_per_m, Range::closed(0.0, 10.0));
   a.odometry_sigma_deg = read.number("odometry/sigma_deg", a.odometry_sigma_deg, Range::closed(0.0, 180.0, "deg"));
   a.odometry_sigma_per_deg = read.number("odometry/sigma_per_deg", a.odometry_sigma_per_deg, Range::closed(0.0, 10.0));
+  a.iterative_above_keyframes =
+      static_cast<size_t>(read.integer("map_adjustment/iterative_above_keyframes",
+                                       static_cast<int>(a.iterative_above_keyframes), Range::integers(0, 1000000)));
   // The Xtion's depth-to-RGB misregistration (DepthSamplerOptions::registration_offset_px).
   Eigen::Vector2d& registration = options.rgbd.sampler.registration_offset_px;
   registration.x() = read.number("depth_registration/x_px", registration.x(), Range::closed(-10.0, 10.0, "px"));
