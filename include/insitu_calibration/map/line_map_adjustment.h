@@ -115,7 +115,7 @@ struct LineMapAdjustmentOptions
   // Above this many keyframes the solver's linear steps are conjugate gradients on the keyframes' reduced system
   // (Ceres ITERATIVE_SCHUR, Schur-Jacobi preconditioner) instead of its sparse Cholesky factorisation (SPARSE_SCHUR),
   // whose cost grows with the cube of the keyframes: 0 = always the factorisation. The default keeps the
-  // factorisation for surveys up to about 2 min (a 40 s survey has 80-100 keyframes).
+  // factorisation for surveys up to about 2 min (a 35-40 s survey has 80-120 keyframes).
   size_t iterative_above_keyframes = 300;
   // Odometry between consecutive keyframes: translation sigma sigma_m + per_m times the distance, rotation sigma
   // sigma_deg + per_deg times the turn. 0 odometry_sigma_m: odometry not used.
