@@ -49,7 +49,8 @@ and its PNG figures (README, "The calibration report"; also for a result the che
 camera also gets DIR/<camera>_survey_hint.png (the parts of its view without map lines) and
 DIR/<camera>_survey_hint.yaml (the same for programs: per region a standpoint and look direction in the map frame,
 the floor polygon; generate_world --visit-hints reads it), and its message says where to drive the robot (README
-"When a camera is refused").
+"When a camera is refused"). An accepted camera's line gives its 1 sigma from the matched lines (what the checks
+use), the next the sigma saved in the map frame and its parts (README, "Offline: calibrate_survey").
 
 Options:
   --cameras FILE        fixed-camera configuration (config/cameras.yaml format)
