@@ -57,6 +57,7 @@ TEST(UncertaintyBudget, TheAdviceNamesTheLargestPartOfTheSigmaOverItsLimit)
   const auto budget = ic::uncertaintyBudgetOf(extras(0.005, 0.1, 0.008, 0.45, 0.021, 0.27));
   ASSERT_TRUE(budget);
   EXPECT_NE(ic::adviceFor(*budget, false).find("map lines' own errors"), std::string::npos);
+  EXPECT_NE(ic::adviceFor(*budget, false).find("--depth-registration estimate"), std::string::npos);
   EXPECT_NE(ic::adviceFor(*budget, true).find("localization_sigma_m"), std::string::npos);
   const auto lines = ic::uncertaintyBudgetOf(extras(0.04, 0.6, 0.008, 0.1, 0.021, 0.27));
   ASSERT_TRUE(lines);

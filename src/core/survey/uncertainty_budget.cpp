@@ -62,7 +62,10 @@ std::string adviceFor(const UncertaintyBudget& budget, bool position_over)
            "at other depths), so that more lines match";
   if (map >= placement)
     return "most of it is the map lines' own errors, which all their observations share: survey the edges this "
-           "camera sees from nearer (depth errors grow with the square of the distance) and from other directions";
+           "camera sees from nearer (depth errors grow with the square of the distance) and from other directions, "
+           "or measure the Xtion's depth registration once (calibrate_survey --depth-registration estimate) and set "
+           "depth_registration/x_px, y_px and sigma_px to it (an unmeasured registration's 0.5 px uncertainty is often "
+           "most of this part)";
   return "most of it is the map's placement, the localiser's error averaged over the survey (localization_sigma_m, "
          "localization_sigma_deg): survey longer, or set them to the localiser's measured error if it is smaller";
 }
