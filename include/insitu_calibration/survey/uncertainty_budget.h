@@ -33,10 +33,14 @@ struct UncertaintyBudget
   PoseSigma map_placement;
 };
 
-// The quality extras' keys of the parts (the totals are sigma_position_m and sigma_rotation_deg).
+// The quality extras' keys of the parts, which Survey writes and the budget reads (the totals are sigma_position_m
+// and sigma_rotation_deg).
 constexpr const char* kSigmaLinesPositionKey = "sigma_matched_lines_position_m";
 constexpr const char* kSigmaLinesRotationKey = "sigma_matched_lines_rotation_deg";
+constexpr const char* kSigmaSharedMapPositionKey = "sigma_shared_map_position_m";
+constexpr const char* kSigmaSharedMapRotationKey = "sigma_shared_map_rotation_deg";
 constexpr const char* kSigmaPlacementAtCameraKey = "sigma_map_placement_at_camera_m";
+constexpr const char* kSigmaPlacementRotationKey = "sigma_map_placement_deg";
 
 // The budget of a calibration file's extras; nullopt without a total or the matched lines' part (a calibration not
 // from a survey, or from a version that did not record it). A missing map part is 0.

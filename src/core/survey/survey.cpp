@@ -457,7 +457,7 @@ bool Survey::addMapPlacement(FixedCameraResult* result, const std::vector<MapLin
     extra["sigma_position_m"] = u.position_m;
     extra["sigma_rotation_deg"] = u.rotation_deg;
     extra["sigma_map_placement_m"] = std::hypot(placement.sigma_m, placement.sigma_m);
-    extra["sigma_map_placement_deg"] = placement.sigma_deg;
+    extra[kSigmaPlacementRotationKey] = placement.sigma_deg;
     extra[kSigmaPlacementAtCameraKey] = placement_m;
   }
   return true;
@@ -560,8 +560,8 @@ bool Survey::addSharedMapErrors(FixedCameraResult* result, const std::vector<Map
     extra["sigma_position_m"] = u.position_m;
     extra["sigma_rotation_deg"] = u.rotation_deg;
     extra["sigma_shared_map_fx_px"] = shared->fx;
-    extra["sigma_shared_map_position_m"] = shared->position_m;
-    extra["sigma_shared_map_rotation_deg"] = shared->rotation_deg;
+    extra[kSigmaSharedMapPositionKey] = shared->position_m;
+    extra[kSigmaSharedMapRotationKey] = shared->rotation_deg;
   }
   return true;
 }

@@ -30,9 +30,8 @@ std::optional<UncertaintyBudget> uncertaintyBudgetOf(const std::map<std::string,
   if (!std::isfinite(b.total.position_m) || !std::isfinite(b.total.rotation_deg) ||
       !std::isfinite(b.matched_lines.position_m) || !std::isfinite(b.matched_lines.rotation_deg))
     return std::nullopt;
-  b.map_lines = {valueOr(extra, "sigma_shared_map_position_m", 0.0),
-                 valueOr(extra, "sigma_shared_map_rotation_deg", 0.0)};
-  b.map_placement = {valueOr(extra, kSigmaPlacementAtCameraKey, 0.0), valueOr(extra, "sigma_map_placement_deg", 0.0)};
+  b.map_lines = {valueOr(extra, kSigmaSharedMapPositionKey, 0.0), valueOr(extra, kSigmaSharedMapRotationKey, 0.0)};
+  b.map_placement = {valueOr(extra, kSigmaPlacementAtCameraKey, 0.0), valueOr(extra, kSigmaPlacementRotationKey, 0.0)};
   return b;
 }
 
