@@ -5,6 +5,8 @@
 #include <cmath>
 #include <iostream>
 
+#include <opencv2/imgproc.hpp>
+
 #include "insitu_calibration/lines/image_lines.h"
 #include "insitu_calibration/lines/line_evaluation.h"
 #include "insitu_calibration/test_support/line_scene.h"
@@ -432,4 +434,130 @@ TEST(ImageLines, PartAcrossTwoEdgesMeetingAtAnAngleIsBroken)
     else
       EXPECT_GT(max_error, 0.3);  // the part fitted between the two edges
   }
+}
+
+namespace
+{
+// A thin line (a joint between tiles, 0.6 px wide) at x = 100.3 + 0.05 y, grey `line_grey` on a background of 80
+// rising by 0.1 grey level per px across it, blurred by a Gaussian of blur_px (a lens): a bump of 2-3 px with no step
+// across it.
+cv::Mat renderThinLine(double line_grey, double blur_px, std::mt19937& rng)
+{
+  auto grey = [&](double x, double y) {
+    const double d = x - (100.3 + 0.05 * y);
+    return std::abs(d) < 0.3 ? line_grey : 80.0 + 0.1 * x;
+  };
+  cv::Mat image = renderFunction(240, 240, grey, 0.0, rng);
+  cv::Mat blurred;
+  image.convertTo(blurred, CV_32F);
+  cv::GaussianBlur(blurred, blurred, cv::Size(), blur_px, blur_px);
+  cv::Mat noise(blurred.size(), CV_32F);
+  cv::randn(noise, 0.0, 1.5);
+  blurred += noise;
+  blurred.convertTo(image, CV_8U);
+  return image;
+}
+
+double thinLineError(const Eigen::Vector2d& p)
+{
+  return std::abs(p.x() - (100.3 + 0.05 * p.y())) / std::sqrt(1.0 + 0.05 * 0.05);
+}
+}  // namespace
+
+// A thin line has no step across the window: as an edge it is not found; as a thin line (RefinerOptions::thin_lines)
+// it is fitted at its centre from a start on its flank, bright or dark alike.
+TEST(LineRefiner, ThinLineIsFittedAtItsCentre)
+{
+  for (const double line_grey : {200.0, 10.0})
+  {
+    std::mt19937 rng(kSeed);
+    const cv::Mat image = renderThinLine(line_grey, 0.9, rng);
+    const Eigen::Vector2d a(100.3 + 0.05 * 20.0 + 1.2, 20.0), b(100.3 + 0.05 * 220.0 + 1.0, 220.0);
+    ic::RefinerOptions edges_only;
+    auto refiner = ic::LineRefiner::create(image, edges_only);
+    ASSERT_TRUE(refiner.ok());
+    EXPECT_FALSE(refiner->refineSegment(a, b).ok()) << "grey " << line_grey << ": a thin line found as an edge";
+    ic::RefinerOptions thin;
+    thin.thin_lines = true;
+    auto thin_refiner = ic::LineRefiner::create(image, thin);
+    const auto r = thin_refiner->refineSegment(a, b);
+    ASSERT_TRUE(r.ok()) << "grey " << line_grey << ": " << r.error().describe();
+    EXPECT_TRUE(r->thin_line);
+    std::cout << "thin line of grey " << line_grey << ": end points " << thinLineError(r->a) << ", "
+              << thinLineError(r->b) << " px from its centre" << std::endl;
+    EXPECT_LT(thinLineError(r->a), 0.05);
+    EXPECT_LT(thinLineError(r->b), 0.05);
+  }
+}
+
+// With thin lines on, a step edge is still fitted as an edge, where it was.
+TEST(LineRefiner, StepEdgeIsNotTakenForAThinLine)
+{
+  std::mt19937 rng(kSeed);
+  auto edge_x = [](double y) { return 100.3 + 0.05 * y; };
+  const cv::Mat image = renderFunction(
+      240, 240, [&](double x, double y) { return x < edge_x(y) ? 60.0 : 160.0; }, 2.0, rng);
+  const Eigen::Vector2d a(edge_x(20.0) + 0.8, 20.0), b(edge_x(220.0) - 0.6, 220.0);
+  ic::RefinerOptions thin;
+  thin.thin_lines = true;
+  const auto with = ic::LineRefiner::create(image, thin)->refineSegment(a, b);
+  const auto without = ic::LineRefiner::create(image, ic::RefinerOptions())->refineSegment(a, b);
+  ASSERT_TRUE(with.ok() && without.ok());
+  EXPECT_FALSE(with->thin_line);
+  EXPECT_LT((with->a - without->a).norm() + (with->b - without->b).norm(), 1e-12);
+}
+
+// With thin lines, line extraction finds a thin line once, at its centre.
+TEST(ImageLines, ThinLineGivesOneLineAtItsCentre)
+{
+  std::mt19937 rng(kSeed);
+  const cv::Mat image = renderThinLine(200.0, 0.9, rng);
+  ic::ImageLineStats stats;
+  ic::ImageLineOptions options;
+  options.refiner.thin_lines = true;
+  const auto lines = ic::extractImageLines(image, ic::DivisionModel(), options, &stats);
+  ASSERT_TRUE(lines.ok()) << lines.error().describe();
+  std::cout << stats.segments.size() << " segments, " << stats.polylines << " polylines, " << stats.duplicates
+            << " duplicates dropped, " << lines->size() << " lines" << std::endl;
+  ASSERT_EQ(lines->size(), 1u);
+  EXPECT_GT((*lines)[0].length_px, 180.0);
+  for (const Eigen::Vector2d& p : (*lines)[0].points)
+    EXPECT_LT(thinLineError(p), 0.1);
+}
+
+namespace
+{
+ic::ImageLine straightLine(const Eigen::Vector2d& a, const Eigen::Vector2d& b, bool thin)
+{
+  ic::ImageLine line;
+  line.points = {a, b};
+  line.parts.resize(1);
+  line.parts[0].thin_line = thin;
+  line.length_px = (b - a).norm();
+  return line;
+}
+}  // namespace
+
+// Of two fine-tuned lines on one thin line's centre the shorter goes; edges close beside each other, a thin line 1 px
+// beside another line, or one overlapping less than half its length, stay.
+TEST(ImageLines, DuplicateThinLinesAreDroppedAndOnlyThey)
+{
+  std::vector<ic::ImageLine> lines = {
+      straightLine({10, 10}, {200, 10}, true),      // a thin line
+      straightLine({30, 10.2}, {150, 10.1}, true),  // the same, from its other flank: dropped
+      straightLine({10, 40}, {200, 40}, false),     // two edges 0.3 px apart: both stay
+      straightLine({10, 40.3}, {200, 40.3}, false),
+      straightLine({10, 70}, {200, 70}, false),  // a thin line 1 px beside an edge: stays
+      straightLine({10, 71}, {150, 71}, true),
+      straightLine({10, 100}, {100, 100}, true),  // overlapping 40 of its 90 px: stays
+      straightLine({60, 100.1}, {160, 100.1}, true),
+  };
+  std::vector<ic::ImageLine> kept = lines;
+  EXPECT_EQ(ic::dropDuplicateThinLines(0.5, &kept), 1);
+  ASSERT_EQ(kept.size(), lines.size() - 1);
+  for (const ic::ImageLine& line : kept)
+    EXPECT_FALSE(line.points[0].x() == 30.0) << "the shorter duplicate was kept";
+  std::vector<ic::ImageLine> all = lines;
+  EXPECT_EQ(ic::dropDuplicateThinLines(0.0, &all), 0);
+  EXPECT_EQ(all.size(), lines.size());
 }

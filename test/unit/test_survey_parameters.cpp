@@ -43,6 +43,8 @@ TEST(SurveyParameters, UnsetParametersKeepTheStructsDefaults)
   EXPECT_EQ(read.cameras.matcher.calibration.ransac_options.inlier_threshold_px,
             defaults.cameras.matcher.calibration.ransac_options.inlier_threshold_px);
   EXPECT_EQ(read.cameras.matcher.calibration.refine, defaults.cameras.matcher.calibration.refine);
+  EXPECT_EQ(read.cameras.image_lines.refiner.thin_lines, defaults.cameras.image_lines.refiner.thin_lines);
+  EXPECT_FALSE(read.cameras.image_lines.refiner.thin_lines);  // off by default (docs/measurements.md, "Thin lines")
 }
 
 TEST(SurveyParameters, EverySetParameterIsTaken)
@@ -70,6 +72,8 @@ local_search_starts: 2
 ransac_threshold_px: 4.5
 ransac: false
 refine: no
+thin_lines: true
+thin_line_sigma: 0.005
 cameras: []
 )");
   const ic::SurveyOptions o = ic::readSurveyParameters(source);
@@ -105,6 +109,8 @@ cameras: []
   EXPECT_EQ(o.cameras.matcher.calibration.ransac_options.inlier_threshold_px, 4.5);
   EXPECT_FALSE(o.cameras.matcher.calibration.ransac);
   EXPECT_FALSE(o.cameras.matcher.calibration.refine);
+  EXPECT_TRUE(o.cameras.image_lines.refiner.thin_lines);
+  EXPECT_EQ(o.cameras.thin_line_sigma_m, 0.005);
 }
 
 TEST(SurveyParameters, BadValuesAreEachReportedAndKeepTheirDefaults)

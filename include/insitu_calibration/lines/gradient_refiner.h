@@ -65,6 +65,13 @@ struct RefinerOptions
   // shorter side reported off the line. 0: not tested.
   double min_break_px = 8.0;
   double min_break_f = 25.0;
+  // A part that finds no edge is fitted again as a thin line: a joint, seam or painted line that blur makes a bright
+  // or dark bump over the straight baseline between the flanks of a window of half-width thin_line_half_width_px
+  // (|t| in [w / 2, w]), with no step across it (mortar and grout seen from a fixed camera metres away: a bump of
+  // 2-3 px). The bump's centroid is the line's centre, min_contrast applies to its peak. Off by default (the fixed
+  // cameras' parameter thin_lines: docs/measurements.md, "Thin lines").
+  bool thin_lines = false;
+  double thin_line_half_width_px = 5.0;
 };
 
 // A fine-tuned line part.
@@ -84,6 +91,7 @@ struct RefinedSegment
   // RefinerOptions::end_tolerance_px): the edge does not reach the end point there. 0 when it does.
   double off_a_px = 0.0;
   double off_b_px = 0.0;
+  bool thin_line = false;  // fitted as a thin line (RefinerOptions::thin_lines): its centre, not an edge
 };
 
 struct RefinedPolyline

@@ -32,6 +32,9 @@ struct ImageLineOptions
   // bend of the detected polyline) meet at an angle: they lie on different edges, the line is split between them.
   // 0: never.
   double split_kink_px = 0.5;
+  // A thin line's two flanks are detected as two segments that fine-tune to the same centre: of two lines, one thin,
+  // lying within this of each other over half the shorter one's length, the shorter is dropped. 0: keep both.
+  double duplicate_thin_px = 0.5;
 };
 
 struct ImageLine
@@ -52,6 +55,7 @@ struct ImageLineStats
   int rejected = 0;                 // polylines whose fine-tuning found no edge
   int splits = 0;                   // polylines split where their fine-tuned parts disagree
   int trimmed = 0;                  // lines whose ends were moved in where the edge does not reach them
+  int duplicates = 0;               // thin lines found twice (ImageLineOptions::duplicate_thin_px), one dropped
   double detect_ms = 0.0;           // times: CPU time of the calling thread (the cost on one core)
   double merge_ms = 0.0;
   double refine_ms = 0.0;  // includes building the LineRefiner
@@ -68,6 +72,11 @@ Expected<std::vector<ImageLine>> extractImageLines(const cv::Mat& image, const D
 Expected<std::vector<ImageLine>> extractImageLines(const cv::Mat& image, const CameraModel& camera,
                                                    const ImageLineOptions& options = ImageLineOptions(),
                                                    ImageLineStats* stats = nullptr);
+
+// A thin line is detected along both its flanks (two segments 1-2 px apart) and both fine-tune to its centre: of two
+// lines, one of them thin (a part with RefinedSegment::thin_line), that lie within tolerance_px of each other over at
+// least half the shorter one's length, the shorter is dropped. Returns how many were dropped (0 for tolerance 0).
+int dropDuplicateThinLines(double tolerance_px, std::vector<ImageLine>* lines);
 
 // Fine-tunes the polylines again (the paper's loop: after re-centring the distortion). Lines whose fine-tuning
 // fails keep their points. Returns the largest vertex displacement in px.

@@ -142,11 +142,14 @@ std::vector<size_t> distinctStarts(const std::vector<CameraModel>& cameras, cons
 
 // map_lines: 3D segments in the world; image_lines: distorted-pixel polylines of the fixed camera;
 // map_line_sigmas_m: optional, per map line how far off it may be (LineCorrespondence::world_sigma_m).
+// image_line_world_sigmas_m: optional, per image line how far the 3D line it shows may be from the map line it
+// matches (a thin line's centre from the joint's edges: FixedCameraOptions::thin_line_sigma_m); added in quadrature.
 Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_lines,
                                             const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                             const CameraPrior& prior, int image_width, int image_height,
                                             const LineMatcherOptions& options = {},
-                                            const std::vector<double>& map_line_sigmas_m = {});
+                                            const std::vector<double>& map_line_sigmas_m = {},
+                                            const std::vector<double>& image_line_world_sigmas_m = {});
 
 // Steps 2 and 3 from a camera known to be close (an earlier calibration: the paper's loop after re-extracting the
 // image lines with its distortion), without the prior search.
@@ -154,7 +157,8 @@ Expected<LineMatchResult> matchAndCalibrateFrom(const std::vector<Segment3d>& ma
                                                 const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                                 const CameraModel& start, int image_width, int image_height,
                                                 const LineMatcherOptions& options = {},
-                                                const std::vector<double>& map_line_sigmas_m = {});
+                                                const std::vector<double>& map_line_sigmas_m = {},
+                                                const std::vector<double>& image_line_world_sigmas_m = {});
 
 // How well a camera explains the image lines, the score the matcher picks among its starts and local moves by: per
 // image line the squared mean distance to the nearest compatible projected map line, capped at

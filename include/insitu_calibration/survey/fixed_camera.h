@@ -41,6 +41,12 @@ struct FixedCameraOptions
 {
   size_t median_images = 15;
   ImageLineOptions image_lines;
+  // How far a thin image line's 3D line (a joint's centre: RefinerOptions::thin_lines) may be from the map line it
+  // matches, m: the map holds a joint's edges, each half its width from the centre (joints of tiles, bricks and
+  // planks are 2-12 mm wide). Its match counts as a map line this much less certain (matchAndCalibrate). Thin lines
+  // are extracted (image_lines.refiner.thin_lines, off by default) only once a camera is known: from the prior their
+  // repetition would offer the search a match one joint over.
+  double thin_line_sigma_m = 0.003;
   LineMatcherOptions matcher;
   int max_loops = 3;                // the paper's loop: extract lines with the current distortion, calibrate, repeat
   double loop_tolerance_px = 0.05;  // ... until the principal point and the corner distortion move less than this

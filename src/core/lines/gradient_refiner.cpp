@@ -279,7 +279,46 @@ struct ProfileWindow
   int inner;
 };
 
-void sampleProfiles(const cv::Mat& image, const SampledLine& line, const ProfileWindow& win, EdgeSamples* e)
+// A profile read as a thin line (a joint or seam narrower than the inner window, |t| < w / 2: no step across it):
+// the grey levels above the straight baseline through the two flanks' means; the centroid of the part of that bump
+// with its sign, the bump's peak as the signed weight (0 when the step between the flanks is larger than the peak:
+// an edge, not a line), the step between the flanks as the flank.
+void thinLineProfile(const std::vector<double>& intensity, const ProfileWindow& win, double* raw_weight,
+                     double* centroid, double* flank)
+{
+  const int last = win.count - 1, inner = std::max(1, win.inner);
+  double left = 0.0, right = 0.0;
+  for (int j = 0; j <= inner; ++j)
+  {
+    left += intensity[j];
+    right += intensity[last - j];
+  }
+  left /= inner + 1;
+  right /= inner + 1;
+  const double t_left = win.t0 + 0.5 * inner * win.step;
+  const auto bump = [&](int j) {
+    const double t = win.t0 + j * win.step;
+    return intensity[j] - (left + (right - left) * (t - t_left) / (-2.0 * t_left));
+  };
+  double sum = 0.0;
+  for (int j = inner + 1; j < last - inner; ++j)
+    sum += bump(j);
+  const double sign = sum >= 0.0 ? 1.0 : -1.0;
+  double peak = 0.0, mass = 0.0, moment = 0.0;
+  for (int j = inner + 1; j < last - inner; ++j)
+  {
+    const double r = std::max(0.0, sign * bump(j));
+    peak = std::max(peak, r);
+    mass += r;
+    moment += (win.t0 + j * win.step) * r;
+  }
+  *flank = right - left;
+  *raw_weight = (mass > 0.0 && std::abs(*flank) < peak) ? sign * peak : 0.0;
+  *centroid = mass > 0.0 ? moment / mass : 0.0;
+}
+
+void sampleProfiles(const cv::Mat& image, const SampledLine& line, const ProfileWindow& win, bool thin_line,
+                    EdgeSamples* e)
 {
   std::vector<double> intensity(win.count);
   for (size_t i = 0; i < line.s.size(); ++i)
@@ -294,6 +333,11 @@ void sampleProfiles(const cv::Mat& image, const SampledLine& line, const Profile
     e->valid[i] = ok;
     if (!ok)
       continue;
+    if (thin_line)
+    {
+      thinLineProfile(intensity, win, &e->raw_weight[i], &e->centroid[i], &e->flank[i]);
+      continue;
+    }
     double moment = 0.0;
     for (int j = 0; j + 1 < win.count; ++j)
       moment += (win.t0 + (j + 0.5) * win.step) * (intensity[j + 1] - intensity[j]);
@@ -417,7 +461,7 @@ Expected<WeightedLineFit> fitCentroids(const SampledLine& line, EdgeSamples* e, 
 
 // Iterates the sub-pixel fit in one window (half-width w) until the line moves less than the convergence limit.
 Status fitInWindow(const cv::Mat& image, const RefinerOptions& o, double w, bool first_stage, bool last_stage,
-                   SampledLine* line, EdgeSamples* e, SubpixelFit* fit)
+                   bool thin_line, SampledLine* line, EdgeSamples* e, SubpixelFit* fit)
 {
   // A stage followed by another only has to bring the line close: coarser profiles, looser convergence.
   const ProfileWindow win(w, last_stage ? o.profile_step_px : std::max(o.profile_step_px, 0.5));
@@ -425,7 +469,7 @@ Status fitInWindow(const cv::Mat& image, const RefinerOptions& o, double w, bool
   double typical_contrast = 0.0;
   for (int iteration = 1; iteration <= o.max_iterations; ++iteration)
   {
-    sampleProfiles(image, *line, win, e);
+    sampleProfiles(image, *line, win, thin_line, e);
     if (first_stage && iteration == 1)
       fit->polarity = polarityOf(*line, *e);
     const size_t supported = selectEdgeSamples(o, *line, win, fit->polarity, iteration == 1, &typical_contrast, e);
@@ -598,9 +642,11 @@ Expected<LineRefiner> LineRefiner::create(const cv::Mat& image, const RefinerOpt
   if (!(options.half_width_px >= 1.0) || !(options.profile_step_px > 0.0) ||
       !(options.profile_step_px <= options.half_width_px) || !(options.sample_step_px > 0.0) ||
       !(options.search_px >= 0.0) || !(options.extension_px >= 0.0) || options.max_iterations < 1 ||
-      !(options.min_support >= 0.0 && options.min_support <= 1.0))
+      !(options.min_support >= 0.0 && options.min_support <= 1.0) ||
+      (options.thin_lines && !(options.thin_line_half_width_px >= 1.0)))
     return Error(ErrorCode::kInvalidInput,
-                 "invalid fine-tuning options (need half_width_px >= 1, "
+                 "invalid fine-tuning options (need half_width_px >= 1 and with thin lines thin_line_half_width_px "
+                 ">= 1, "
                  "0 < profile_step_px <= half_width_px, sample_step_px > 0, "
                  "search_px >= 0, extension_px >= 0, max_iterations >= 1, "
                  "min_support in [0, 1])");
@@ -656,19 +702,31 @@ Expected<RefinedSegment> LineRefiner::refineSegment(const Eigen::Vector2d& a, co
   // 2. Sub-pixel: centroids of dI/dn in a window of half-width w about the line, weighted line fit, iterate; first
   //    with half_width_px (capture range), then with polish_half_width_px (another edge 1.5-3 px away no longer
   //    pulls the centroids). The last window's flanks tell whether another edge remains inside it.
+  //    A part without an edge is fitted again as a thin line (RefinerOptions::thin_lines) in its own window.
   std::vector<double> windows = {o.half_width_px};
   if (o.polish_half_width_px > 0.0 && o.polish_half_width_px < o.half_width_px)
     windows.push_back(o.polish_half_width_px);
+  const SampledLine searched = line;
   EdgeSamples samples(line.s.size());
   SubpixelFit fit;
+  bool thin_line = false;
   for (size_t stage = 0; stage < windows.size(); ++stage)
   {
     const Status fitted =
-        fitInWindow(image_, o, windows[stage], stage == 0, stage + 1 == windows.size(), &line, &samples, &fit);
-    if (!fitted)
+        fitInWindow(image_, o, windows[stage], stage == 0, stage + 1 == windows.size(), false, &line, &samples, &fit);
+    if (fitted)
+      continue;
+    if (!o.thin_lines || stage > 0 || fitted.error().code() == ErrorCode::kInvalidInput)
       return fitted.error();
+    line = searched;
+    fit = SubpixelFit();
+    if (const Status thin = fitInWindow(image_, o, o.thin_line_half_width_px, true, true, true, &line, &samples, &fit);
+        !thin)
+      return fitted.error();
+    thin_line = true;
+    break;
   }
-  if (o.max_asymmetry > 0.0 && std::abs(fit.asymmetry) > o.max_asymmetry)
+  if (!thin_line && o.max_asymmetry > 0.0 && std::abs(fit.asymmetry) > o.max_asymmetry)
     return Error(ErrorCode::kDegenerate, "another edge lies within " + std::to_string(windows.back()) +
                                              " px of the line (flank asymmetry " + std::to_string(fit.asymmetry) + ")");
 
@@ -706,6 +764,7 @@ Expected<RefinedSegment> LineRefiner::refineSegment(const Eigen::Vector2d& a, co
   result.iterations = fit.total_iterations;
   result.asymmetry = fit.asymmetry;
   result.samples = fit.used;
+  result.thin_line = thin_line;
   return result;
 }
 

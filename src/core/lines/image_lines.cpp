@@ -1,5 +1,8 @@
 #include "insitu_calibration/lines/image_lines.h"
 
+#include <algorithm>
+#include <limits>
+#include <numeric>
 #include <optional>
 #include <string>
 
@@ -178,6 +181,37 @@ void refineIntoLines(const LineRefiner& refiner, const ImagePolyline& polyline, 
   }
 }
 
+double distanceToPolyline(const std::vector<Eigen::Vector2d>& points, const Eigen::Vector2d& p)
+{
+  double best = std::numeric_limits<double>::infinity();
+  for (size_t k = 0; k + 1 < points.size(); ++k)
+  {
+    const Eigen::Vector2d ab = points[k + 1] - points[k];
+    const double t = std::clamp((p - points[k]).dot(ab) / std::max(ab.squaredNorm(), 1e-12), 0.0, 1.0);
+    best = std::min(best, (points[k] + t * ab - p).norm());
+  }
+  return best;
+}
+
+bool hasThinPart(const ImageLine& line)
+{
+  return std::any_of(line.parts.begin(), line.parts.end(), [](const RefinedSegment& p) { return p.thin_line; });
+}
+
+// The share of a's length (sampled every px) within tolerance_px of b.
+double shareOn(const ImageLine& a, const ImageLine& b, double tolerance_px)
+{
+  int near = 0, total = 0;
+  for (size_t k = 0; k + 1 < a.points.size(); ++k)
+  {
+    const Eigen::Vector2d ab = a.points[k + 1] - a.points[k];
+    const int steps = std::max(1, static_cast<int>(ab.norm()));
+    for (int i = 0; i < steps; ++i, ++total)
+      near += distanceToPolyline(b.points, a.points[k] + (i + 0.5) / steps * ab) <= tolerance_px;
+  }
+  return total > 0 ? static_cast<double>(near) / total : 0.0;
+}
+
 // Why no line came out, for the caller's message.
 std::string noLinesNote(const ImageLineStats& st, size_t polylines, const ImageLineOptions& options)
 {
@@ -223,6 +257,7 @@ Expected<std::vector<ImageLine>> extractImageLines(const cv::Mat& image, const D
       return refiner.error();
     for (const auto& polyline : polylines)
       refineIntoLines(*refiner, polyline, options, st, &lines);
+    st.duplicates = dropDuplicateThinLines(options.duplicate_thin_px, &lines);
   }
   st.refine_ms = cpuMsSince(t);
   st.lines = static_cast<int>(lines.size());
@@ -235,6 +270,35 @@ Expected<std::vector<ImageLine>> extractImageLines(const cv::Mat& image, const C
                                                    const ImageLineOptions& options, ImageLineStats* stats)
 {
   return extractImageLines(image, camera.distortion(), options, stats);
+}
+
+int dropDuplicateThinLines(double tolerance_px, std::vector<ImageLine>* lines)
+{
+  if (!(tolerance_px > 0.0))
+    return 0;
+  std::vector<size_t> order(lines->size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](size_t i, size_t j) { return (*lines)[i].length_px > (*lines)[j].length_px; });
+  std::vector<char> keep(lines->size(), 1);
+  for (size_t oi = 0; oi < order.size(); ++oi)
+  {
+    const ImageLine& shorter = (*lines)[order[oi]];
+    for (size_t oj = 0; oj < oi && keep[order[oi]]; ++oj)
+    {
+      const ImageLine& longer = (*lines)[order[oj]];
+      if (keep[order[oj]] && (hasThinPart(shorter) || hasThinPart(longer)) &&
+          shareOn(shorter, longer, tolerance_px) >= 0.5)
+        keep[order[oi]] = 0;
+    }
+  }
+  std::vector<ImageLine> kept;
+  for (size_t i = 0; i < lines->size(); ++i)
+    if (keep[i])
+      kept.push_back(std::move((*lines)[i]));
+  const int dropped = static_cast<int>(lines->size() - kept.size());
+  *lines = std::move(kept);
+  return dropped;
 }
 
 double refineImageLines(const LineRefiner& refiner, std::vector<ImageLine>& lines)

@@ -178,7 +178,8 @@ Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_li
                                             const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                             const CameraPrior& prior, int image_width, int image_height,
                                             const LineMatcherOptions& options,
-                                            const std::vector<double>& map_line_sigmas_m)
+                                            const std::vector<double>& map_line_sigmas_m,
+                                            const std::vector<double>& image_line_world_sigmas_m)
 {
   if (const Status valid = matching::checkMatchInputs(map_lines, image_lines, image_width, image_height); !valid)
     return valid.error();
@@ -189,6 +190,7 @@ Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_li
                  "horizontal field of view between 0 and 180 degrees");
   matching::MatchingProblem problem(map_lines, map_line_sigmas_m, image_lines, image_width, image_height, options);
   problem.prior = &prior;
+  problem.image_world_sigmas = &image_line_world_sigmas_m;
   return matching::matchFromStarts(problem, matching::searchPrior(problem, prior), options.initial_max_distance_px,
                                    true);
 }
@@ -197,12 +199,13 @@ Expected<LineMatchResult> matchAndCalibrateFrom(const std::vector<Segment3d>& ma
                                                 const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                                 const CameraModel& start, int image_width, int image_height,
                                                 const LineMatcherOptions& options,
-                                                const std::vector<double>& map_line_sigmas_m)
+                                                const std::vector<double>& map_line_sigmas_m,
+                                                const std::vector<double>& image_line_world_sigmas_m)
 {
   if (const Status valid = matching::checkMatchInputs(map_lines, image_lines, image_width, image_height); !valid)
     return valid.error();
-  const matching::MatchingProblem problem(map_lines, map_line_sigmas_m, image_lines, image_width, image_height,
-                                          options);
+  matching::MatchingProblem problem(map_lines, map_line_sigmas_m, image_lines, image_width, image_height, options);
+  problem.image_world_sigmas = &image_line_world_sigmas_m;
   return matching::matchFromStarts(problem, {start}, options.known_camera_max_distance_px, false);
 }
 

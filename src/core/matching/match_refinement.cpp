@@ -1,6 +1,7 @@
 #include "matching/match_refinement.h"
 
 #include <algorithm>
+#include <cmath>
 #include <optional>
 #include <string>
 
@@ -48,6 +49,8 @@ CorrespondenceSet correspondencesOf(const std::vector<LineMatch>& matches, const
     line.image = problem.image_lines[m.image_line];
     if (m.map_line < problem.map_sigmas.size())
       line.world_sigma_m = problem.map_sigmas[m.map_line];
+    if (problem.image_world_sigmas && m.image_line < problem.image_world_sigmas->size())
+      line.world_sigma_m = std::hypot(line.world_sigma_m, (*problem.image_world_sigmas)[m.image_line]);
     const int n = std::max(2, problem.options.world_points_per_line);
     for (int k = 0; k < n; ++k)
       line.world.push_back(s.pointAt(t0 + (t1 - t0) * k / double(n - 1)));

@@ -39,6 +39,9 @@ struct MatchingProblem
   // With a prior (matchAndCalibrate's, outliving the problem): results beyondPriorDistance of it by
   // options.max_prior_distance_sigmas rank last.
   const CameraPrior* prior = nullptr;
+  // Per image line, m (may be empty): added to its match's map line sigma (matchAndCalibrate's
+  // image_line_world_sigmas_m, outliving the problem).
+  const std::vector<double>* image_world_sigmas = nullptr;
 };
 
 // The explanation score (below) plus kFarFromPriorPenalty when the camera is beyond the problem's prior distance:

@@ -314,23 +314,33 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
   std::string last_error;
   for (int loop = 0; loop < options_.max_loops; ++loop)
   {
+    // Thin lines (joints: often a repeating grid) only once a camera is known: from the prior their repetition would
+    // offer the search a match one joint over.
+    ImageLineOptions line_options = options_.image_lines;
+    const bool thin_lines = line_options.refiner.thin_lines && best;
+    line_options.refiner.thin_lines = thin_lines;
     ImageLineStats stats;
-    const auto lines = extractImageLines(median, distortion, options_.image_lines, &stats);
+    const auto lines = extractImageLines(median, distortion, line_options, &stats);
     if (!lines)
       return lines.error();
     if (lines->empty())
       return Error(ErrorCode::kNotEnoughData, "no lines were found in the median image (" + stats.note + ")");
     std::vector<std::vector<Eigen::Vector2d>> polylines;
+    std::vector<double> image_line_sigmas;
     for (const auto& l : *lines)
+    {
       polylines.push_back(l.points);
+      const bool thin = std::any_of(l.parts.begin(), l.parts.end(), [](const auto& p) { return p.thin_line; });
+      image_line_sigmas.push_back(thin ? options_.thin_line_sigma_m : 0.0);
+    }
     // The prior search once; the later loops start from the camera found. The search ranks results the final check
     // would refuse for their distance to the prior behind the others.
     LineMatcherOptions matcher = options_.matcher;
     matcher.max_prior_distance_sigmas = options_.max_prior_distance_sigmas;
     auto matched = best ? matchAndCalibrateFrom(map_lines, polylines, best->calibration.camera, config_.image_width,
-                                                config_.image_height, matcher, map_line_sigmas_m)
+                                                config_.image_height, matcher, map_line_sigmas_m, image_line_sigmas)
                         : matchAndCalibrate(map_lines, polylines, *config_.prior, config_.image_width,
-                                            config_.image_height, matcher, map_line_sigmas_m);
+                                            config_.image_height, matcher, map_line_sigmas_m, image_line_sigmas);
     if (!matched)
     {
       if (best)
@@ -359,7 +369,7 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
                                   std::abs(cornerDisplacement(next) - cornerDisplacement(distortion)));
     best = std::move(result);
     distortion = next;
-    if (moved < options_.loop_tolerance_px)
+    if (moved < options_.loop_tolerance_px && (thin_lines || !options_.image_lines.refiner.thin_lines))
       break;
   }
   return *best;

@@ -88,6 +88,8 @@ void readCameraParameters(ParameterSource& read, FixedCameraOptions& camera)
   CalibrationOptions& calibration = camera.matcher.calibration;
   calibration.refine = read.flag("refine", calibration.refine);
   calibration.ransac = read.flag("ransac", calibration.ransac);
+  camera.image_lines.refiner.thin_lines = read.flag("thin_lines", camera.image_lines.refiner.thin_lines);
+  camera.thin_line_sigma_m = read.number("thin_line_sigma", camera.thin_line_sigma_m, Range::closed(0.0, 0.1, "m"));
 }
 }  // namespace
 
