@@ -4,6 +4,7 @@
 #ifndef INSITU_CALIBRATION_LINES_IMAGE_LINES_H
 #define INSITU_CALIBRATION_LINES_IMAGE_LINES_H
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -45,6 +46,12 @@ struct ImageLine
   std::vector<int> fragments;             // indices into ImageLineStats' detected segments
   double length_px = 0.0;
   double contrast = 0.0;  // mean over the parts that found the edge, grey levels
+
+  // A part of it was fine-tuned as a thin line (RefinerOptions::thin_lines).
+  bool thin() const
+  {
+    return std::any_of(parts.begin(), parts.end(), [](const RefinedSegment& p) { return p.thin_line; });
+  }
 };
 
 struct ImageLineStats

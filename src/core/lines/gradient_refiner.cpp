@@ -496,6 +496,39 @@ Status fitInWindow(const cv::Mat& image, const RefinerOptions& o, double w, bool
                                            " iterations (the segment may span a corner or two edges)");
 }
 
+// Sub-pixel: centroids of dI/dn in a window of half-width w about the line, weighted line fit, iterate; first with
+// half_width_px (capture range), then with polish_half_width_px (another edge 1.5-3 px away no longer pulls the
+// centroids). The last window's flanks tell whether another edge remains inside it. A part without an edge is
+// fitted again, from the searched line, as a thin line (RefinerOptions::thin_lines) in its own window.
+Status fitSubpixel(const cv::Mat& image, const RefinerOptions& o, SampledLine* line, EdgeSamples* samples,
+                   SubpixelFit* fit, bool* thin_line)
+{
+  std::vector<double> windows = {o.half_width_px};
+  if (o.polish_half_width_px > 0.0 && o.polish_half_width_px < o.half_width_px)
+    windows.push_back(o.polish_half_width_px);
+  const SampledLine searched = *line;
+  for (size_t stage = 0; stage < windows.size(); ++stage)
+  {
+    const Status fitted =
+        fitInWindow(image, o, windows[stage], stage == 0, stage + 1 == windows.size(), false, line, samples, fit);
+    if (fitted)
+      continue;
+    if (!o.thin_lines || stage > 0 || fitted.error().code() == ErrorCode::kInvalidInput)
+      return fitted;
+    *line = searched;
+    *fit = SubpixelFit();
+    if (!fitInWindow(image, o, o.thin_line_half_width_px, true, true, true, line, samples, fit))
+      return fitted;
+    *thin_line = true;
+    return Success();
+  }
+  if (o.max_asymmetry > 0.0 && std::abs(fit->asymmetry) > o.max_asymmetry)
+    return Error(ErrorCode::kDegenerate, "another edge lies within " + std::to_string(windows.back()) +
+                                             " px of the line (flank asymmetry " + std::to_string(fit->asymmetry) +
+                                             ")");
+  return Success();
+}
+
 // Where two edges meet at a small angle or offset along the part: the sample between them and which side is shorter.
 struct EdgeBreak
 {
@@ -699,36 +732,12 @@ Expected<RefinedSegment> LineRefiner::refineSegment(const Eigen::Vector2d& a, co
   if (o.search_px > 0.0)
     coarseSearch(image_, o.search_px, &line);
 
-  // 2. Sub-pixel: centroids of dI/dn in a window of half-width w about the line, weighted line fit, iterate; first
-  //    with half_width_px (capture range), then with polish_half_width_px (another edge 1.5-3 px away no longer
-  //    pulls the centroids). The last window's flanks tell whether another edge remains inside it.
-  //    A part without an edge is fitted again as a thin line (RefinerOptions::thin_lines) in its own window.
-  std::vector<double> windows = {o.half_width_px};
-  if (o.polish_half_width_px > 0.0 && o.polish_half_width_px < o.half_width_px)
-    windows.push_back(o.polish_half_width_px);
-  const SampledLine searched = line;
+  // 2. Sub-pixel (fitSubpixel).
   EdgeSamples samples(line.s.size());
   SubpixelFit fit;
   bool thin_line = false;
-  for (size_t stage = 0; stage < windows.size(); ++stage)
-  {
-    const Status fitted =
-        fitInWindow(image_, o, windows[stage], stage == 0, stage + 1 == windows.size(), false, &line, &samples, &fit);
-    if (fitted)
-      continue;
-    if (!o.thin_lines || stage > 0 || fitted.error().code() == ErrorCode::kInvalidInput)
-      return fitted.error();
-    line = searched;
-    fit = SubpixelFit();
-    if (const Status thin = fitInWindow(image_, o, o.thin_line_half_width_px, true, true, true, &line, &samples, &fit);
-        !thin)
-      return fitted.error();
-    thin_line = true;
-    break;
-  }
-  if (!thin_line && o.max_asymmetry > 0.0 && std::abs(fit.asymmetry) > o.max_asymmetry)
-    return Error(ErrorCode::kDegenerate, "another edge lies within " + std::to_string(windows.back()) +
-                                             " px of the line (flank asymmetry " + std::to_string(fit.asymmetry) + ")");
+  if (const Status fitted = fitSubpixel(image_, o, &line, &samples, &fit, &thin_line); !fitted)
+    return fitted.error();
 
   // 3. A part across the junction of two edges meeting at a small angle or offset is fitted between them: it is
   //    fine-tuned again on the longer side only, and the shorter side is reported off the line (off_a_px /

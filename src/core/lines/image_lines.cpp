@@ -193,11 +193,6 @@ double distanceToPolyline(const std::vector<Eigen::Vector2d>& points, const Eige
   return best;
 }
 
-bool hasThinPart(const ImageLine& line)
-{
-  return std::any_of(line.parts.begin(), line.parts.end(), [](const RefinedSegment& p) { return p.thin_line; });
-}
-
 // The share of a's length (sampled every px) within tolerance_px of b.
 double shareOn(const ImageLine& a, const ImageLine& b, double tolerance_px)
 {
@@ -287,8 +282,7 @@ int dropDuplicateThinLines(double tolerance_px, std::vector<ImageLine>* lines)
     for (size_t oj = 0; oj < oi && keep[order[oi]]; ++oj)
     {
       const ImageLine& longer = (*lines)[order[oj]];
-      if (keep[order[oj]] && (hasThinPart(shorter) || hasThinPart(longer)) &&
-          shareOn(shorter, longer, tolerance_px) >= 0.5)
+      if (keep[order[oj]] && (shorter.thin() || longer.thin()) && shareOn(shorter, longer, tolerance_px) >= 0.5)
         keep[order[oi]] = 0;
     }
   }

@@ -330,8 +330,7 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
     for (const auto& l : *lines)
     {
       polylines.push_back(l.points);
-      const bool thin = std::any_of(l.parts.begin(), l.parts.end(), [](const auto& p) { return p.thin_line; });
-      image_line_sigmas.push_back(thin ? options_.thin_line_sigma_m : 0.0);
+      image_line_sigmas.push_back(l.thin() ? options_.thin_line_sigma_m : 0.0);
     }
     // The prior search once; the later loops start from the camera found. The search ranks results the final check
     // would refuse for their distance to the prior behind the others.
