@@ -269,7 +269,8 @@ Expected<std::vector<ImageLine>> extractImageLines(const cv::Mat& image, const C
 
 int dropDuplicateThinLines(double tolerance_px, std::vector<ImageLine>* lines)
 {
-  if (!(tolerance_px > 0.0))
+  // Without thin lines (the default) there is nothing to drop: no pairwise test on every image.
+  if (!(tolerance_px > 0.0) || std::none_of(lines->begin(), lines->end(), [](const ImageLine& l) { return l.thin(); }))
     return 0;
   std::vector<size_t> order(lines->size());
   std::iota(order.begin(), order.end(), 0);
