@@ -332,3 +332,68 @@ TEST(Refinement, ThePairJackknifeSeesTwoWrongMatchesThatAgree)
   EXPECT_GE(covered_with, 19);
   EXPECT_GT(covered_with, covered_without);  // 17 of 20 when measured
 }
+
+namespace
+{
+// A narrow camera (38 deg across, as generated hall 919939's cam_b) whose principal point is `offset_px` from the
+// image centre: its rotation and principal point trade off, so the survey's principal-point prior matters.
+Scene makeNarrowScene(unsigned seed, const Eigen::Vector2d& offset_px, double noise_px)
+{
+  std::mt19937 rng(seed);
+  ic::SyntheticCameraOptions camera;
+  camera.focal_min_px = camera.focal_max_px = 1850.0;
+  camera.aspect_jitter = 0.0;
+  camera.principal_jitter_px = 0.0;
+  Scene s;
+  s.truth = ic::randomCamera(camera, rng);
+  s.truth.intrinsics().cx = 0.5 * (camera.image_width - 1) + offset_px.x();
+  s.truth.intrinsics().cy = 0.5 * (camera.image_height - 1) + offset_px.y();
+  s.truth.distortion().center = s.truth.intrinsics().principalPoint();
+  ic::SyntheticLineOptions options;
+  options.lines = 15;
+  options.image_points_per_line = 8;
+  options.image_noise_px = noise_px;
+  options.depth_min_m = 3.0;
+  s.lines = ic::makeSyntheticLines(s.truth, camera.image_width, camera.image_height, options, rng);
+  return s;
+}
+}  // namespace
+
+// The principal-point prior (3 % of the width) is weighed against the fit's own noise level, not the start's
+// residuals: refined from a start several px off (as a DLT start is), the camera is the one refined from the truth,
+// and over principal points up to 3 % off centre its error stays within its 2 sigma (principal point and rotation).
+// Weighed by the start's residuals (several times the fit's 0.15 px), the prior acted as one of a fraction of a
+// percent: principal points 30 px off were pulled 20 px toward the centre at a sigma of 5 px.
+TEST(Refinement, PriorsActWithTheirOwnSigmaWhateverTheStart)
+{
+  const ic::RefinementOptions options = surveyRefinementOptions();
+  const Scene one = makeNarrowScene(4100, Eigen::Vector2d(-37.0, 10.0), 0.15);
+  const auto from_truth = ic::refineCamera(one.lines.data, one.truth, options);
+  const auto from_far = ic::refineCamera(one.lines.data, perturbed(one.truth), options);
+  ASSERT_TRUE(from_truth && from_far);
+  ASSERT_TRUE(from_truth->uncertainty.available) << from_truth->uncertainty.reason;
+  const Eigen::Vector2d apart =
+      from_truth->camera.intrinsics().principalPoint() - from_far->camera.intrinsics().principalPoint();
+  EXPECT_LT(apart.norm(), 0.1 * from_truth->uncertainty.cx) << "the start changed the prior's pull";
+
+  const int trials = 40;
+  int covered_pp = 0, covered_rotation = 0;
+  std::mt19937 rng(4200);
+  std::uniform_real_distribution<double> offset(-0.03 * 1280, 0.03 * 1280);
+  for (int t = 0; t < trials; ++t)
+  {
+    const Scene s = makeNarrowScene(4300 + t, Eigen::Vector2d(offset(rng), offset(rng) * 0.75), 0.15);
+    const auto refined = ic::refineCamera(s.lines.data, perturbed(s.truth), options);
+    ASSERT_TRUE(refined) << refined.error().describe();
+    ASSERT_TRUE(refined->uncertainty.available) << refined->uncertainty.reason;
+    const ic::CameraUncertainty& u = refined->uncertainty;
+    const Eigen::Vector2d error = refined->camera.intrinsics().principalPoint() - s.truth.intrinsics().principalPoint();
+    covered_pp += std::abs(error.x()) < 2.0 * u.cx && std::abs(error.y()) < 2.0 * u.cy ? 1 : 0;
+    const double rotation_deg = ic::compareCameras(s.truth, refined->camera).rotation_rad * 180.0 / M_PI;
+    covered_rotation += rotation_deg < 2.0 * u.rotation_deg ? 1 : 0;
+  }
+  std::printf("within 2 sigma over %d narrow cameras: principal point %d, rotation %d\n", trials, covered_pp,
+              covered_rotation);
+  EXPECT_GE(covered_pp, 34);  // 90 % of both axes within 2 sigma is 0.95^2
+  EXPECT_GE(covered_rotation, 36);
+}

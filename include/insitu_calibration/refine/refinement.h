@@ -62,6 +62,10 @@ struct RefinementOptions
   // with its uncertainty, instead of an arbitrary one.
   double aspect_prior_sigma = 0.0;
   double principal_point_prior_sigma = 0.0;
+  // How the priors are weighed against the residuals: true, by the fit's own noise level (solved again until the two
+  // agree), so that they act with their own sigma in the estimate and the covariance alike; false, by the noise
+  // level the start's residuals suggest (stiffer by the ratio: the line matcher's search uses it as a regulariser).
+  bool priors_at_fit_noise = true;
   RobustLoss loss = RobustLoss::kHuber;
   // The robust loss's scale in px; 0 (the default) sets it to 2.5 times the noise level estimated from the initial
   // camera's residuals (median absolute residual / 0.6745), at least 0.5 px: Huber then treats inliers as Gaussian.

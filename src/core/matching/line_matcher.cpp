@@ -100,15 +100,13 @@ bool improveLocally(const MatchingProblem& problem, bool hop, const std::vector<
   return false;
 }
 
-// The chosen result calibrated once more with the unmatched image lines as plumb lines (only here: each adds two
-// parameters, too many for the exploration).
+// The chosen result calibrated once more, with its priors weighed by the fit (the search's were stiffer) and the
+// unmatched image lines as plumb lines (only here: each adds two parameters, too many for the exploration).
 void calibrateWithPlumbLines(const MatchingProblem& problem, LineMatchResult* best)
 {
   const LineMatcherOptions& options = problem.options;
   CorrespondenceSet set = best->correspondences;
   set.straight_lines = straightLinesOf(best->candidate_matches, problem.image_lines, options.min_straight_line_px);
-  if (set.straight_lines.empty())
-    return;
   auto polished = calibrateCamera(set, options.calibration, best->calibration.camera);
   if (!polished)
     return;

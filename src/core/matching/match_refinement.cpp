@@ -96,6 +96,11 @@ Expected<LineMatchResult> refineMatches(const MatchingProblem& problem, const Ca
   double max_distance = initial_max_distance_px;
   double max_angle = options.max_angle_deg;
   MatchRound last;
+  // The search's calibrations weigh the priors by the start's residuals: stiffer while a round's start is far, they
+  // hold its weakly determined directions still (a narrow camera's focal length against its distance); the chosen
+  // result's final calibration weighs them by its fit (calibrateWithPlumbLines).
+  CalibrationOptions calibration_options = options.calibration;
+  calibration_options.refinement.priors_at_fit_noise = false;
   for (int iteration = 0; iteration < options.max_iterations; ++iteration)
   {
     result.iterations = iteration + 1;
@@ -106,7 +111,7 @@ Expected<LineMatchResult> refineMatches(const MatchingProblem& problem, const Ca
       break;
     }
     CorrespondenceSet set = correspondencesOf(matches, problem, camera);
-    auto calibration = calibrateCamera(set, options.calibration, camera);
+    auto calibration = calibrateCamera(set, calibration_options, camera);
     if (!calibration)
     {
       if (last.calibration)

@@ -25,6 +25,13 @@ namespace
 {
 using namespace refinement;
 
+// The priors' noise level: at least this (px), so that on a near-exact fit they keep a weight (the direction they
+// hold stays determined); re-solved while it differs from the fit's by more than the tolerance, at most this many
+// times.
+constexpr double kMinPriorNoisePx = 0.01;
+constexpr double kPriorNoiseTolerance = 0.2;
+constexpr int kMaxPriorNoisePasses = 3;
+
 // Per line: the 3D line its image residuals use (fitted to the world points for kJoint, the first and last world
 // points otherwise) and, when its world points are noisy under kJoint, the free line's frame, parameters and the
 // weight of its world residuals.
@@ -166,6 +173,9 @@ struct RefinementState
   Projector projector;
   Parameters p;
   double loss_scale_px = 0.0;
+  // The residuals' noise level (px) the priors are scaled by: first guessed from the initial camera's residuals,
+  // then the fit's own (refineCamera).
+  double prior_noise_px = 0.0;
   std::vector<double> line_weight;
   std::vector<LineModel> models;
   StraightLines straight;
@@ -387,15 +397,15 @@ void addPointAndPlumbLineResiduals(RefinementState& s, BuiltProblem* built)
     }
 }
 
-// Weak priors on the aspect ratio and the principal point, in the residuals' units (scaled by the noise level
-// estimated before the solve, so that the covariance, which is scaled by the residual variance afterwards, sees them
+// Weak priors on the aspect ratio and the principal point, in the residuals' units (scaled by the residuals' noise
+// level, so that both the solve and the covariance, which is scaled by the residual variance afterwards, see them
 // with their own sigma); and the blocks the options hold fixed.
 void addPriorsAndFixedBlocks(RefinementState& s, BuiltProblem* built)
 {
   const RefinementOptions& options = s.options;
   Parameters& p = s.p;
   ceres::Problem& problem = *built->problem;
-  const double noise = std::max(0.05, s.loss_scale_px / 2.5);
+  const double noise = s.prior_noise_px;
   if (!options.single_focal && options.aspect_prior_sigma > 0.0)
   {
     problem.AddResidualBlock(
@@ -580,6 +590,55 @@ Expected<BuiltProblem> solveRounds(RefinementState& s, RefinementResult* result,
   return built;
 }
 
+// The fit's noise level (px): the plain squared residuals (the priors' left out, the robust loss not applied) over
+// the degrees of freedom, as the covariance estimates it, at least kMinPriorNoisePx; NaN without redundancy.
+double fitNoiseLevel(const RefinementState& s, BuiltProblem& built)
+{
+  ceres::Problem::EvaluateOptions evaluate_options;
+  evaluate_options.apply_loss_function = false;
+  std::vector<double> residuals;
+  if (!built.problem->Evaluate(evaluate_options, nullptr, &residuals, nullptr, nullptr))
+    return std::numeric_limits<double>::quiet_NaN();
+  double sum = 0.0;
+  size_t rows = 0;
+  for (size_t r = 0; r < residuals.size() && r < built.row_group.size(); ++r)
+    if (built.row_group[r] != std::numeric_limits<size_t>::max())
+    {
+      sum += residuals[r] * residuals[r];
+      ++rows;
+    }
+  const size_t free = freeParameterCount(s);
+  if (rows <= free)
+    return std::numeric_limits<double>::quiet_NaN();
+  return std::max(kMinPriorNoisePx, std::sqrt(sum / static_cast<double>(rows - free)));
+}
+
+bool hasPriors(const RefinementOptions& o)
+{
+  return (!o.single_focal && o.aspect_prior_sigma > 0.0) ||
+         (o.estimate_principal_point && o.principal_point_prior_sigma > 0.0);
+}
+
+// The rounds again while the priors' noise level is not the fit's: guessed from the initial camera's residuals it
+// can be several times the fit's (a DLT start 2 px off, a fit at 0.15 px), which would make a prior of 3 % of the
+// width act as one of 0.5 % in the solve and in the covariance alike, and pull a principal point 3 % off centre
+// many of its sigmas off.
+Expected<BuiltProblem> solveWithConsistentPriors(RefinementState& s, RefinementResult* result,
+                                                 ceres::Solver::Summary* summary)
+{
+  Expected<BuiltProblem> built = solveRounds(s, result, summary);
+  for (int pass = 0; built && s.options.priors_at_fit_noise && hasPriors(s.options) && pass < kMaxPriorNoisePasses;
+       ++pass)
+  {
+    const double fit = fitNoiseLevel(s, *built);
+    if (!std::isfinite(fit) || std::abs(fit / s.prior_noise_px - 1.0) < kPriorNoiseTolerance)
+      break;
+    s.prior_noise_px = fit;
+    built = solveRounds(s, result, summary);
+  }
+  return built;
+}
+
 // Per-line diagnostics and the uncertainty, from the last round's problem at the optimum.
 void analyseSolution(RefinementState& s, BuiltProblem& built, RefinementResult* result)
 {
@@ -668,7 +727,13 @@ std::vector<Eigen::MatrixXd> cameraShiftsOfLineMoves(const CorrespondenceSet& da
   for (const auto& line : data.lines)
     s.vertex_used.emplace_back(line.image.size(), true);
   pairWorldPointsWithParts(s);
+  s.prior_noise_px = kMinPriorNoisePx;
   Expected<BuiltProblem> built = buildProblem(s);
+  if (built && hasPriors(options) && std::isfinite(fitNoiseLevel(s, *built)))
+  {
+    s.prior_noise_px = fitNoiseLevel(s, *built);  // as the solve ended: its priors scaled by the fit's noise
+    built = buildProblem(s);
+  }
   if (!built)
     return {};
   std::vector<Eigen::MatrixXd> rows(data.lines.size());
@@ -760,6 +825,7 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
     if (!(result.loss_scale_px > 0.0))
       result.loss_scale_px = std::max(0.5, 2.5 * summarize(r).median_px / 0.6745);
     s.loss_scale_px = result.loss_scale_px;
+    s.prior_noise_px = std::max(kMinPriorNoisePx, s.loss_scale_px / 2.5);
   }
   s.line_weight = worldSigmaWeights(s);
   // kJoint: the noise levels (given or estimated with the initial distortion) and each line's 3D line.
@@ -777,7 +843,7 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
     s.vertex_used.emplace_back(line.image.size(), true);
 
   ceres::Solver::Summary summary;
-  Expected<BuiltProblem> built = solveRounds(s, &result, &summary);
+  Expected<BuiltProblem> built = solveWithConsistentPriors(s, &result, &summary);
   if (!built)
     return built.error();
   result.camera = s.camera();
