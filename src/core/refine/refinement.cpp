@@ -729,9 +729,10 @@ std::vector<Eigen::MatrixXd> cameraShiftsOfLineMoves(const CorrespondenceSet& da
   pairWorldPointsWithParts(s);
   s.prior_noise_px = kMinPriorNoisePx;
   Expected<BuiltProblem> built = buildProblem(s);
-  if (built && hasPriors(options) && std::isfinite(fitNoiseLevel(s, *built)))
+  // As refineCamera's solve ended with priors_at_fit_noise: the priors scaled by the fit's noise at `camera`.
+  if (const double fit = built && hasPriors(options) ? fitNoiseLevel(s, *built) : 0.0; std::isfinite(fit) && fit > 0.0)
   {
-    s.prior_noise_px = fitNoiseLevel(s, *built);  // as the solve ended: its priors scaled by the fit's noise
+    s.prior_noise_px = fit;
     built = buildProblem(s);
   }
   if (!built)
