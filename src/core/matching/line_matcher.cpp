@@ -101,8 +101,9 @@ bool improveLocally(const MatchingProblem& problem, bool hop, const std::vector<
 }
 
 // The chosen result calibrated once more, with its priors weighed by the fit (the search's were stiffer) and the
-// unmatched image lines as plumb lines (only here: each adds two parameters, too many for the exploration).
-void calibrateWithPlumbLines(const MatchingProblem& problem, LineMatchResult* best)
+// unmatched image lines as plumb lines (only here: each adds two parameters, too many for the exploration; none when
+// min_straight_line_px is 0).
+void calibrateFinally(const MatchingProblem& problem, LineMatchResult* best)
 {
   const LineMatcherOptions& options = problem.options;
   CorrespondenceSet set = best->correspondences;
@@ -146,8 +147,7 @@ Expected<LineMatchResult> matchFromStarts(const MatchingProblem& problem, const 
   }
   trace(problem.options, "chosen: start %zu of %zu refined, %zu explored", best + 1, refined->size(), explored.size());
   LineMatchResult result = std::move((*refined)[best].result);
-  if (problem.options.min_straight_line_px > 0.0)
-    calibrateWithPlumbLines(problem, &result);
+  calibrateFinally(problem, &result);
   return result;
 }
 }  // namespace

@@ -98,7 +98,7 @@ Expected<LineMatchResult> refineMatches(const MatchingProblem& problem, const Ca
   MatchRound last;
   // The search's calibrations weigh the priors by the start's residuals: stiffer while a round's start is far, they
   // hold its weakly determined directions still (a narrow camera's focal length against its distance); the chosen
-  // result's final calibration weighs them by its fit (calibrateWithPlumbLines).
+  // result's final calibration weighs them by its fit (calibrateFinally).
   CalibrationOptions calibration_options = options.calibration;
   calibration_options.refinement.priors_at_fit_noise = false;
   for (int iteration = 0; iteration < options.max_iterations; ++iteration)
