@@ -74,14 +74,16 @@ Options:
                         times the turn (default 0.0005,0.01,0.02,0.01: good wheel odometry)
   --depth-registration X,Y
                         the Xtion's depth image misregistered with its RGB image: the depth pixel (u, v) measures
-                        the RGB pixel (u + X, v + Y) (default 0,0; parameters depth_registration/x_px, y_px): the
-                        edges' depth is read where it belongs (a surface seen at a grazing angle otherwise puts the
-                        map lines millimetres to centimetres off, docs/measurements.md)
+                        the RGB pixel (u + X, v + Y) (parameters depth_registration/x_px, y_px): the edges' depth is
+                        read where it belongs (a surface seen at a grazing angle otherwise puts the map lines
+                        millimetres to centimetres off, docs/measurements.md); 0,0 with sigma 0.5 px: the behaviour
+                        before auto became the default
   --depth-registration auto | estimate
                         estimate X,Y from the survey itself (a first pass over the bag's RGB-D frames: the creases
                         where two surfaces meet, seen in depth and in RGB; lines/depth_registration.h) and print it
                         with its sigma; auto then uses it and its sigma (refused estimate: 0,0 with the reason),
-                        estimate exits
+                        estimate exits. Default: auto, unless the parameters (--params or the --cameras file) give
+                        depth_registration/x_px or y_px, which are then used as they are
   --depth-registration-sigma PX
                         the registration's uncertainty, px per axis (default 0.5, or the estimate's larger sigma
                         with auto; parameter depth_registration/sigma_px): times the depth's slope at an edge, the
@@ -961,6 +963,18 @@ bool parseRegistrationSigma(const ic::CommandLine& cli, ic::SurveyOptions* optio
   return true;
 }
 
+// --depth-registration's mode: as given; else auto, unless the parameters give the offset (a sensor measured once,
+// whose value must not be overridden by a survey's estimate).
+std::string registrationMode(const ic::CommandLine& cli)
+{
+  if (cli.has("depth-registration"))
+    return cli.value("depth-registration");
+  auto parameters = ic::YamlParameterSource::load(cli.value("params", cli.value("cameras")));
+  if (parameters && (parameters->has("depth_registration/x_px") || parameters->has("depth_registration/y_px")))
+    return "given";
+  return "auto";
+}
+
 // --depth-registration auto | estimate: the offset from the bag's RGB-D frames (a first pass), printed; auto puts it
 // in the options (left at 0,0 when refused). False when the bag cannot be read.
 bool estimateDepthRegistration(const std::string& bag, const ic::SurveyBagOptions& bag_options,
@@ -1358,7 +1372,7 @@ int main(int argc, char** argv)
     return 2;
   bag_options.world_frame = cli.value("world-frame", "map");
   bag_options.odom_frame = cli.flag("no-odometry") ? "" : cli.value("odom-frame", "odom");
-  if (const std::string mode = cli.value("depth-registration", ""); mode == "auto" || mode == "estimate")
+  if (const std::string mode = registrationMode(cli); mode == "auto" || mode == "estimate")
   {
     if (!estimateDepthRegistration(cli.positional()[0], bag_options, cli.has("depth-registration-sigma"), &options))
       return 2;

@@ -168,3 +168,15 @@ TEST(SurveyParameters, MalformedParameterFilesAreRefused)
   EXPECT_TRUE(empty.ok());
   EXPECT_EQ(o.cameras.max_rms_px, ic::SurveyOptions().cameras.max_rms_px);
 }
+
+// calibrate_survey estimates the depth registration unless the parameters give it: whether a name is set, whatever
+// its value (0 included), nested or not.
+TEST(SurveyParameters, TellsWhetherAParameterIsSet)
+{
+  ic::YamlParameterSource source = parsed("depth_registration:\n  x_px: 0\nmax_rms_px: 1.5\n");
+  EXPECT_TRUE(source.has("depth_registration/x_px"));
+  EXPECT_FALSE(source.has("depth_registration/y_px"));
+  EXPECT_TRUE(source.has("max_rms_px"));
+  EXPECT_FALSE(source.has("depth_registration"));
+  EXPECT_FALSE(parsed("cameras:\n  - name: a\n").has("depth_registration/x_px"));
+}

@@ -50,6 +50,8 @@ public:
 
   double number(const std::string& name, double fallback, const ParameterRange& range) override;
   bool flag(const std::string& name, bool fallback) override;
+  // Whether the file sets the parameter (whatever its value): a default that depends on it being given.
+  bool has(const std::string& name) const { return values_.count(name) > 0; }
 
 private:
   struct Value
