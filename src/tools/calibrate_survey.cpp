@@ -963,16 +963,13 @@ bool parseRegistrationSigma(const ic::CommandLine& cli, ic::SurveyOptions* optio
   return true;
 }
 
-// --depth-registration's mode: as given; else auto, unless the parameters give the offset (a sensor measured once,
+// --depth-registration's mode: as given; else auto, unless the parameters gave the offset (a sensor measured once,
 // whose value must not be overridden by a survey's estimate).
-std::string registrationMode(const ic::CommandLine& cli)
+std::string registrationMode(const ic::CommandLine& cli, bool parameters_give_registration)
 {
   if (cli.has("depth-registration"))
     return cli.value("depth-registration");
-  auto parameters = ic::YamlParameterSource::load(cli.value("params", cli.value("cameras")));
-  if (parameters && (parameters->has("depth_registration/x_px") || parameters->has("depth_registration/y_px")))
-    return "given";
-  return "auto";
+  return parameters_give_registration ? "given" : "auto";
 }
 
 // --depth-registration auto | estimate: the offset from the bag's RGB-D frames (a first pass), printed; auto puts it
@@ -1008,7 +1005,8 @@ bool estimateDepthRegistration(const std::string& bag, const ic::SurveyBagOption
   return true;
 }
 
-bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options)
+// registration_given: whether the parameters set depth_registration/x_px or y_px.
+bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options, bool* registration_given)
 {
   auto parameters = ic::YamlParameterSource::load(cli.value("params", cli.value("cameras")));
   if (!parameters)
@@ -1016,6 +1014,7 @@ bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options)
     std::cerr << "calibrate_survey: " << parameters.error().describe() << "\n";
     return false;
   }
+  *registration_given = parameters->has("depth_registration/x_px") || parameters->has("depth_registration/y_px");
   *options = ic::readSurveyParameters(*parameters, *options);
   for (const std::string& error : parameters->errors())
     std::cerr << "calibrate_survey: " << error << "\n";
@@ -1368,11 +1367,13 @@ int main(int argc, char** argv)
   ic::SurveyOptions options;
   std::vector<ic::FixedCameraConfig> cameras;
   ic::SurveyBagOptions bag_options;
-  if (!parseSurveyOptions(cli, &options) || !loadCameras(cli, &cameras, &bag_options.camera_of_topic))
+  bool registration_given = false;
+  if (!parseSurveyOptions(cli, &options, &registration_given) ||
+      !loadCameras(cli, &cameras, &bag_options.camera_of_topic))
     return 2;
   bag_options.world_frame = cli.value("world-frame", "map");
   bag_options.odom_frame = cli.flag("no-odometry") ? "" : cli.value("odom-frame", "odom");
-  if (const std::string mode = registrationMode(cli); mode == "auto" || mode == "estimate")
+  if (const std::string mode = registrationMode(cli, registration_given); mode == "auto" || mode == "estimate")
   {
     if (!estimateDepthRegistration(cli.positional()[0], bag_options, cli.has("depth-registration-sigma"), &options))
       return 2;
