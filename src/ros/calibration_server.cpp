@@ -271,11 +271,10 @@ SurveyOptions CalibrationServer::readParameters(ParameterReader& read)
   // dynamic_reconfigure, from one table): the defaults are the option structs' own.
   const SurveyOptions options = readSurveyParameters(read, SurveyOptions{}, &thresholds_);
   write_report_ = read.flag("write_report", write_report_);
-  if (read.flag("depth_registration/estimate", false))
-  {
+  registration_given_ = depthRegistrationGiven(read);
+  registration_rgbd_ = options.rgbd;
+  if (read.flag("depth_registration/estimate", !registration_given_))
     registration_estimator_ = std::make_unique<DepthRegistrationEstimator>();
-    registration_rgbd_ = options.rgbd;
-  }
   return options;
 }
 
@@ -398,16 +397,55 @@ void CalibrationServer::estimateDepthRegistration(const RgbdFrame& keyframe, con
     return;
   const auto due = registration_estimator_->estimateWhenGrown();
   if (due && !*due)
+  {
+    registration_pending_ = due->error().message();
     ROS_INFO_THROTTLE(30.0, "calibration_node: depth registration not estimated yet: %s",
-                      due->error().message().c_str());
-  if (!due || !*due || (**due).creases < 2 * registration_logged_creases_)
+                      registration_pending_.c_str());
+  }
+  if (!due || !*due)
     return;
   const auto& e = *due;
+  registration_estimate_ = *e;
+  if (e->creases < 2 * registration_logged_creases_)
+    return;
   registration_logged_creases_ = e->creases;
+  const Eigen::Vector2d& used = registration_rgbd_.sampler.registration_offset_px;
   ROS_INFO(
       "calibration_node: depth registration estimated %.3f, %.3f px (1 sigma %.3f, %.3f px) from %zu creases in "
-      "%zu keyframes; not applied to this survey: set depth_registration/x_px, y_px to it for the next",
-      e->offset_px.x(), e->offset_px.y(), e->sigma_px.x(), e->sigma_px.y(), e->creases, e->frames);
+      "%zu keyframes, %.1f sigma from the %.3f, %.3f px in use; not applied to this survey: set "
+      "depth_registration/x_px, y_px and sigma_px to it for the next",
+      e->offset_px.x(), e->offset_px.y(), e->sigma_px.x(), e->sigma_px.y(), e->creases, e->frames,
+      registrationDiscrepancySigmas(*e, used), used.x(), used.y());
+}
+
+std::string CalibrationServer::describeDepthRegistration()
+{
+  const Eigen::Vector2d& used = registration_rgbd_.sampler.registration_offset_px;
+  char in_use[160];
+  std::snprintf(in_use, sizeof(in_use), "in use %.3f, %.3f px (%s, 1 sigma %.2f px)", used.x(), used.y(),
+                registration_given_ ? "given" : "default", registration_rgbd_.sampler.registration_sigma_px);
+  if (!registration_estimator_)
+    return std::string(in_use) + "; not estimated (depth_registration/estimate false)";
+  std::lock_guard<std::mutex> lock(registration_mutex_);
+  if (!registration_estimate_)
+    return std::string(in_use) + "; " +
+           (registration_pending_.empty() ? std::string("no estimate yet") : registration_pending_);
+  const DepthRegistrationEstimate& e = *registration_estimate_;
+  char estimated[200];
+  std::snprintf(estimated, sizeof(estimated),
+                "; estimated %.3f, %.3f px (1 sigma %.3f, %.3f px, %zu creases): %.1f sigma apart", e.offset_px.x(),
+                e.offset_px.y(), e.sigma_px.x(), e.sigma_px.y(), e.creases, registrationDiscrepancySigmas(e, used));
+  return in_use + std::string(estimated);
+}
+
+std::string CalibrationServer::depthRegistrationWarning()
+{
+  if (!registration_estimator_)
+    return "";
+  std::lock_guard<std::mutex> lock(registration_mutex_);
+  return registration_estimate_ ? registrationDisagreementAdvice(*registration_estimate_,
+                                                                 registration_rgbd_.sampler.registration_offset_px)
+                                : "";
 }
 
 void CalibrationServer::publishCalibratedInfo(const std::string& name, const sensor_msgs::ImageConstPtr& image)
@@ -653,6 +691,11 @@ CalibrationServer::CalibrationOutcome CalibrationServer::calibrateCameras(const 
     }
     calibrateOne(
         names[i], [&](const std::string& stage) { report(names[i], stage, i); }, &outcome);
+  }
+  if (const std::string warning = depthRegistrationWarning(); !warning.empty())
+  {
+    ROS_WARN_STREAM("calibration_node: " << warning);
+    outcome.message += "note: " + warning + "\n";
   }
   if (!outcome.message.empty() && outcome.message.back() == '\n')
     outcome.message.pop_back();

@@ -112,6 +112,7 @@ void CalibrationServer::surveyDiagnostics(diagnostic_updater::DiagnosticStatusWr
   stat.add("keyframes", keyframes);
   stat.add("map lines", map_lines);
   stat.add("cameras calibrated", std::to_string(calibrated) + " of " + std::to_string(cameras_.size()));
+  stat.add("depth registration", describeDepthRegistration());
   if (calibrated == cameras_.size())
     stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "every camera calibrated");
   else if (frames == 0)

@@ -15,6 +15,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "command_line.h"
+#include "insitu_calibration/lines/depth_registration.h"
 #include "insitu_calibration/lines/image_lines.h"
 #include "insitu_calibration/lines/line_evaluation.h"
 #include "insitu_calibration/lines/line_map.h"
@@ -441,6 +442,10 @@ struct RgbdRun
   std::unique_ptr<ic::RgbdLineExtractor> extractor;
   ic::LineMap map;
   Series detect, refine, depth, fit, merge, total, lines_per_frame;
+  // calibration_node's depth registration estimate (by default) on the frame's segments: a keyframe's cost, not in
+  // total (other frames do not pay it).
+  ic::DepthRegistrationEstimator registration;
+  Series creases;
   std::map<int, Series> bucket_distance, bucket_angle;  // matched lines, by range bucket
   std::map<int, int> bucket_total, bucket_good;         // all lines; within 1 cm and 0.5 deg
   std::vector<double> near_distance, near_angle;        // within 3 m, unmatched lines as infinity
@@ -535,14 +540,18 @@ void measureRgbdLines(int frame, const std::vector<ic::Line3d>& lines, const std
 bool benchWorldRgbdFrame(int i, const ic::RgbdFrame& frame, const std::vector<ic::Segment3d>& truth, int repeat,
                          bool verbose, RgbdRun* run)
 {
+  std::vector<ic::Segment2d> segments;
   auto best = bestOf<ic::RgbdLineStats>(
-      repeat, [&](ic::RgbdLineStats* stats) { return run->extractor->extract(frame, stats); });
+      repeat, [&](ic::RgbdLineStats* stats) { return run->extractor->extract(frame, stats, nullptr, &segments); });
   if (!best)
   {
     std::cerr << "bench_lines: frame " << i << ": " << best.error().describe() << "\n";
     return false;
   }
-  const double t = ic::threadCpuMs();
+  double t = ic::threadCpuMs();
+  if (run->registration.addFrame(frame, segments, run->extractor->options()))
+    run->creases.add(ic::cpuMsSince(t));
+  t = ic::threadCpuMs();
   run->map.insert(best->value);
   const double merge_ms = ic::cpuMsSince(t);
   run->detect.add(best->stats.detect_ms);
@@ -600,7 +609,8 @@ void printWorldRgbdRun(const RgbdRun& run, const sim::World& w, int frames, cons
                     {"depth sampling", &run.depth},
                     {"RANSAC + refinement", &run.fit},
                     {"line-map merge", &run.merge},
-                    {"**total**", &run.total}});
+                    {"**total**", &run.total},
+                    {"creases (keyframes only: the node's registration estimate)", &run.creases}});
   std::printf(
       "\n  3D line error against the distance from the sensor (error: RMS of the end points' distances to the "
       "true line; matched: within 10 cm and 5 deg of a true edge):\n");

@@ -1014,7 +1014,7 @@ bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options, bool* 
     std::cerr << "calibrate_survey: " << parameters.error().describe() << "\n";
     return false;
   }
-  *registration_given = parameters->has("depth_registration/x_px") || parameters->has("depth_registration/y_px");
+  *registration_given = ic::depthRegistrationGiven(*parameters);
   *options = ic::readSurveyParameters(*parameters, *options);
   for (const std::string& error : parameters->errors())
     std::cerr << "calibrate_survey: " << error << "\n";

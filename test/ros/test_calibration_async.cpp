@@ -207,6 +207,13 @@ TEST(CalibrationNodeAsync, DiagnosticsAndSurveyStatus)
   const auto survey = diagnostics("calibration_node: survey");
   ASSERT_TRUE(survey);
   EXPECT_EQ(survey->message, "every camera calibrated");
+  // config/cameras.yaml gives no depth registration: the node uses 0,0 and estimates it by default.
+  const auto registration = std::find_if(survey->values.begin(), survey->values.end(),
+                                         [](const auto& v) { return v.key == "depth registration"; });
+  ASSERT_NE(registration, survey->values.end());
+  std::printf("depth registration: %s\n", registration->value.c_str());
+  EXPECT_EQ(registration->value.rfind("in use 0.000, 0.000 px (default", 0), 0u) << registration->value;
+  EXPECT_NE(registration->value.find("; estimated "), std::string::npos) << registration->value;
   std::lock_guard<std::mutex> lock(g_mutex);
   ASSERT_TRUE(g_survey_status) << "nothing on the latched ~survey_status";
   EXPECT_EQ(g_survey_status->cameras.size(), 3u);

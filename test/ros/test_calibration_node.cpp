@@ -241,10 +241,10 @@ TEST(CalibrationNode, CalibratesEveryCameraFromTheSurvey)
   }
 }
 
-// depth_registration/estimate (calibration_node.test sets it): the node estimates the Xtion's depth-to-RGB
-// misregistration from the keyframes' creases, with the segments the map's extraction found, and logs it. The
-// default world's Xtion has none (config/worlds/waiting_room.yaml has no misregistration_px), so the estimate must
-// be within 3 of its sigmas of 0.
+// depth_registration/estimate (the default: calibration_node_cameras.yaml gives no offset): the node estimates the
+// Xtion's depth-to-RGB misregistration from the keyframes' creases, with the segments the map's extraction found, and
+// logs it. The default world's Xtion has none (config/worlds/waiting_room.yaml has no misregistration_px), so the
+// estimate must be within 3 of its sigmas of 0.
 TEST(CalibrationNode, EstimatesTheDepthRegistrationFromTheKeyframes)
 {
   ASSERT_GE(ros::Time::now().toSec(), g_bag_end - 0.5) << "runs after the survey";

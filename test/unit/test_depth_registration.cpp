@@ -198,3 +198,42 @@ TEST(DepthRegistration, ReestimatesOnlyWhenTheCreasesHaveGrown)
   EXPECT_FALSE(*refused);
   EXPECT_EQ(refused->error().code(), ic::ErrorCode::kNotEnoughData);
 }
+
+TEST(DepthRegistration, DiscrepancyIsTheMahalanobisDistance)
+{
+  ic::DepthRegistrationEstimate e;
+  e.offset_px = Eigen::Vector2d(0.6, -0.2);
+  e.covariance = Eigen::Vector2d(0.1 * 0.1, 0.2 * 0.2).asDiagonal();
+  e.sigma_px = Eigen::Vector2d(0.1, 0.2);
+  EXPECT_DOUBLE_EQ(ic::registrationDiscrepancySigmas(e, e.offset_px), 0.0);
+  // 0.3 px off along x is 3 sigma there, along y 1.5 sigma; both: their hypot.
+  EXPECT_NEAR(ic::registrationDiscrepancySigmas(e, Eigen::Vector2d(0.9, -0.2)), 3.0, 1e-12);
+  EXPECT_NEAR(ic::registrationDiscrepancySigmas(e, Eigen::Vector2d(0.6, 0.1)), 1.5, 1e-12);
+  EXPECT_NEAR(ic::registrationDiscrepancySigmas(e, Eigen::Vector2d(0.9, 0.1)), std::hypot(3.0, 1.5), 1e-12);
+  // Correlated: along the covariance's long axis a distance counts less than across it.
+  e.covariance << 0.02, 0.018, 0.018, 0.02;
+  const Eigen::Vector2d along = Eigen::Vector2d(1.0, 1.0).normalized() * 0.1;
+  const Eigen::Vector2d across = Eigen::Vector2d(1.0, -1.0).normalized() * 0.1;
+  EXPECT_NEAR(ic::registrationDiscrepancySigmas(e, e.offset_px + along), 0.1 / std::sqrt(0.038), 1e-9);
+  EXPECT_NEAR(ic::registrationDiscrepancySigmas(e, e.offset_px + across), 0.1 / std::sqrt(0.002), 1e-9);
+  // A singular covariance falls back to the larger sigma.
+  e.covariance.setZero();
+  e.sigma_px = Eigen::Vector2d(0.1, 0.25);
+  EXPECT_NEAR(ic::registrationDiscrepancySigmas(e, e.offset_px + Eigen::Vector2d(0.5, 0.0)), 2.0, 1e-12);
+}
+
+TEST(DepthRegistration, AdvisesOnlyWhenTheOffsetInUseDisagrees)
+{
+  ic::DepthRegistrationEstimate e;
+  e.offset_px = Eigen::Vector2d(0.62, -0.35);
+  e.sigma_px = Eigen::Vector2d(0.12, 0.07);
+  e.covariance = e.sigma_px.cwiseAbs2().asDiagonal();
+  EXPECT_EQ(ic::registrationDisagreementAdvice(e, Eigen::Vector2d(0.6, -0.3)), "");
+  const std::string advice = ic::registrationDisagreementAdvice(e, Eigen::Vector2d::Zero());
+  EXPECT_NE(advice.find("0.620, -0.350 px"), std::string::npos) << advice;
+  EXPECT_NE(advice.find("depth_registration/x_px, y_px"), std::string::npos) << advice;
+  EXPECT_NE(advice.find("sigma_px to 0.12"), std::string::npos) << advice;
+  // 0.3 px along x is 2.5 sigma: within 3, beyond 2.
+  EXPECT_EQ(ic::registrationDisagreementAdvice(e, e.offset_px + Eigen::Vector2d(0.3, 0.0)), "");
+  EXPECT_NE(ic::registrationDisagreementAdvice(e, e.offset_px + Eigen::Vector2d(0.3, 0.0), 2.0), "");
+}

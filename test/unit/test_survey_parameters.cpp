@@ -180,3 +180,12 @@ TEST(SurveyParameters, TellsWhetherAParameterIsSet)
   EXPECT_FALSE(source.has("depth_registration"));
   EXPECT_FALSE(parsed("cameras:\n  - name: a\n").has("depth_registration/x_px"));
 }
+
+TEST(SurveyParameters, TellsWhetherTheDepthRegistrationIsGiven)
+{
+  EXPECT_TRUE(ic::depthRegistrationGiven(parsed("depth_registration:\n  y_px: -0.3\n")));
+  EXPECT_TRUE(ic::depthRegistrationGiven(parsed("depth_registration: {x_px: 0, y_px: 0}\n")));
+  // Its sigma or the estimate's switch alone do not give the offset.
+  EXPECT_FALSE(ic::depthRegistrationGiven(parsed("depth_registration: {sigma_px: 0.2, estimate: true}\n")));
+  EXPECT_FALSE(ic::depthRegistrationGiven(parsed("")));
+}

@@ -23,6 +23,8 @@ public:
   // A number (an integer is accepted where a number is due); fallback when unset or wrong (with an error).
   virtual double number(const std::string& name, double fallback, const ParameterRange& range) = 0;
   virtual bool flag(const std::string& name, bool fallback) = 0;
+  // Whether the parameter is set (whatever its value): for a default that depends on it being given.
+  virtual bool has(const std::string& name) const = 0;
   // An integer (range.integer is implied): a number with an integral value (2.0) is accepted, 2.5 is not.
   int integer(const std::string& name, int fallback, ParameterRange range);
   // An error found by the caller (a relation between parameters, say), reported with the others.
@@ -50,8 +52,7 @@ public:
 
   double number(const std::string& name, double fallback, const ParameterRange& range) override;
   bool flag(const std::string& name, bool fallback) override;
-  // Whether the file sets the parameter (whatever its value): a default that depends on it being given.
-  bool has(const std::string& name) const { return values_.count(name) > 0; }
+  bool has(const std::string& name) const override { return values_.count(name) > 0; }
 
 private:
   struct Value

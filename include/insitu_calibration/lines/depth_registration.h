@@ -19,6 +19,7 @@
 
 #include <cstddef>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -130,6 +131,14 @@ private:
 // The weighted, trimmed least-squares offset from creases (DepthRegistrationEstimator::estimate's solver).
 Expected<DepthRegistrationEstimate> estimateRegistration(const std::vector<CreaseObservation>& creases,
                                                          const DepthRegistrationOptions& options = {});
+
+// How far an offset (the one a survey's depth was read with) lies from an estimate, in standard deviations of the
+// estimate (Mahalanobis distance under its covariance; the larger sigma when the covariance is singular).
+double registrationDiscrepancySigmas(const DepthRegistrationEstimate& estimate, const Eigen::Vector2d& offset_px);
+// What to tell an operator whose survey was read at offset_px when its own creases gave estimate: empty while the
+// two agree (within max_sigmas), else what the disagreement costs and which parameters to set.
+std::string registrationDisagreementAdvice(const DepthRegistrationEstimate& estimate, const Eigen::Vector2d& offset_px,
+                                           double max_sigmas = 3.0);
 
 }  // namespace insitu_calibration
 

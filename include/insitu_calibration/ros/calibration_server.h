@@ -11,6 +11,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -56,6 +57,10 @@ public:
   bool ok() const { return survey_ != nullptr; }
 
 private:
+  // The registration estimate for the diagnostics, and a warning (empty when none is due) when the offset in use
+  // lies more than 3 sigma from it.
+  std::string describeDepthRegistration();
+  std::string depthRegistrationWarning();
   // With depth_registration/estimate: a keyframe's creases into the estimate, logged when it is first determined
   // and whenever its creases have doubled since.
   void estimateDepthRegistration(const RgbdFrame& keyframe, const std::vector<Segment2d>& segments);
@@ -231,13 +236,18 @@ private:
   double tf_timeout_s_ = 0.2;
   double map_adjustment_period_s_ = 10.0;  // 0: only before a calibration
   bool write_report_ = true;               // <name>_report.html beside the YAML on every calibration
-  // depth_registration/estimate: the Xtion's depth-to-RGB misregistration estimated from the keyframes' creases and
-  // logged with its sigma (not applied: the keyframes already in the map were read without it; the operator sets
-  // depth_registration/x_px, y_px for the next survey). Guarded by registration_mutex_ (the RGB-D callbacks).
+  // depth_registration/estimate (default: unless the parameters give the offset): the Xtion's depth-to-RGB
+  // misregistration estimated from the keyframes' creases, logged with its sigma and shown in the diagnostics (not
+  // applied: the keyframes already in the map were read without it; the operator sets depth_registration/x_px, y_px
+  // for the next survey, and a calibration warns when the offset in use is far from it). Guarded by
+  // registration_mutex_ (the RGB-D callbacks).
   std::mutex registration_mutex_;
   std::unique_ptr<DepthRegistrationEstimator> registration_estimator_;
-  RgbdLineOptions registration_rgbd_;       // the survey's extraction options (its depth range)
+  RgbdLineOptions registration_rgbd_;       // the survey's extraction options (its depth range, the offset in use)
+  bool registration_given_ = false;         // the parameters gave the offset in use
   size_t registration_logged_creases_ = 0;  // creases behind the last logged estimate
+  std::optional<DepthRegistrationEstimate> registration_estimate_;  // the latest determined one
+  std::string registration_pending_;  // why there is none yet (the estimator's last refusal)
   ros::ServiceServer reconfigure_server_;
   ros::Publisher reconfigure_descriptions_publisher_;
   ros::Publisher reconfigure_updates_publisher_;

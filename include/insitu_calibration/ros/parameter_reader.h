@@ -23,6 +23,7 @@ public:
   // A number (an integer parameter is accepted where a number is due); fallback when unset.
   double number(const std::string& name, double fallback, const ParameterRange& range) override;
   bool flag(const std::string& name, bool fallback) override;
+  bool has(const std::string& name) const override { return nh_.hasParam(name); }
   // A list of exactly size numbers, each in range ([x, y, z], say).
   std::vector<double> numbers(const std::string& name, const std::vector<double>& fallback, size_t size,
                               const ParameterRange& range);

@@ -16,6 +16,9 @@ namespace insitu_calibration
 // gets in *thresholds (the cameras' part of it is options.cameras).
 SurveyOptions readSurveyParameters(ParameterSource& source, SurveyOptions options = {},
                                    FieldThresholds* thresholds = nullptr);
+// Whether source gives the Xtion's depth registration (depth_registration/x_px or y_px): a sensor measured once,
+// used as given. Otherwise calibrate_survey estimates it from the bag and the node from its keyframes.
+bool depthRegistrationGiven(const ParameterSource& source);
 }  // namespace insitu_calibration
 
 #endif  // INSITU_CALIBRATION_SURVEY_SURVEY_PARAMETERS_H

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <sstream>
 
 #include <Eigen/Dense>
@@ -381,6 +383,35 @@ Expected<DepthRegistrationEstimate> estimateRegistration(const std::vector<Creas
     return Error(ErrorCode::kDegenerate, why.str());
   }
   return e;
+}
+
+double registrationDiscrepancySigmas(const DepthRegistrationEstimate& estimate, const Eigen::Vector2d& offset_px)
+{
+  const Eigen::Vector2d d = offset_px - estimate.offset_px;
+  if (d.isZero(0.0))
+    return 0.0;
+  const Eigen::LDLT<Eigen::Matrix2d> ldlt(estimate.covariance);
+  if (ldlt.info() == Eigen::Success && ldlt.isPositive() && estimate.covariance.determinant() > 1e-24)
+    return std::sqrt(std::max(0.0, d.dot(ldlt.solve(d))));
+  const double sigma = estimate.sigma_px.maxCoeff();
+  return sigma > 0.0 ? d.norm() / sigma : std::numeric_limits<double>::infinity();
+}
+
+std::string registrationDisagreementAdvice(const DepthRegistrationEstimate& e, const Eigen::Vector2d& offset_px,
+                                           double max_sigmas)
+{
+  const double apart = registrationDiscrepancySigmas(e, offset_px);
+  if (!(apart > max_sigmas))
+    return "";
+  char text[480];
+  std::snprintf(text, sizeof(text),
+                "the survey's depth was read at a registration of %.3f, %.3f px, but its creases give %.3f, %.3f px "
+                "(1 sigma %.3f, %.3f px; %.1f sigma apart): map lines on surfaces seen at a grazing angle may be "
+                "millimetres off. For the best accuracy set depth_registration/x_px, y_px to the estimate and "
+                "sigma_px to %.2f, and survey again",
+                offset_px.x(), offset_px.y(), e.offset_px.x(), e.offset_px.y(), e.sigma_px.x(), e.sigma_px.y(), apart,
+                e.sigma_px.maxCoeff());
+  return text;
 }
 
 }  // namespace insitu_calibration

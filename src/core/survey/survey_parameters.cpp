@@ -111,4 +111,9 @@ SurveyOptions readSurveyParameters(ParameterSource& source, SurveyOptions option
     *thresholds = field;
   return options;
 }
+
+bool depthRegistrationGiven(const ParameterSource& source)
+{
+  return source.has("depth_registration/x_px") || source.has("depth_registration/y_px");
+}
 }  // namespace insitu_calibration
