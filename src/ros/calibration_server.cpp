@@ -398,14 +398,16 @@ void CalibrationServer::estimateDepthRegistration(const RgbdFrame& keyframe, con
   const auto due = registration_estimator_->estimateWhenGrown();
   if (due && !*due)
   {
-    registration_pending_ = due->error().message();
-    ROS_INFO_THROTTLE(30.0, "calibration_node: depth registration not estimated yet: %s",
-                      registration_pending_.c_str());
+    registration_refused_ = due->error().message();
+    ROS_INFO_THROTTLE(30.0, "calibration_node: depth registration %s: %s",
+                      registration_estimate_ ? "not estimated again (the last estimate stands)" : "not estimated yet",
+                      registration_refused_.c_str());
   }
   if (!due || !*due)
     return;
   const auto& e = *due;
   registration_estimate_ = *e;
+  registration_refused_.clear();
   if (e->creases < 2 * registration_logged_creases_)
     return;
   registration_logged_creases_ = e->creases;
@@ -429,13 +431,14 @@ std::string CalibrationServer::describeDepthRegistration()
   std::lock_guard<std::mutex> lock(registration_mutex_);
   if (!registration_estimate_)
     return std::string(in_use) + "; " +
-           (registration_pending_.empty() ? std::string("no estimate yet") : registration_pending_);
+           (registration_refused_.empty() ? std::string("no estimate yet") : registration_refused_);
   const DepthRegistrationEstimate& e = *registration_estimate_;
   char estimated[200];
   std::snprintf(estimated, sizeof(estimated),
                 "; estimated %.3f, %.3f px (1 sigma %.3f, %.3f px, %zu creases): %.1f sigma apart", e.offset_px.x(),
                 e.offset_px.y(), e.sigma_px.x(), e.sigma_px.y(), e.creases, registrationDiscrepancySigmas(e, used));
-  return in_use + std::string(estimated);
+  return in_use + std::string(estimated) +
+         (registration_refused_.empty() ? "" : " (a later solve refused: " + registration_refused_ + ")");
 }
 
 std::string CalibrationServer::depthRegistrationWarning()

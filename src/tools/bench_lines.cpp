@@ -610,7 +610,7 @@ void printWorldRgbdRun(const RgbdRun& run, const sim::World& w, int frames, cons
                     {"RANSAC + refinement", &run.fit},
                     {"line-map merge", &run.merge},
                     {"**total**", &run.total},
-                    {"creases (keyframes only: the node's registration estimate)", &run.creases}});
+                    {"crease measurement (keyframes only: the node's registration estimate)", &run.creases}});
   std::printf(
       "\n  3D line error against the distance from the sensor (error: RMS of the end points' distances to the "
       "true line; matched: within 10 cm and 5 deg of a true edge):\n");

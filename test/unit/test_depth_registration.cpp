@@ -232,7 +232,7 @@ TEST(DepthRegistration, AdvisesOnlyWhenTheOffsetInUseDisagrees)
   const std::string advice = ic::registrationDisagreementAdvice(e, Eigen::Vector2d::Zero());
   EXPECT_NE(advice.find("0.620, -0.350 px"), std::string::npos) << advice;
   EXPECT_NE(advice.find("depth_registration/x_px, y_px"), std::string::npos) << advice;
-  EXPECT_NE(advice.find("sigma_px to 0.12"), std::string::npos) << advice;
+  EXPECT_NE(advice.find("sigma_px to 0.120"), std::string::npos) << advice;
   // 0.3 px along x is 2.5 sigma: within 3, beyond 2.
   EXPECT_EQ(ic::registrationDisagreementAdvice(e, e.offset_px + Eigen::Vector2d(0.3, 0.0)), "");
   EXPECT_NE(ic::registrationDisagreementAdvice(e, e.offset_px + Eigen::Vector2d(0.3, 0.0), 2.0), "");

@@ -239,7 +239,9 @@ private:
   // depth_registration/estimate (default: unless the parameters give the offset): the Xtion's depth-to-RGB
   // misregistration estimated from the keyframes' creases, logged with its sigma and shown in the diagnostics (not
   // applied: the keyframes already in the map were read without it; the operator sets depth_registration/x_px, y_px
-  // for the next survey, and a calibration warns when the offset in use is far from it). Guarded by
+  // for the next survey, and a calibration warns when the offset in use is far from it). The estimate belongs to the
+  // sensor, so ~reset keeps it. registration_estimator_ (the pointer), registration_rgbd_ and registration_given_ are
+  // set once in readParameters, before any callback; the estimator's state and the members after them are guarded by
   // registration_mutex_ (the RGB-D callbacks).
   std::mutex registration_mutex_;
   std::unique_ptr<DepthRegistrationEstimator> registration_estimator_;
@@ -247,7 +249,7 @@ private:
   bool registration_given_ = false;         // the parameters gave the offset in use
   size_t registration_logged_creases_ = 0;  // creases behind the last logged estimate
   std::optional<DepthRegistrationEstimate> registration_estimate_;  // the latest determined one
-  std::string registration_pending_;  // why there is none yet (the estimator's last refusal)
+  std::string registration_refused_;  // why the latest solve gave none (empty once it gave one)
   ros::ServiceServer reconfigure_server_;
   ros::Publisher reconfigure_descriptions_publisher_;
   ros::Publisher reconfigure_updates_publisher_;

@@ -408,9 +408,9 @@ std::string registrationDisagreementAdvice(const DepthRegistrationEstimate& e, c
                 "the survey's depth was read at a registration of %.3f, %.3f px, but its creases give %.3f, %.3f px "
                 "(1 sigma %.3f, %.3f px; %.1f sigma apart): map lines on surfaces seen at a grazing angle may be "
                 "millimetres off. For the best accuracy set depth_registration/x_px, y_px to the estimate and "
-                "sigma_px to %.2f, and survey again",
+                "sigma_px to %.3f, and survey again",
                 offset_px.x(), offset_px.y(), e.offset_px.x(), e.offset_px.y(), e.sigma_px.x(), e.sigma_px.y(), apart,
-                e.sigma_px.maxCoeff());
+                std::max(e.sigma_px.maxCoeff(), 0.001));  // never 0: sigma_px 0 means exact
   return text;
 }
 
