@@ -122,3 +122,23 @@ TEST(SurveyCalibration, DefaultWorldEveryCameraWithinTheThresholds)
     expectReportedSigmasCover(survey, *result, truth, name);
   }
 }
+
+// The final check tells floor lines by the survey's floor plane (image_explanation.h), also after the node's
+// thresholds are tuned.
+TEST(SurveyCalibration, TheFinalCheckUsesTheSurveysFloor)
+{
+  ic::FixedCameraConfig config;
+  config.name = "cam";
+  config.image_width = 640;
+  config.image_height = 480;
+  config.prior = ic::CameraPrior{};
+  ic::SurveyOptions options;
+  options.floor.floor_height_m = 1.25;
+  options.floor.min_edge_height_m = 0.2;
+  ic::Survey survey({config}, options);
+  EXPECT_DOUBLE_EQ(survey.camera("cam").options().explanation.floor_height_m, 1.25);
+  EXPECT_DOUBLE_EQ(survey.camera("cam").options().explanation.floor_tolerance_m, 0.1);
+  survey.setCameraOptions(ic::FixedCameraOptions{});
+  EXPECT_DOUBLE_EQ(survey.camera("cam").options().explanation.floor_height_m, 1.25);
+  EXPECT_DOUBLE_EQ(survey.camera("cam").options().explanation.floor_tolerance_m, 0.1);
+}

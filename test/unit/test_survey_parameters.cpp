@@ -45,6 +45,7 @@ TEST(SurveyParameters, UnsetParametersKeepTheStructsDefaults)
   EXPECT_EQ(read.cameras.matcher.calibration.refine, defaults.cameras.matcher.calibration.refine);
   EXPECT_EQ(read.cameras.image_lines.refiner.thin_lines, defaults.cameras.image_lines.refiner.thin_lines);
   EXPECT_FALSE(read.cameras.image_lines.refiner.thin_lines);  // off by default (docs/measurements.md, "Thin lines")
+  EXPECT_TRUE(read.cameras.explanation.leave_out_plain_floor);
 }
 
 TEST(SurveyParameters, EverySetParameterIsTaken)
@@ -74,6 +75,7 @@ ransac: false
 refine: no
 thin_lines: true
 thin_line_sigma: 0.005
+plain_floor_test: false
 cameras: []
 )");
   const ic::SurveyOptions o = ic::readSurveyParameters(source);
@@ -111,6 +113,7 @@ cameras: []
   EXPECT_FALSE(o.cameras.matcher.calibration.refine);
   EXPECT_TRUE(o.cameras.image_lines.refiner.thin_lines);
   EXPECT_EQ(o.cameras.thin_line_sigma_m, 0.005);
+  EXPECT_FALSE(o.cameras.explanation.leave_out_plain_floor);
 }
 
 TEST(SurveyParameters, BadValuesAreEachReportedAndKeepTheirDefaults)

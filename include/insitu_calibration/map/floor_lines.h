@@ -94,6 +94,9 @@ FloorDepth floorDepthOf(const std::vector<DepthSample>& samples, const RgbdCamer
 bool depthAgreesWithFloor(const std::vector<DepthSample>& samples, const RgbdCamera& camera,
                           const Eigen::Isometry3d& T_map_camera, const FloorLineOptions& options);
 
+// Whether a segment (map frame) lies on the floor z = floor_height_m: both ends within tolerance_m of it.
+bool segmentOnFloor(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double floor_height_m, double tolerance_m);
+
 // Whether a depth line (map frame) lies on the floor: both ends within min_edge_height_m / 2 of it.
 bool depthLineOnFloor(const Line3d& line, const FloorLineOptions& options);
 

@@ -359,10 +359,14 @@ bool depthAgreesWithFloor(const std::vector<DepthSample>& samples, const RgbdCam
   return floorDepthOf(samples, camera, T_map_camera, o) != FloorDepth::kOffFloor;
 }
 
+bool segmentOnFloor(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double floor_height_m, double tolerance_m)
+{
+  return std::abs(a.z() - floor_height_m) <= tolerance_m && std::abs(b.z() - floor_height_m) <= tolerance_m;
+}
+
 bool depthLineOnFloor(const Line3d& line, const FloorLineOptions& o)
 {
-  const double limit = 0.5 * o.min_edge_height_m;
-  return std::abs(line.a.z() - o.floor_height_m) <= limit && std::abs(line.b.z() - o.floor_height_m) <= limit;
+  return segmentOnFloor(line.a, line.b, o.floor_height_m, 0.5 * o.min_edge_height_m);
 }
 
 bool intersectFloor(const FloorObservation& observation, const Eigen::Isometry3d& T_map_camera, double focal_px,

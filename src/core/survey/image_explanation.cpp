@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 
 #include <opencv2/imgproc.hpp>
 
+#include "insitu_calibration/map/floor_lines.h"
 #include "insitu_calibration/matching/line_matcher.h"
 
 namespace insitu_calibration
@@ -91,19 +93,77 @@ bool forEachSample(const CameraModel& camera, const Segment3d& line, const std::
   return true;
 }
 
-// Samples of one map line's projection: on-edge counts at the line and beside it.
-void assessLine(const Gradients& g, const CameraModel& camera, const Segment3d& line,
-                const std::pair<double, double>& interval, int width, int height, const ImageExplanationOptions& o,
-                ImageExplanation& out, size_t& on, size_t& beside)
+// One map line's samples and how many of them have an edge on the line and beside it (both sides counted).
+struct LineSupport
 {
+  size_t samples = 0, on = 0, beside = 0;
+};
+
+// None when the projection is too short to assess.
+std::optional<LineSupport> assessLine(const Gradients& g, const CameraModel& camera, const Segment3d& line,
+                                      const std::pair<double, double>& interval, int width, int height,
+                                      const ImageExplanationOptions& o)
+{
+  LineSupport s;
   const bool assessed = forEachSample(camera, line, interval, width, height, o,
                                       [&](const Eigen::Vector2d& p, const Eigen::Vector2d& normal) {
-                                        ++out.samples;
-                                        on += onEdge(g, p, normal, o) ? 1 : 0;
-                                        beside += onEdge(g, p + o.chance_offset_px * normal, normal, o) ? 1 : 0;
-                                        beside += onEdge(g, p - o.chance_offset_px * normal, normal, o) ? 1 : 0;
+                                        ++s.samples;
+                                        s.on += onEdge(g, p, normal, o) ? 1 : 0;
+                                        s.beside += onEdge(g, p + o.chance_offset_px * normal, normal, o) ? 1 : 0;
+                                        s.beside += onEdge(g, p - o.chance_offset_px * normal, normal, o) ? 1 : 0;
                                       });
-  out.map_lines += assessed ? 1 : 0;
+  if (!assessed)
+    return std::nullopt;
+  return s;
+}
+
+// A floor line whose image shows hardly any edge on it or beside it: texture this camera does not resolve.
+bool onPlainFloor(const Segment3d& line, const LineSupport& s, const ImageExplanationOptions& o)
+{
+  if (!o.leave_out_plain_floor || s.samples == 0 ||
+      !segmentOnFloor(line.a, line.b, o.floor_height_m, o.floor_tolerance_m))
+    return false;
+  const double n = static_cast<double>(s.samples);
+  return s.on < o.plain_floor_on_edge * n && 0.5 * s.beside < o.plain_floor_beside * n;
+}
+
+// The overlay agreement and its chance level over the map lines in view, plain-floor lines left out when enough
+// others remain.
+void measureOverlay(const cv::Mat& image, const CameraModel& camera, int width, int height,
+                    const std::vector<Segment3d>& map_lines, const ImageExplanationOptions& options,
+                    ImageExplanation& out)
+{
+  const Gradients g = gradients(image);
+  std::vector<LineSupport> lines;
+  std::vector<bool> plain;
+  for (const auto& line : map_lines)
+  {
+    const auto interval = visibleInterval(camera, line, width, height);
+    const auto support = interval ? assessLine(g, camera, line, *interval, width, height, options) : std::nullopt;
+    if (support && support->samples > 0)  // assessed and not only at the border
+    {
+      lines.push_back(*support);
+      plain.push_back(onPlainFloor(line, *support, options));
+    }
+  }
+  const size_t plain_count = static_cast<size_t>(std::count(plain.begin(), plain.end(), true));
+  const bool leave_out = lines.size() - plain_count >= std::max<size_t>(1, options.min_lines_without_plain_floor);
+  size_t on = 0, beside = 0;
+  for (size_t i = 0; i < lines.size(); ++i)
+  {
+    if (leave_out && plain[i])
+      continue;
+    ++out.map_lines;
+    out.samples += lines[i].samples;
+    on += lines[i].on;
+    beside += lines[i].beside;
+  }
+  out.plain_floor_lines = leave_out ? plain_count : 0;
+  if (out.samples > 0)
+  {
+    out.overlay_agreement = static_cast<double>(on) / out.samples;
+    out.overlay_chance = 0.5 * static_cast<double>(beside) / out.samples;
+  }
 }
 }  // namespace
 
@@ -116,7 +176,10 @@ std::string ImageExplanation::describe() const
       "%zu matched lines: median residual %.3f px, held out %.3f px",
       map_lines, 100.0 * overlay_agreement, 100.0 * overlay_chance, overlayExcess(), matched_lines, median_rms_px,
       median_heldout_px);
-  return buffer;
+  if (plain_floor_lines == 0)
+    return buffer;
+  return std::string(buffer) + "; " + std::to_string(plain_floor_lines) +
+         " floor lines left out where the floor looks plain";
 }
 
 ImageExplanation explainImage(const cv::Mat& image, const CameraModel& camera, int width, int height,
@@ -125,18 +188,7 @@ ImageExplanation explainImage(const cv::Mat& image, const CameraModel& camera, i
 {
   ImageExplanation out;
   if (!image.empty())
-  {
-    const Gradients g = gradients(image);
-    size_t on = 0, beside = 0;
-    for (const auto& line : map_lines)
-      if (const auto interval = visibleInterval(camera, line, width, height))
-        assessLine(g, camera, line, *interval, width, height, options, out, on, beside);
-    if (out.samples > 0)
-    {
-      out.overlay_agreement = static_cast<double>(on) / out.samples;
-      out.overlay_chance = 0.5 * static_cast<double>(beside) / out.samples;
-    }
-  }
+    measureOverlay(image, camera, width, height, map_lines, options, out);
   if (refinement)
   {
     std::vector<double> rms, heldout;

@@ -120,6 +120,12 @@ bool adjusting(const SurveyOptions& o)
 {
   return o.localization_sigma_m > 0.0 && o.localization_sigma_deg > 0.0;
 }
+// The final check tells floor lines as the floor lines' extraction does (floor plane and height tolerance).
+void useSurveyFloor(const FloorLineOptions& floor, FixedCameraOptions& cameras)
+{
+  cameras.explanation.floor_height_m = floor.floor_height_m;
+  cameras.explanation.floor_tolerance_m = 0.5 * floor.min_edge_height_m;
+}
 }  // namespace
 
 Survey::Survey(const std::vector<FixedCameraConfig>& cameras, const SurveyOptions& options)
@@ -132,8 +138,9 @@ Survey::Survey(const std::vector<FixedCameraConfig>& cameras, const SurveyOption
 {
   options_.adjustment.localization_sigma_m = options.localization_sigma_m;
   options_.adjustment.localization_sigma_deg = options.localization_sigma_deg;
+  useSurveyFloor(options_.floor, options_.cameras);
   for (const auto& config : cameras)
-    cameras_.emplace(config.name, std::make_unique<FixedCamera>(config, options.cameras));
+    cameras_.emplace(config.name, std::make_unique<FixedCamera>(config, options_.cameras));
   if (options_.occlusion.enabled)
     surfaces_ = std::make_shared<SurfaceVoxels>(options_.occlusion);
 }
@@ -645,6 +652,7 @@ void Survey::setCameraOptions(const FixedCameraOptions& options)
   const size_t median_images = options_.cameras.median_images;
   options_.cameras = options;
   options_.cameras.median_images = median_images;
+  useSurveyFloor(options_.floor, options_.cameras);
   for (auto& [name, camera] : cameras_)
     camera->setOptions(options_.cameras);
 }
