@@ -6,7 +6,8 @@
 //    matched to on plain wall and floor.
 //    Floor lines where the floor looks plain are left out: the joints of planks, tiles and carpet that the Xtion
 //    saw from 1-2 m are often below a fixed camera's resolution from 3-10 m, so a right camera's floor lines find no
-//    edge there; a wrong camera's floor lines that fall on texture the camera sees still count.
+//    edge there; floor lines that fall within 4 px of edges parallel to them (joints the camera resolves) still
+//    count.
 //  - Held-out lines: each matched line's residual had it been left out of the fit (the refinement's linearised
 //    leave-one-out), against the residual level of the fit: a camera pulled onto a few wrong matches predicts its
 //    other lines badly.
@@ -37,8 +38,9 @@ struct ImageExplanationOptions
   // of its samples on an edge and fewer than plain_floor_beside beside it (a joint this camera does not resolve;
   // a wrong camera's floor lines on floor texture it resolves near them usually have edges beside them). On the
   // tuning data (buildings 3001-3014 and the eighth fresh set, docs/measurements.md) it turned three refused right
-  // cameras into accepted ones (20 % and 60 % of all their samples on edges, 62 % and 80 % without their plain-floor
-  // lines, on plank floors); no wrong result or alternative passed with them left out that did not pass with them.
+  // cameras into accepted ones (two on plank floors: 20 % and 60 % of all their samples on edges, 62 % and 80 %
+  // without their plain-floor lines); no wrong result or alternative passed with them left out that did not pass
+  // with them.
   // false: every floor line counts (parameter plain_floor_test).
   bool leave_out_plain_floor = true;
   double floor_height_m = 0.0;      // the survey sets both as its floor lines' (FloorLineOptions: floor_height_m,

@@ -164,7 +164,7 @@ public:
   const SurveyOptions& options() const { return options_; }
   // New options for every fixed camera (thresholds tuned while the node runs), from their next calibration or
   // status on; median_images keeps its start-up value (the median buffers are sized by it), and the final check's
-  // floor is the survey's (FloorLineOptions::floor_height_m).
+  // floor is the survey's (FloorLineOptions: floor_height_m, min_edge_height_m / 2).
   void setCameraOptions(const FixedCameraOptions& options);
 
   // The map adjustment apart from the survey, for a caller that must not hold the survey while it runs (the node

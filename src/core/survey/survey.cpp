@@ -120,6 +120,7 @@ bool adjusting(const SurveyOptions& o)
 {
   return o.localization_sigma_m > 0.0 && o.localization_sigma_deg > 0.0;
 }
+
 // The final check tells floor lines as the floor lines' extraction does (floor plane and height tolerance).
 void useSurveyFloor(const FloorLineOptions& floor, FixedCameraOptions& cameras)
 {
