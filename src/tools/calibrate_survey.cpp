@@ -64,9 +64,9 @@ Options:
   --max-spread M        map lines whose observations spread more (RMS across the line, m) are not used (default 0.01)
   --localization-sigma M,DEG[,TAU]
                         the localiser's error behind the bag's tf (per keyframe x, y sigma in m, yaw sigma in
-                        degrees, correlation time in s): the line map is adjusted jointly with the keyframe poses and
-                        the calibration's sigma includes the map's placement (default 0.02,0.5,5; 0,0: tf is exact,
-                        no adjustment)
+                        degrees, correlation time in s): the line map is adjusted jointly with the keyframe poses
+                        (their priors to tf a Gauss-Markov chain with that correlation time) and the calibration's
+                        sigma includes the map's placement (default 0.02,0.5,5; 0,0: tf is exact, no adjustment)
   --odom-frame NAME     the odometry frame (default odom): consecutive keyframes are tied by their motion in it
   --no-odometry         the map adjustment without odometry
   --odometry-sigma M,PER_M,DEG,PER_DEG

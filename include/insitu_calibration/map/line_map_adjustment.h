@@ -12,8 +12,9 @@
 //  - the depth-based 3D line's two end points against the map line, along the line of sight within the
 //    observation's interpretation plane (over its predicted error: depth noise grows as z^2), the component the 2D
 //    residual leaves open;
-//  - per keyframe a prior to the pose tf gave (localization_sigma_m, localization_sigma_deg). The priors are the
-//    only absolute information, so the map's placement in the map frame is the localiser's errors averaged.
+//  - per keyframe a prior to the pose tf gave (localization_sigma_m, localization_sigma_deg), independent or, with
+//    localization_correlation_s, a Gauss-Markov chain over the keyframes in time order. The priors are the only
+//    absolute information, so the map's placement in the map frame is the localiser's errors averaged.
 //  - odometry between consecutive keyframes that have it (their relative motion, wheel odometry's sigmas).
 // Cauchy loss on the observations, then observations beyond outlier_sigmas are dropped and the problem solved again.
 #ifndef INSITU_CALIBRATION_MAP_LINE_MAP_ADJUSTMENT_H
@@ -107,10 +108,18 @@ struct LineMapAdjustmentOptions
 {
   double localization_sigma_m = 0.02;   // per keyframe, x and y of the pose tf gave
   double localization_sigma_deg = 0.5;  // yaw
-  double rgb_sigma_px = 0.3;            // the Xtion RGB segments' end points across the line
-  double depth_floor_m = 0.002;         // in quadrature with an observation's predicted depth error
-  double loss_sigmas = 3.0;             // Cauchy scale, in sigmas
-  double outlier_sigmas = 5.0;          // observations with a residual beyond are dropped (second solve)
+  // The localiser's error as a stationary Gauss-Markov process with this correlation time (s, over the keyframes'
+  // stamps): the priors then form a chain, each keyframe's correction tied to the previous one's (an AMCL-like
+  // localiser wanders slowly: its errors at keyframes a fraction of a second apart are nearly the same, and one
+  // independent prior per keyframe would pull whole stretches of the map the same wrong way). The chain gives the
+  // survey's shape; the whole survey is then turned and shifted rigidly to where independent priors place it (the
+  // localiser's average over the keyframes: the shifts' mean is zero). 0: independent priors.
+  // Survey sets it from SurveyOptions::localization_correlation_s.
+  double localization_correlation_s = 0.0;
+  double rgb_sigma_px = 0.3;     // the Xtion RGB segments' end points across the line
+  double depth_floor_m = 0.002;  // in quadrature with an observation's predicted depth error
+  double loss_sigmas = 3.0;      // Cauchy scale, in sigmas
+  double outlier_sigmas = 5.0;   // observations with a residual beyond are dropped (second solve)
   int max_iterations = 50;
   // Above this many keyframes the solver's linear steps are conjugate gradients on the keyframes' reduced system
   // (Ceres ITERATIVE_SCHUR, Schur-Jacobi preconditioner) instead of its sparse Cholesky factorisation (SPARSE_SCHUR),

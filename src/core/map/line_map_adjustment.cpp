@@ -93,6 +93,55 @@ struct PosePrior
   }
 };
 
+// The localiser's error as a stationary Gauss-Markov process (correlation time tau): the correction of a keyframe
+// given the previous one in time, c1 - rho c0 with rho = exp(-dt / tau), has the sigma sigma * sqrt(1 - rho^2).
+// With the first keyframe's PosePrior this is the process's exact joint density: a localiser that wanders slowly
+// tells the adjustment far less than one independent prior per keyframe would (and where its error is smooth, that
+// such priors would pull whole stretches of keyframes the same wrong way).
+struct MarkovPosePrior
+{
+  double rho, inverse_sigma_m, inverse_sigma_rad;
+  template <typename T>
+  bool operator()(const T* previous, const T* pose, T* r) const
+  {
+    r[0] = (pose[0] - T(rho) * previous[0]) * T(inverse_sigma_m);
+    r[1] = (pose[1] - T(rho) * previous[1]) * T(inverse_sigma_m);
+    r[2] = (pose[2] - T(rho) * previous[2]) * T(inverse_sigma_rad);
+    return true;
+  }
+};
+
+// The localiser's prior on every keyframe's correction: independent per keyframe (localization_correlation_s 0), or
+// the Gauss-Markov chain over the keyframes in time order.
+void addLocalizationPriors(const std::vector<Keyframe>& keyframes, const LineMapAdjustmentOptions& options,
+                           std::vector<Eigen::Vector3d>* pose, ceres::Problem* problem)
+{
+  const double inverse_m = 1.0 / options.localization_sigma_m;
+  const double inverse_rad = 180.0 / (M_PI * options.localization_sigma_deg);
+  std::vector<size_t> order(keyframes.size());
+  for (size_t k = 0; k < order.size(); ++k)
+    order[k] = k;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](size_t a, size_t b) { return keyframes[a].stamp < keyframes[b].stamp; });
+  for (size_t i = 0; i < order.size(); ++i)
+  {
+    double* p = (*pose)[order[i]].data();
+    if (i == 0 || !(options.localization_correlation_s > 0.0))
+    {
+      problem->AddResidualBlock(new ceres::AutoDiffCostFunction<PosePrior, 3, 3>(new PosePrior{inverse_m, inverse_rad}),
+                                nullptr, p);
+      continue;
+    }
+    const double dt = keyframes[order[i]].stamp - keyframes[order[i - 1]].stamp;
+    const double rho = std::exp(-dt / options.localization_correlation_s);
+    // Keyframes at one stamp share the error: held together to a thousandth of its sigma.
+    const double scale = 1.0 / std::sqrt(std::max(1e-6, 1.0 - rho * rho));
+    problem->AddResidualBlock(new ceres::AutoDiffCostFunction<MarkovPosePrior, 3, 3, 3>(
+                                  new MarkovPosePrior{rho, scale * inverse_m, scale * inverse_rad}),
+                              nullptr, (*pose)[order[i - 1]].data(), p);
+  }
+}
+
 // Consecutive keyframes' relative motion (corrected poses) against odometry's: translation (m / sigma) and
 // rotation (angle-axis, rad / sigma).
 struct OdometryResidual
@@ -182,6 +231,13 @@ Status validate(const std::vector<Keyframe>& keyframes, const std::vector<Adjust
   if (!(o.rgb_sigma_px > 0.0 && o.depth_floor_m > 0.0 && o.localization_sigma_m > 0.0 &&
         o.localization_sigma_deg > 0.0))
     return Error(ErrorCode::kInvalidInput, "the adjustment's sigmas must be positive");
+  if (!(o.localization_correlation_s >= 0.0 && std::isfinite(o.localization_correlation_s)))
+    return Error(ErrorCode::kInvalidInput, "the localiser's correlation time must be 0 or positive (seconds)");
+  if (o.localization_correlation_s > 0.0)
+    for (const auto& kf : keyframes)
+      if (!std::isfinite(kf.stamp))
+        return Error(ErrorCode::kInvalidInput,
+                     "a keyframe without a finite stamp: the localiser's correlation needs every keyframe's time");
   for (const auto& ob : observations)
     if (ob.keyframe < 0 || ob.keyframe >= static_cast<int>(keyframes.size()) || ob.map_line < 0 ||
         ob.map_line >= static_cast<int>(lines.size()) || ob.line < 0 ||
@@ -254,6 +310,63 @@ double solve(ceres::Problem* problem, const LineMapAdjustmentOptions& adjustment
     *initial_cost = summary.initial_cost;
   return summary.final_cost;
 }
+
+// The rigid turn phi (about the keyframes' centre q) and shift t of the whole adjusted survey that brings it closest to
+// the tf poses, every keyframe weighed alike by the localiser's sigmas: the placement independent priors give (each
+// keyframe's correction small in x, y and yaw), applied to the shape the Gauss-Markov chain gave. The observations
+// and odometry do not see such a motion; it moves keyframe k's correction to yaw + phi and
+// R(phi) (p_k + d_k - q) + q + t - p_k (p_k its tf position, d_k its shift).
+struct RigidPlacement
+{
+  double phi = 0.0;
+  Eigen::Vector2d q = Eigen::Vector2d::Zero(), t = Eigen::Vector2d::Zero();
+  Eigen::Vector2d move(const Eigen::Vector2d& x) const { return Eigen::Rotation2Dd(phi) * (x - q) + q + t; }
+};
+
+RigidPlacement placementAtTheLocalisersMean(const std::vector<Keyframe>& keyframes,
+                                            const std::vector<Eigen::Vector3d>& pose,
+                                            const LineMapAdjustmentOptions& options)
+{
+  const double n = static_cast<double>(keyframes.size());
+  RigidPlacement g;
+  for (const auto& kf : keyframes)
+    g.q += kf.T_map_camera.translation().head<2>() / n;
+  // With b_k = p_k - mean p and a_k = p_k + d_k - q about their mean, the shifts' cost is
+  // const - 2 (cos phi S_c + sin phi S_s) for the best t; the yaw's sum (yaw_k + phi)^2.
+  Eigen::Vector2d mean_a = Eigen::Vector2d::Zero();
+  double mean_yaw = 0.0;
+  for (size_t k = 0; k < keyframes.size(); ++k)
+  {
+    mean_a += (keyframes[k].T_map_camera.translation().head<2>() + pose[k].head<2>() - g.q) / n;
+    mean_yaw += pose[k].z() / n;
+  }
+  double s_c = 0.0, s_s = 0.0;
+  for (size_t k = 0; k < keyframes.size(); ++k)
+  {
+    const Eigen::Vector2d b = keyframes[k].T_map_camera.translation().head<2>() - g.q;
+    const Eigen::Vector2d a = keyframes[k].T_map_camera.translation().head<2>() + pose[k].head<2>() - g.q - mean_a;
+    s_c += b.dot(a);
+    s_s += b.y() * a.x() - b.x() * a.y();
+  }
+  const double w_m = 1.0 / (options.localization_sigma_m * options.localization_sigma_m);
+  const double sigma_rad = options.localization_sigma_deg * M_PI / 180.0, w_rad = 1.0 / (sigma_rad * sigma_rad);
+  // J(phi) = -2 w_m (cos phi S_c + sin phi S_s) + w_rad n (phi + mean_yaw)^2 + const: Newton from phi = -mean_yaw.
+  double phi = -mean_yaw;
+  for (int i = 0; i < 20; ++i)
+  {
+    const double c = std::cos(phi), s = std::sin(phi);
+    const double gradient = -2.0 * w_m * (-s * s_c + c * s_s) + 2.0 * w_rad * n * (phi + mean_yaw);
+    const double curvature = std::max(2.0 * w_m * (c * s_c + s * s_s) + 2.0 * w_rad * n, 1e-12);
+    const double step = gradient / curvature;
+    phi -= step;
+    if (std::abs(step) < 1e-12)
+      break;
+  }
+  g.phi = phi;
+  g.t = -(Eigen::Rotation2Dd(phi) * mean_a);  // the shifts' mean then vanishes
+  return g;
+}
+
 // Marks the observations with a residual beyond limit (in sigmas) as outliers; whether there were any.
 bool anyOutlier(const std::vector<LineObservation>& observations, const std::vector<ObservationResidual>& residuals,
                 const std::vector<Eigen::Vector3d>& pose, const std::vector<Eigen::Vector4d>& line, double limit,
@@ -309,10 +422,7 @@ Expected<LineMapAdjustmentResult> adjustLineMap(const std::vector<Keyframe>& key
   for (int round = 0; round < 2; ++round)
   {
     ceres::Problem problem;
-    const PosePrior prior{1.0 / options.localization_sigma_m, 180.0 / (M_PI * options.localization_sigma_deg)};
-    for (auto& p : pose)
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PosePrior, 3, 3>(new PosePrior(prior)), nullptr,
-                               p.data());
+    addLocalizationPriors(keyframes, options, &pose, &problem);
     addOdometry(keyframes, options, &pose, &problem);
     for (size_t i = 0; i < observations.size(); ++i)
       if (result.inlier[i])
@@ -330,10 +440,26 @@ Expected<LineMapAdjustmentResult> adjustLineMap(const std::vector<Keyframe>& key
     }
   }
 
-  for (const auto& p : pose)
-    result.corrections.push_back({p.x(), p.y(), p.z()});
+  // The chain fixes the survey's shape; its placement (which weighs the chain's ends most) is then put where
+  // independent priors put it: at the localiser's average over the keyframes, as the survey's limit is defined.
+  RigidPlacement g;
+  if (options.localization_correlation_s > 0.0)
+    g = placementAtTheLocalisersMean(keyframes, pose, options);
+  for (size_t k = 0; k < pose.size(); ++k)
+  {
+    const Eigen::Vector2d p = keyframes[k].T_map_camera.translation().head<2>();
+    const Eigen::Vector2d d = g.move(p + pose[k].head<2>()) - p;
+    result.corrections.push_back({d.x(), d.y(), pose[k].z() + g.phi});
+  }
+  const Eigen::Matrix3d turn = Eigen::AngleAxisd(g.phi, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   for (size_t j = 0; j < lines.size(); ++j)
-    result.lines.push_back(bases[j].adjusted(line[j].data()));
+  {
+    AdjustedLine l = bases[j].adjusted(line[j].data());
+    const Eigen::Vector2d moved = g.move(l.point.head<2>());
+    l.point.head<2>() = moved;
+    l.direction = turn * l.direction;
+    result.lines.push_back(l);
+  }
   result.cpu_ms = cpuMsSince(start);
   return result;
 }

@@ -139,6 +139,7 @@ Survey::Survey(const std::vector<FixedCameraConfig>& cameras, const SurveyOption
 {
   options_.adjustment.localization_sigma_m = options.localization_sigma_m;
   options_.adjustment.localization_sigma_deg = options.localization_sigma_deg;
+  options_.adjustment.localization_correlation_s = options.localization_correlation_s;
   useSurveyFloor(options_.floor, options_.cameras);
   for (const auto& config : cameras)
     cameras_.emplace(config.name, std::make_unique<FixedCamera>(config, options_.cameras));
