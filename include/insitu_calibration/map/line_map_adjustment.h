@@ -134,6 +134,8 @@ struct LineMapAdjustmentOptions
   double odometry_sigma_per_m = 0.01;
   double odometry_sigma_deg = 0.02;
   double odometry_sigma_per_deg = 0.01;
+  // With localization_correlation_s above 0 the standard deviations are the chain's, before the rigid placement:
+  // they hold for the survey's shape, not for its placement in the map frame (Survey::mapPlacement gives that).
   bool covariance = false;  // also the keyframe poses' and map lines' standard deviations (Ceres' covariance)
 };
 

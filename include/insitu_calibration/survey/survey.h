@@ -53,7 +53,7 @@ struct SurveyOptions
   double localization_sigma_deg = 0.5;
   double localization_correlation_s = 5.0;
   int adjustment_rounds = 4;  // graduated: merge tolerances widened by the localiser's error, narrowing to the map's
-  LineMapAdjustmentOptions adjustment;  // its localization sigmas are set from the two above
+  LineMapAdjustmentOptions adjustment;  // its localization sigmas and correlation are set from the three above
   // Lines on the floor beyond the depth range (map/floor_lines.h), added to the map in use (adjusted or not).
   FloorLineOptions floor;
   // Lines on the ceiling (a horizontal plane above the Xtion that depth measured) whose own depth is too poor for

@@ -94,10 +94,10 @@ struct PosePrior
 };
 
 // The localiser's error as a stationary Gauss-Markov process (correlation time tau): the correction of a keyframe
-// given the previous one in time, c1 - rho c0 with rho = exp(-dt / tau), has the sigma sigma * sqrt(1 - rho^2).
-// With the first keyframe's PosePrior this is the process's exact joint density: a localiser that wanders slowly
-// tells the adjustment far less than one independent prior per keyframe would (and where its error is smooth, that
-// such priors would pull whole stretches of keyframes the same wrong way).
+// given the previous one, c1 - rho c0 with rho = exp(-dt / tau), has the sigma sigma * sqrt(1 - rho^2). With a
+// PosePrior on the chain's first keyframe this is the process's exact joint density. A localiser that wanders slowly
+// tells the adjustment far less than one independent prior per keyframe would claim, and such priors would pull whole
+// stretches of keyframes the same wrong way where its error is smooth.
 struct MarkovPosePrior
 {
   double rho, inverse_sigma_m, inverse_sigma_rad;
@@ -112,33 +112,28 @@ struct MarkovPosePrior
 };
 
 // The localiser's prior on every keyframe's correction: independent per keyframe (localization_correlation_s 0), or
-// the Gauss-Markov chain over the keyframes in time order.
+// the Gauss-Markov chain over the keyframes in the order they came (as odometry ties them). A keyframe whose stamp is
+// not after its predecessor's (a bag played again, a clock reset) starts a new chain.
 void addLocalizationPriors(const std::vector<Keyframe>& keyframes, const LineMapAdjustmentOptions& options,
                            std::vector<Eigen::Vector3d>* pose, ceres::Problem* problem)
 {
   const double inverse_m = 1.0 / options.localization_sigma_m;
   const double inverse_rad = 180.0 / (M_PI * options.localization_sigma_deg);
-  std::vector<size_t> order(keyframes.size());
-  for (size_t k = 0; k < order.size(); ++k)
-    order[k] = k;
-  std::stable_sort(order.begin(), order.end(),
-                   [&](size_t a, size_t b) { return keyframes[a].stamp < keyframes[b].stamp; });
-  for (size_t i = 0; i < order.size(); ++i)
+  for (size_t k = 0; k < keyframes.size(); ++k)
   {
-    double* p = (*pose)[order[i]].data();
-    if (i == 0 || !(options.localization_correlation_s > 0.0))
+    const double dt = k > 0 ? keyframes[k].stamp - keyframes[k - 1].stamp : 0.0;
+    if (!(options.localization_correlation_s > 0.0 && dt > 0.0))
     {
       problem->AddResidualBlock(new ceres::AutoDiffCostFunction<PosePrior, 3, 3>(new PosePrior{inverse_m, inverse_rad}),
-                                nullptr, p);
+                                nullptr, (*pose)[k].data());
       continue;
     }
-    const double dt = keyframes[order[i]].stamp - keyframes[order[i - 1]].stamp;
     const double rho = std::exp(-dt / options.localization_correlation_s);
-    // Keyframes at one stamp share the error: held together to a thousandth of its sigma.
+    // Keyframes a moment apart share the error: held together to at most a thousandth of its sigma.
     const double scale = 1.0 / std::sqrt(std::max(1e-6, 1.0 - rho * rho));
     problem->AddResidualBlock(new ceres::AutoDiffCostFunction<MarkovPosePrior, 3, 3, 3>(
                                   new MarkovPosePrior{rho, scale * inverse_m, scale * inverse_rad}),
-                              nullptr, (*pose)[order[i - 1]].data(), p);
+                              nullptr, (*pose)[k - 1].data(), (*pose)[k].data());
   }
 }
 
@@ -311,18 +306,38 @@ double solve(ceres::Problem* problem, const LineMapAdjustmentOptions& adjustment
   return summary.final_cost;
 }
 
-// The rigid turn phi (about the keyframes' centre q) and shift t of the whole adjusted survey that brings it closest to
-// the tf poses, every keyframe weighed alike by the localiser's sigmas: the placement independent priors give (each
-// keyframe's correction small in x, y and yaw), applied to the shape the Gauss-Markov chain gave. The observations
-// and odometry do not see such a motion; it moves keyframe k's correction to yaw + phi and
-// R(phi) (p_k + d_k - q) + q + t - p_k (p_k its tf position, d_k its shift).
+// The keyframe's tf camera position in the floor's plane: the pivot of its correction.
+Eigen::Vector2d pivot(const Keyframe& keyframe)
+{
+  return keyframe.T_map_camera.translation().head<2>();
+}
+
+// A rigid turn phi (about q) and shift t of the whole adjusted survey in the floor's plane. The observations and
+// odometry do not see it: it moves a keyframe's correction (shift d about its pivot p, yaw) to
+// R(phi) (p + d - q) + q + t - p and yaw + phi, and the map lines with the keyframes.
 struct RigidPlacement
 {
   double phi = 0.0;
   Eigen::Vector2d q = Eigen::Vector2d::Zero(), t = Eigen::Vector2d::Zero();
   Eigen::Vector2d move(const Eigen::Vector2d& x) const { return Eigen::Rotation2Dd(phi) * (x - q) + q + t; }
+  PoseCorrection correction(const Eigen::Vector2d& p, const Eigen::Vector3d& pose) const
+  {
+    const Eigen::Vector2d d = move(p + pose.head<2>()) - p;
+    return {d.x(), d.y(), pose.z() + phi};
+  }
+  AdjustedLine line(AdjustedLine l) const
+  {
+    l.point.head<2>() = move(l.point.head<2>()).eval();
+    l.direction = Eigen::AngleAxisd(phi, Eigen::Vector3d::UnitZ()) * l.direction;
+    return l;
+  }
 };
 
+// The rigid motion of the adjusted survey that brings it closest to the tf poses, every keyframe weighed alike by the
+// localiser's sigmas (sum of |d_k|^2 / sigma_m^2 + yaw_k^2 / sigma_rad^2): where independent priors place a survey,
+// at the localiser's average over the keyframes. With q the pivots' mean, b_k = p_k - q and a_k = p_k + d_k - q about
+// their mean: the best t makes the shifts' mean zero, and phi minimises
+// J(phi) = -2 (cos phi S_c + sin phi S_s) / sigma_m^2 + n (phi + mean yaw)^2 / sigma_rad^2 (Newton).
 RigidPlacement placementAtTheLocalisersMean(const std::vector<Keyframe>& keyframes,
                                             const std::vector<Eigen::Vector3d>& pose,
                                             const LineMapAdjustmentOptions& options)
@@ -330,27 +345,24 @@ RigidPlacement placementAtTheLocalisersMean(const std::vector<Keyframe>& keyfram
   const double n = static_cast<double>(keyframes.size());
   RigidPlacement g;
   for (const auto& kf : keyframes)
-    g.q += kf.T_map_camera.translation().head<2>() / n;
-  // With b_k = p_k - mean p and a_k = p_k + d_k - q about their mean, the shifts' cost is
-  // const - 2 (cos phi S_c + sin phi S_s) for the best t; the yaw's sum (yaw_k + phi)^2.
+    g.q += pivot(kf) / n;
   Eigen::Vector2d mean_a = Eigen::Vector2d::Zero();
   double mean_yaw = 0.0;
   for (size_t k = 0; k < keyframes.size(); ++k)
   {
-    mean_a += (keyframes[k].T_map_camera.translation().head<2>() + pose[k].head<2>() - g.q) / n;
+    mean_a += (pivot(keyframes[k]) + pose[k].head<2>() - g.q) / n;
     mean_yaw += pose[k].z() / n;
   }
   double s_c = 0.0, s_s = 0.0;
   for (size_t k = 0; k < keyframes.size(); ++k)
   {
-    const Eigen::Vector2d b = keyframes[k].T_map_camera.translation().head<2>() - g.q;
-    const Eigen::Vector2d a = keyframes[k].T_map_camera.translation().head<2>() + pose[k].head<2>() - g.q - mean_a;
+    const Eigen::Vector2d b = pivot(keyframes[k]) - g.q;
+    const Eigen::Vector2d a = pivot(keyframes[k]) + pose[k].head<2>() - g.q - mean_a;
     s_c += b.dot(a);
     s_s += b.y() * a.x() - b.x() * a.y();
   }
   const double w_m = 1.0 / (options.localization_sigma_m * options.localization_sigma_m);
   const double sigma_rad = options.localization_sigma_deg * M_PI / 180.0, w_rad = 1.0 / (sigma_rad * sigma_rad);
-  // J(phi) = -2 w_m (cos phi S_c + sin phi S_s) + w_rad n (phi + mean_yaw)^2 + const: Newton from phi = -mean_yaw.
   double phi = -mean_yaw;
   for (int i = 0; i < 20; ++i)
   {
@@ -363,7 +375,7 @@ RigidPlacement placementAtTheLocalisersMean(const std::vector<Keyframe>& keyfram
       break;
   }
   g.phi = phi;
-  g.t = -(Eigen::Rotation2Dd(phi) * mean_a);  // the shifts' mean then vanishes
+  g.t = -(Eigen::Rotation2Dd(phi) * mean_a);
   return g;
 }
 
@@ -440,25 +452,22 @@ Expected<LineMapAdjustmentResult> adjustLineMap(const std::vector<Keyframe>& key
     }
   }
 
-  // The chain fixes the survey's shape; its placement (which weighs the chain's ends most) is then put where
-  // independent priors put it: at the localiser's average over the keyframes, as the survey's limit is defined.
-  RigidPlacement g;
-  if (options.localization_correlation_s > 0.0)
-    g = placementAtTheLocalisersMean(keyframes, pose, options);
+  // The chain gives the survey's shape; its own placement weighs the chain's ends most, so the survey is moved to
+  // where independent priors place it: the localiser's average over the keyframes, as the survey's limit is defined.
+  const bool chained = options.localization_correlation_s > 0.0;
+  const RigidPlacement g = chained ? placementAtTheLocalisersMean(keyframes, pose, options) : RigidPlacement{};
   for (size_t k = 0; k < pose.size(); ++k)
-  {
-    const Eigen::Vector2d p = keyframes[k].T_map_camera.translation().head<2>();
-    const Eigen::Vector2d d = g.move(p + pose[k].head<2>()) - p;
-    result.corrections.push_back({d.x(), d.y(), pose[k].z() + g.phi});
-  }
-  const Eigen::Matrix3d turn = Eigen::AngleAxisd(g.phi, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    result.corrections.push_back(chained ? g.correction(pivot(keyframes[k]), pose[k])
+                                         : PoseCorrection{pose[k].x(), pose[k].y(), pose[k].z()});
+  // Lines no inlier observed were not in the problem: returned as they came.
+  std::vector<bool> observed(lines.size(), false);
+  for (size_t i = 0; i < observations.size(); ++i)
+    if (result.inlier[i])
+      observed[observations[i].map_line] = true;
   for (size_t j = 0; j < lines.size(); ++j)
   {
-    AdjustedLine l = bases[j].adjusted(line[j].data());
-    const Eigen::Vector2d moved = g.move(l.point.head<2>());
-    l.point.head<2>() = moved;
-    l.direction = turn * l.direction;
-    result.lines.push_back(l);
+    const AdjustedLine l = bases[j].adjusted(line[j].data());
+    result.lines.push_back(chained && observed[j] ? g.line(l) : l);
   }
   result.cpu_ms = cpuMsSince(start);
   return result;
