@@ -28,6 +28,23 @@ struct Scene
   std::vector<ic::LineObservation> observations;
 };
 
+// Keyframe kf's observation of edge j (a, b: its end points in the camera frame): the 2D end points with pixel noise,
+// the depth line with depth noise (m, times z^2); appended to kf's lines and s's observations.
+void observe(Scene* s, ic::Keyframe* kf, size_t j, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+             double pixel_noise, double depth_noise_per_m2, std::mt19937& rng, std::normal_distribution<double>& n)
+{
+  ic::KeyframeLine o;
+  o.image_a = a.hnormalized() + pixel_noise / kFocal * Eigen::Vector2d(n(rng), n(rng));
+  o.image_b = b.hnormalized() + pixel_noise / kFocal * Eigen::Vector2d(n(rng), n(rng));
+  const double sa = depth_noise_per_m2 * a.squaredNorm(), sb = depth_noise_per_m2 * b.squaredNorm();
+  o.line.a = a * (1.0 + sa / a.norm() * n(rng));
+  o.line.b = b * (1.0 + sb / b.norm() * n(rng));
+  o.line.sigma_m = std::max({sa, sb, 1e-4});
+  s->observations.push_back(
+      {static_cast<int>(s->keyframes.size()), static_cast<int>(kf->lines.size()), static_cast<int>(j)});
+  kf->lines.push_back(o);
+}
+
 // Edges 3-6 m ahead of the route (x), keyframes in twins at the same true pose with opposite localiser errors (so
 // that the priors' average, which fixes the gauge, is the truth). Noise: 2D end points (px) and depth along the
 // line of sight (m, times z^2).
@@ -62,18 +79,8 @@ Scene makeScene(double pixel_noise, double depth_noise_per_m2, std::mt19937& rng
       for (size_t j = 0; j < s.edges.size(); ++j)
       {
         const Eigen::Vector3d a = camera_from_map * s.edges[j].first, b = camera_from_map * s.edges[j].second;
-        if (a.z() < 0.5 || b.z() < 0.5)
-          continue;
-        ic::KeyframeLine o;
-        o.image_a = a.hnormalized() + pixel_noise / kFocal * Eigen::Vector2d(n(rng), n(rng));
-        o.image_b = b.hnormalized() + pixel_noise / kFocal * Eigen::Vector2d(n(rng), n(rng));
-        const double sa = depth_noise_per_m2 * a.squaredNorm(), sb = depth_noise_per_m2 * b.squaredNorm();
-        o.line.a = a * (1.0 + sa / a.norm() * n(rng));
-        o.line.b = b * (1.0 + sb / b.norm() * n(rng));
-        o.line.sigma_m = std::max({sa, sb, 1e-4});
-        s.observations.push_back(
-            {static_cast<int>(s.keyframes.size()), static_cast<int>(kf.lines.size()), static_cast<int>(j)});
-        kf.lines.push_back(o);
+        if (a.z() >= 0.5 && b.z() >= 0.5)
+          observe(&s, &kf, j, a, b, pixel_noise, depth_noise_per_m2, rng, n);
       }
       s.keyframes.push_back(kf);
     }
@@ -314,22 +321,26 @@ Scene makeWanderingScene(double pixel_noise, double depth_noise_per_m2, std::mt1
       auto inView = [fov_x](const Eigen::Vector3d& x) {
         return x.z() > 0.5 && std::abs(x.x() / x.z()) < fov_x && std::abs(x.y() / x.z()) < 240.0 / kFocal;
       };
-      if (!inView(a) || !inView(b))
-        continue;
-      ic::KeyframeLine o;
-      o.image_a = a.hnormalized() + pixel_noise / kFocal * Eigen::Vector2d(n(rng), n(rng));
-      o.image_b = b.hnormalized() + pixel_noise / kFocal * Eigen::Vector2d(n(rng), n(rng));
-      const double sa = depth_noise_per_m2 * a.squaredNorm(), sb = depth_noise_per_m2 * b.squaredNorm();
-      o.line.a = a * (1.0 + sa / a.norm() * n(rng));
-      o.line.b = b * (1.0 + sb / b.norm() * n(rng));
-      o.line.sigma_m = std::max({sa, sb, 1e-4});
-      s.observations.push_back(
-          {static_cast<int>(s.keyframes.size()), static_cast<int>(kf.lines.size()), static_cast<int>(j)});
-      kf.lines.push_back(o);
+      if (inView(a) && inView(b))
+        observe(&s, &kf, j, a, b, pixel_noise, depth_noise_per_m2, rng, n);
     }
     s.keyframes.push_back(kf);
   }
   return s;
+}
+
+// The scene adjusted from the same starts with independent priors and with the Gauss-Markov chain (5 s).
+struct BothPriors
+{
+  ic::Expected<ic::LineMapAdjustmentResult> independent, chained;
+};
+BothPriors adjustWithBothPriors(const Scene& s, const std::vector<ic::AdjustedLine>& starts,
+                                const ic::LineMapAdjustmentOptions& independent = {})
+{
+  ic::LineMapAdjustmentOptions chained = independent;
+  chained.localization_correlation_s = 5.0;
+  return {ic::adjustLineMap(s.keyframes, starts, s.observations, {}, independent),
+          ic::adjustLineMap(s.keyframes, starts, s.observations, {}, chained)};
 }
 
 // Each keyframe's remaining error (x, y in m, yaw in rad) after the adjustment: the corrected pose against the truth.
@@ -394,13 +405,10 @@ TEST(LineMapAdjustment, NoiseFreeWithCorrelatedPriorsRecoversTheShapeAndTheIndep
 {
   std::mt19937 rng(kSeed + 5);
   const Scene s = makeWanderingScene(0.0, 0.0, rng, 3.0, 120, 3.0);
-  const std::vector<ic::AdjustedLine> starts = perturbedLines(s, rng);
-  ic::LineMapAdjustmentOptions independent;
-  independent.depth_floor_m = 1e-4;
-  ic::LineMapAdjustmentOptions chained = independent;
-  chained.localization_correlation_s = 5.0;
-  const auto result = ic::adjustLineMap(s.keyframes, starts, s.observations, {}, chained);
-  const auto reference = ic::adjustLineMap(s.keyframes, starts, s.observations, {}, independent);
+  ic::LineMapAdjustmentOptions options;
+  options.depth_floor_m = 1e-4;
+  const BothPriors both = adjustWithBothPriors(s, perturbedLines(s, rng), options);
+  const auto &result = both.chained, &reference = both.independent;
   ASSERT_TRUE(result && reference);
   EXPECT_EQ(result->dropped, 0u);
   std::vector<Eigen::Isometry3d> corrected;
@@ -439,12 +447,8 @@ TEST(LineMapAdjustment, CorrelatedPriorsKeepAWanderingLocalisersMapConsistent)
   {
     std::mt19937 rng(kSeed + 6 + seed);
     const Scene s = makeWanderingScene(0.3, 1.425e-3, rng);
-    const std::vector<ic::AdjustedLine> starts = perturbedLines(s, rng);
-    ic::LineMapAdjustmentOptions independent;
-    ic::LineMapAdjustmentOptions chained = independent;
-    chained.localization_correlation_s = 5.0;
-    const auto a = ic::adjustLineMap(s.keyframes, starts, s.observations, {}, independent);
-    const auto b = ic::adjustLineMap(s.keyframes, starts, s.observations, {}, chained);
+    const BothPriors both = adjustWithBothPriors(s, perturbedLines(s, rng));
+    const auto &a = both.independent, &b = both.chained;
     ASSERT_TRUE(a && b);
     ic::LineMapAdjustmentResult unadjusted;
     unadjusted.corrections.resize(s.keyframes.size());
@@ -497,12 +501,8 @@ TEST(LineMapAdjustment, StampsThatDoNotIncreaseStartNewChains)
   Scene s = makeWanderingScene(0.3, 1.425e-3, rng);
   for (auto& kf : s.keyframes)
     kf.stamp = 12.0;
-  const std::vector<ic::AdjustedLine> starts = perturbedLines(s, rng);
-  ic::LineMapAdjustmentOptions independent;
-  ic::LineMapAdjustmentOptions chained = independent;
-  chained.localization_correlation_s = 5.0;
-  const auto a = ic::adjustLineMap(s.keyframes, starts, s.observations, {}, independent);
-  const auto b = ic::adjustLineMap(s.keyframes, starts, s.observations, {}, chained);
+  const BothPriors both = adjustWithBothPriors(s, perturbedLines(s, rng));
+  const auto &a = both.independent, &b = both.chained;
   ASSERT_TRUE(a && b);
   for (size_t k = 0; k < s.keyframes.size(); ++k)
   {
