@@ -138,7 +138,9 @@ void expectCalibrationNearTruth(const std::string& name, const ic::CalibrationFi
   EXPECT_LT(rotation_deg, 3.0 * u.rotation_deg) << name;
 }
 
-// The calibrated cameras' poses relative to each other against the truth's.
+// The calibrated cameras' poses relative to each other against the truth's: within 20 mm and 0.2 deg (issue 11's goal
+// at 5 cm / 1.5 deg; measured here 5.5-8.8 mm and at most 0.100 deg since the localiser's priors are a Gauss-Markov
+// chain; calibrate_survey on simulate_survey's bag of this seed gave 18.8-30.3 mm before it, 3.9-14.7 mm after).
 void expectRelativePosesNearTruth(const std::vector<ic::CameraPose>& found, const std::vector<ic::CameraPose>& truths)
 {
   for (size_t i = 0; i < found.size(); ++i)
@@ -149,8 +151,8 @@ void expectRelativePosesNearTruth(const std::vector<ic::CameraPose>& found, cons
       const double position_mm = 1e3 * (p - pt).norm();
       const double rotation_deg = Eigen::AngleAxisd(r * rt.transpose()).angle() * 180.0 / M_PI;
       std::printf("relative %zu-%zu: %.2f mm, %.4f deg\n", i, j, position_mm, rotation_deg);
-      EXPECT_LT(position_mm, 200.0) << i << "-" << j;
-      EXPECT_LT(rotation_deg, 1.2) << i << "-" << j;
+      EXPECT_LT(position_mm, 20.0) << i << "-" << j;
+      EXPECT_LT(rotation_deg, 0.2) << i << "-" << j;
     }
 }
 }  // namespace
