@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <random>
 #include <regex>
 #include <set>
@@ -327,4 +328,55 @@ TEST(CalibrationReportOverlay, AMapEdgeHiddenBehindAForegroundObjectIsNotDrawnTh
   // The plain overlay draws it wide all the way across (what the report's must not do).
   const cv::Mat plain = ic::drawOverlay(image, 1280, 960, camera, map, {});
   EXPECT_TRUE(red(plain, 900, 479) && red(plain, 900, 481));
+}
+
+// The report's overlay of a result the final check assessed shows what it counted: a counted map line wide where an
+// image edge lies under it and thin where none does; a floor line it left out and a map line it never saw (hidden)
+// in blue dashes, not red.
+TEST(CalibrationReportOverlay, ShowsWhatTheFinalCheckCountedAndWhatItLeftOut)
+{
+  const ic::CameraModel camera({1000.0, 1000.0, 0.0, 640.0, 480.0}, {0.0, {640.0, 480.0}}, {});
+  const ic::Segment3d counted{Eigen::Vector3d(-3.0, 0.0, 5.0), Eigen::Vector3d(3.0, 0.0, 5.0)};   // row 480
+  const ic::Segment3d left_out{Eigen::Vector3d(-3.0, 1.0, 5.0), Eigen::Vector3d(3.0, 1.0, 5.0)};  // row 680
+  const ic::Segment3d hidden{Eigen::Vector3d(-3.0, -1.0, 5.0), Eigen::Vector3d(3.0, -1.0, 5.0)};  // row 280
+  cv::Mat image(960, 1280, CV_8UC1, cv::Scalar(0));
+  image(cv::Rect(0, 481, 640, 479)).setTo(255);  // an edge under the counted line's left half only
+  std::vector<ic::EdgeSamples> checked = ic::sampleEdgeSupport(image, camera, 1280, 960, {counted, left_out});
+  ASSERT_EQ(checked.size(), 2u);
+  checked[1].counted = false;  // as the check leaves out a floor line where the floor looks plain
+  const cv::Mat overlay =
+      ic::drawFinalCheckOverlay(image, 1280, 960, camera, {counted, left_out, hidden}, checked, {}, {});
+  const auto red = [&](int x, int y) {
+    const cv::Vec3b p = overlay.at<cv::Vec3b>(y, x);
+    return p[2] > 150 && p[1] < 100 && p[0] < 100;
+  };
+  const auto blue = [&](int x, int y) {
+    const cv::Vec3b p = overlay.at<cv::Vec3b>(y, x);
+    return p[0] > 150 && p[2] < 120 && p[0] > p[2] + 80;
+  };
+  const auto count = [](int from, int to, const std::function<bool(int)>& test) {
+    size_t n = 0;
+    for (int x = from; x < to; ++x)
+      n += test(x) ? 1 : 0;
+    return n;
+  };
+  // Counted, on an edge: wide (5 px at this size).
+  EXPECT_GT(count(100, 560, [&](int x) { return red(x, 478) && red(x, 482); }), 440u);
+  // Counted, no edge: thin red on the line, not wide, not blue.
+  EXPECT_GT(count(720, 1200, [&](int x) { return red(x, 480) || red(x, 481); }), 440u);
+  EXPECT_EQ(count(720, 1200, [&](int x) { return red(x, 477) || red(x, 483); }), 0u);
+  // Left out and hidden: blue dashes (about half of their length), never red.
+  for (const int row : {680, 280})
+  {
+    const size_t blue_columns =
+        count(100, 1200, [&](int x) { return blue(x, row - 1) || blue(x, row) || blue(x, row + 1); });
+    EXPECT_GT(blue_columns, 350u) << "row " << row;
+    EXPECT_LT(blue_columns, 800u) << "row " << row;  // dashed
+    EXPECT_EQ(count(100, 1200, [&](int x) { return red(x, row - 1) || red(x, row) || red(x, row + 1); }), 0u)
+        << "row " << row;
+  }
+  // Without an image: the plain overlay (every map line red).
+  const cv::Mat plain = ic::drawFinalCheckOverlay(cv::Mat(), 1280, 960, camera, {counted, hidden}, checked, {}, {});
+  const cv::Vec3b p = plain.at<cv::Vec3b>(280, 900);
+  EXPECT_TRUE(p[2] > 150 && p[1] < 100 && p[0] < 100);
 }

@@ -40,6 +40,9 @@ struct CalibrationReport
   CorrespondenceSet correspondences;  // the lines calibrated on; calibration.inlier_lines indexes them
   cv::Mat image;                      // the camera's (median) image; empty: a black canvas
   std::vector<Segment3d> map_lines;   // drawn through the camera (empty without a map)
+  // The map lines as the final check saw them (FixedCameraResult::checked_map_lines; empty: not checked): the overlay
+  // then shows what counted and what was left out.
+  std::vector<EdgeSamples> checked_map_lines;
   std::vector<std::vector<Eigen::Vector2d>> matched_image_lines;
   std::vector<std::vector<Eigen::Vector2d>> unmatched_image_lines;
   std::optional<ReportSurveySummary> survey;  // none: calibrated without a survey (calibrate_lines)

@@ -99,6 +99,9 @@ struct FixedCameraResult
   ImageExplanation explanation;  // the final check's measurements (map-based calibrations)
   ViewAmbiguity ambiguity;       // its ambiguity test (map-based calibrations that passed the other checks)
   std::string summary;           // how good the result is, in words
+  // The map lines (their parts not hidden from the camera) the final check assessed, sampled as it saw them: the
+  // report's overlay draws them.
+  std::vector<EdgeSamples> checked_map_lines;
 };
 
 class FixedCamera

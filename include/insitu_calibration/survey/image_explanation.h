@@ -81,18 +81,24 @@ struct ImageExplanation
   std::string describe() const;
 };
 
-ImageExplanation explainImage(const cv::Mat& image, const CameraModel& camera, int width, int height,
-                              const std::vector<Segment3d>& map_lines, const RefinementResult* refinement,
-                              const ImageExplanationOptions& options = {});
-
-// Each visible map line's projection sampled as the overlay agreement samples it, with whether an image edge lies
+// Each map line the overlay test assesses, projected and sampled as it samples it, with whether an image edge lies
 // under each sample: a run without one is a map edge hidden behind something in front (a foreground object), outside
-// the view's structure, or too faint to see. Lines too short to assess are left out; empty without an image.
+// the view's structure, or too faint to see.
 struct EdgeSamples
 {
   std::vector<Eigen::Vector2d> points;  // distorted pixels, in order along the line
   std::vector<bool> on_edge;
+  bool counted = true;  // false: a floor line the test left out where the floor looks plain
 };
+
+// checked_lines (optional): the lines the overlay test assessed, as EdgeSamples (for the report's overlay: what the
+// test saw; its agreement is the share of the counted lines' samples on an edge).
+ImageExplanation explainImage(const cv::Mat& image, const CameraModel& camera, int width, int height,
+                              const std::vector<Segment3d>& map_lines, const RefinementResult* refinement,
+                              const ImageExplanationOptions& options = {},
+                              std::vector<EdgeSamples>* checked_lines = nullptr);
+
+// explainImage's checked_lines alone. Lines too short to assess are left out; empty without an image.
 std::vector<EdgeSamples> sampleEdgeSupport(const cv::Mat& image, const CameraModel& camera, int width, int height,
                                            const std::vector<Segment3d>& map_lines,
                                            const ImageExplanationOptions& options = {});

@@ -9,6 +9,7 @@
 
 #include "insitu_calibration/camera/camera_model.h"
 #include "insitu_calibration/geometry/segment.h"
+#include "insitu_calibration/survey/image_explanation.h"
 
 namespace insitu_calibration
 {
@@ -28,9 +29,27 @@ cv::Mat drawOverlayWithHiddenEdges(const cv::Mat& image, int width, int height, 
                                    const std::vector<Segment3d>& map_lines,
                                    const std::vector<std::vector<Eigen::Vector2d>>& matched_image_lines,
                                    const std::vector<std::vector<Eigen::Vector2d>>& unmatched_image_lines);
+// The report's overlay of a result the final check assessed: the map lines as it saw them (checked_map_lines:
+// FixedCameraResult::checked_map_lines). Counted lines wide red where an image edge lies under them and thin red
+// where none does (what counts against the camera); every other part of a map line in view in thin blue dashes:
+// left out of the check, as hidden behind surfaces the survey measured or as floor joints where the floor looks
+// plain. Without an image: drawOverlay.
+cv::Mat drawFinalCheckOverlay(const cv::Mat& image, int width, int height, const CameraModel& camera,
+                              const std::vector<Segment3d>& map_lines,
+                              const std::vector<EdgeSamples>& checked_map_lines,
+                              const std::vector<std::vector<Eigen::Vector2d>>& matched_image_lines,
+                              const std::vector<std::vector<Eigen::Vector2d>>& unmatched_image_lines);
+// Which map-line styles an overlay's legend explains.
+enum class MapLineLegend
+{
+  kThroughCalibration,  // drawOverlay: every map line alike
+  kEdgeSupport,         // drawOverlayWithHiddenEdges: on an edge, or thin dashes
+  kFinalCheck,          // drawFinalCheckOverlay: on an edge, counted without one, left out
+};
 // The overlay's colours explained in a box in the top-left corner of its canvas (the unmatched entry only when
-// with_unmatched; with_hidden: drawOverlayWithHiddenEdges's two kinds of map line).
-void drawOverlayLegend(cv::Mat* canvas, bool with_unmatched, bool with_hidden = false);
+// with_unmatched).
+void drawOverlayLegend(cv::Mat* canvas, bool with_unmatched,
+                       MapLineLegend map_lines = MapLineLegend::kThroughCalibration);
 
 // The overlay that the node publishes (~<name>/overlay) and saves (<name>_overlay.png), and calibrate_survey saves:
 // drawOverlay with its legend, so that it reads without the README in rviz's image panel.

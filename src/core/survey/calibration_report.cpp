@@ -215,6 +215,7 @@ CalibrationReport fixedCameraReport(const FixedCameraConfig& camera, const Fixed
   report.correspondences = result.correspondences;
   report.image = image;
   report.map_lines = map_lines;
+  report.checked_map_lines = result.checked_map_lines;
   report.matched_image_lines = result.matched_image_lines;
   report.unmatched_image_lines = result.unmatched_image_lines;
   report.survey = survey;

@@ -179,8 +179,9 @@ Status FixedCamera::checkExplanation(FixedCameraResult& result, const std::vecto
 {
   const CameraCalibration& c = result.calibration;
   const std::vector<Segment3d> seen = unhiddenLines(c.camera, map_lines);
-  result.explanation = explainImage(median_.median(), c.camera, config_.image_width, config_.image_height, seen,
-                                    c.refinement ? &*c.refinement : nullptr, options_.explanation);
+  result.explanation =
+      explainImage(median_.median(), c.camera, config_.image_width, config_.image_height, seen,
+                   c.refinement ? &*c.refinement : nullptr, options_.explanation, &result.checked_map_lines);
   return acceptExplanation(result.explanation, options_.explanation);
 }
 

@@ -99,22 +99,35 @@ struct LineSupport
   size_t samples = 0, on = 0, beside = 0;
 };
 
-// None when the projection is too short to assess.
-std::optional<LineSupport> assessLine(const Gradients& g, const CameraModel& camera, const Segment3d& line,
-                                      const std::pair<double, double>& interval, int width, int height,
-                                      const ImageExplanationOptions& o)
+// One map line as the final check sees it: its counts, and (when asked for) its samples for the report's overlay.
+struct AssessedLine
 {
-  LineSupport s;
-  const bool assessed = forEachSample(camera, line, interval, width, height, o,
-                                      [&](const Eigen::Vector2d& p, const Eigen::Vector2d& normal) {
-                                        ++s.samples;
-                                        s.on += onEdge(g, p, normal, o) ? 1 : 0;
-                                        s.beside += onEdge(g, p + o.chance_offset_px * normal, normal, o) ? 1 : 0;
-                                        s.beside += onEdge(g, p - o.chance_offset_px * normal, normal, o) ? 1 : 0;
-                                      });
+  LineSupport support;
+  EdgeSamples samples;
+};
+
+// None when the projection is too short to assess.
+std::optional<AssessedLine> assessLine(const Gradients& g, const CameraModel& camera, const Segment3d& line,
+                                       const std::pair<double, double>& interval, int width, int height,
+                                       const ImageExplanationOptions& o, bool keep_samples)
+{
+  AssessedLine a;
+  const bool assessed = forEachSample(
+      camera, line, interval, width, height, o, [&](const Eigen::Vector2d& p, const Eigen::Vector2d& normal) {
+        const bool on = onEdge(g, p, normal, o);
+        ++a.support.samples;
+        a.support.on += on ? 1 : 0;
+        a.support.beside += onEdge(g, p + o.chance_offset_px * normal, normal, o) ? 1 : 0;
+        a.support.beside += onEdge(g, p - o.chance_offset_px * normal, normal, o) ? 1 : 0;
+        if (keep_samples)
+        {
+          a.samples.points.push_back(p);
+          a.samples.on_edge.push_back(on);
+        }
+      });
   if (!assessed)
     return std::nullopt;
-  return s;
+  return a;
 }
 
 // A floor line whose image shows hardly any edge on it or beside it: texture this camera does not resolve.
@@ -127,38 +140,48 @@ bool onPlainFloor(const Segment3d& line, const LineSupport& s, const ImageExplan
   return s.on < o.plain_floor_on_edge * n && 0.5 * s.beside < o.plain_floor_beside * n;
 }
 
-// The overlay agreement and its chance level over the map lines in view, plain-floor lines left out when enough
-// others remain.
-void measureOverlay(const cv::Mat& image, const CameraModel& camera, int width, int height,
-                    const std::vector<Segment3d>& map_lines, const ImageExplanationOptions& options,
-                    ImageExplanation& out)
+// The map lines in view that the overlay test assesses (projections long enough, with a sample inside the image),
+// each with samples.counted set: false for a plain-floor line left out (when enough others remain).
+std::vector<AssessedLine> assessOverlay(const cv::Mat& image, const CameraModel& camera, int width, int height,
+                                        const std::vector<Segment3d>& map_lines, const ImageExplanationOptions& options,
+                                        bool keep_samples)
 {
   const Gradients g = gradients(image);
-  std::vector<LineSupport> lines;
-  std::vector<bool> plain;
+  std::vector<AssessedLine> lines;
+  size_t plain_count = 0;
   for (const auto& line : map_lines)
   {
     const auto interval = visibleInterval(camera, line, width, height);
-    const auto support = interval ? assessLine(g, camera, line, *interval, width, height, options) : std::nullopt;
-    if (support && support->samples > 0)  // assessed and not only at the border
-    {
-      lines.push_back(*support);
-      plain.push_back(onPlainFloor(line, *support, options));
-    }
-  }
-  const size_t plain_count = static_cast<size_t>(std::count(plain.begin(), plain.end(), true));
-  const bool leave_out = lines.size() - plain_count >= std::max<size_t>(1, options.min_lines_without_plain_floor);
-  size_t on = 0, beside = 0;
-  for (size_t i = 0; i < lines.size(); ++i)
-  {
-    if (leave_out && plain[i])
+    auto assessed =
+        interval ? assessLine(g, camera, line, *interval, width, height, options, keep_samples) : std::nullopt;
+    if (!assessed || assessed->support.samples == 0)  // not assessed, or only at the border
       continue;
-    ++out.map_lines;
-    out.samples += lines[i].samples;
-    on += lines[i].on;
-    beside += lines[i].beside;
+    assessed->samples.counted = !onPlainFloor(line, assessed->support, options);
+    plain_count += assessed->samples.counted ? 0 : 1;
+    lines.push_back(std::move(*assessed));
   }
-  out.plain_floor_lines = leave_out ? plain_count : 0;
+  if (lines.size() - plain_count < std::max<size_t>(1, options.min_lines_without_plain_floor))
+    for (AssessedLine& a : lines)  // too few others to judge the camera on: every line counts
+      a.samples.counted = true;
+  return lines;
+}
+
+// The overlay agreement and its chance level over the lines that count.
+void measureOverlay(const std::vector<AssessedLine>& lines, ImageExplanation& out)
+{
+  size_t on = 0, beside = 0;
+  for (const AssessedLine& a : lines)
+  {
+    if (!a.samples.counted)
+    {
+      ++out.plain_floor_lines;
+      continue;
+    }
+    ++out.map_lines;
+    out.samples += a.support.samples;
+    on += a.support.on;
+    beside += a.support.beside;
+  }
   if (out.samples > 0)
   {
     out.overlay_agreement = static_cast<double>(on) / out.samples;
@@ -184,11 +207,20 @@ std::string ImageExplanation::describe() const
 
 ImageExplanation explainImage(const cv::Mat& image, const CameraModel& camera, int width, int height,
                               const std::vector<Segment3d>& map_lines, const RefinementResult* refinement,
-                              const ImageExplanationOptions& options)
+                              const ImageExplanationOptions& options, std::vector<EdgeSamples>* checked_lines)
 {
   ImageExplanation out;
+  if (checked_lines)
+    checked_lines->clear();
   if (!image.empty())
-    measureOverlay(image, camera, width, height, map_lines, options, out);
+  {
+    std::vector<AssessedLine> lines =
+        assessOverlay(image, camera, width, height, map_lines, options, checked_lines != nullptr);
+    measureOverlay(lines, out);
+    if (checked_lines)
+      for (AssessedLine& a : lines)
+        checked_lines->push_back(std::move(a.samples));
+  }
   if (refinement)
   {
     std::vector<double> rms, heldout;
@@ -210,21 +242,7 @@ std::vector<EdgeSamples> sampleEdgeSupport(const cv::Mat& image, const CameraMod
                                            const ImageExplanationOptions& options)
 {
   std::vector<EdgeSamples> out;
-  if (image.empty())
-    return out;
-  const Gradients g = gradients(image);
-  for (const auto& line : map_lines)
-    if (const auto interval = visibleInterval(camera, line, width, height))
-    {
-      EdgeSamples samples;
-      forEachSample(camera, line, *interval, width, height, options,
-                    [&](const Eigen::Vector2d& p, const Eigen::Vector2d& normal) {
-                      samples.points.push_back(p);
-                      samples.on_edge.push_back(onEdge(g, p, normal, options));
-                    });
-      if (samples.points.size() >= 2)
-        out.push_back(std::move(samples));
-    }
+  explainImage(image, camera, width, height, map_lines, nullptr, options, &out);
   return out;
 }
 

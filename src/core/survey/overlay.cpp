@@ -1,5 +1,7 @@
 #include "insitu_calibration/survey/overlay.h"
 
+#include <cmath>
+
 #include <opencv2/imgproc.hpp>
 
 #include "insitu_calibration/matching/line_matcher.h"
@@ -12,6 +14,7 @@ namespace
 const cv::Scalar kMapLineColour(40, 40, 230);        // red (BGR)
 const cv::Scalar kMatchedLineColour(60, 200, 60);    // green
 const cv::Scalar kUnmatchedLineColour(0, 215, 255);  // yellow
+const cv::Scalar kLeftOutLineColour(235, 160, 60);   // blue: map lines the final check left out
 
 cv::Point toPoint(const Eigen::Vector2d& m)
 {
@@ -22,6 +25,43 @@ void drawPolyline(cv::Mat* canvas, const std::vector<Eigen::Vector2d>& points, c
 {
   for (size_t j = 1; j < points.size(); ++j)
     cv::line(*canvas, toPoint(points[j - 1]), toPoint(points[j]), colour, thickness, cv::LINE_AA, 4);
+}
+
+// A map line's projection where it is in view (25 points along its visible interval); empty when out of view.
+std::vector<Eigen::Vector2d> curveInView(const CameraModel& camera, const Segment3d& segment, int width, int height)
+{
+  std::vector<Eigen::Vector2d> curve;
+  const auto interval = visibleInterval(camera, segment, width, height);
+  if (!interval)
+    return curve;
+  for (int k = 0; k <= 24; ++k)
+    if (const auto m =
+            camera.project(segment.pointAt(interval->first + (interval->second - interval->first) * k / 24.0)))
+      curve.push_back(*m);
+  return curve;
+}
+
+// Thin dashes along a polyline (dash and gap about 6 thicknesses long).
+void drawDashedPolyline(cv::Mat* canvas, const std::vector<Eigen::Vector2d>& points, const cv::Scalar& colour,
+                        int thickness)
+{
+  const double dash = 6.0 * thickness;
+  double along = 0.0;
+  for (size_t j = 1; j < points.size(); ++j)
+  {
+    const Eigen::Vector2d a = points[j - 1], d = points[j] - a;
+    const double length = d.norm();
+    for (double t = 0.0; t < length;)
+    {
+      const double phase = std::fmod(along + t, 2.0 * dash);
+      const double step = std::min(length - t, (phase < dash ? dash : 2.0 * dash) - phase);
+      if (phase < dash && step > 0.0)
+        cv::line(*canvas, toPoint(a + d * (t / length)), toPoint(a + d * ((t + step) / length)), colour, thickness,
+                 cv::LINE_AA, 4);
+      t += std::max(step, 1e-3);
+    }
+    along += length;
+  }
 }
 
 // The map lines' samples: wide where an image edge lies under two consecutive samples, thin dashes elsewhere.
@@ -53,20 +93,8 @@ cv::Mat drawOverlay(const cv::Mat& image, int width, int height, const CameraMod
   const int thickness = std::max(1, width / 640);
   for (const auto& line : unmatched_image_lines)
     drawPolyline(&canvas, line, kUnmatchedLineColour, thickness);
-  for (const auto& segment : map_lines)
-  {
-    const auto interval = visibleInterval(camera, segment, width, height);
-    if (!interval)
-      continue;
-    std::vector<Eigen::Vector2d> curve;
-    for (int k = 0; k <= 24; ++k)
-    {
-      const auto m = camera.project(segment.pointAt(interval->first + (interval->second - interval->first) * k / 24.0));
-      if (m)
-        curve.push_back(*m);
-    }
-    drawPolyline(&canvas, curve, kMapLineColour, 2 * thickness + 1);  // wider: visible beside a matched line
-  }
+  for (const auto& segment : map_lines)  // wider: visible beside a matched line
+    drawPolyline(&canvas, curveInView(camera, segment, width, height), kMapLineColour, 2 * thickness + 1);
   for (const auto& line : matched_image_lines)
     drawPolyline(&canvas, line, kMatchedLineColour, thickness);
   return canvas;
@@ -87,21 +115,71 @@ cv::Mat drawOverlayWithHiddenEdges(const cv::Mat& image, int width, int height, 
   return canvas;
 }
 
-void drawOverlayLegend(cv::Mat* canvas, bool with_unmatched, bool with_hidden)
+cv::Mat drawFinalCheckOverlay(const cv::Mat& image, int width, int height, const CameraModel& camera,
+                              const std::vector<Segment3d>& map_lines,
+                              const std::vector<EdgeSamples>& checked_map_lines,
+                              const std::vector<std::vector<Eigen::Vector2d>>& matched_image_lines,
+                              const std::vector<std::vector<Eigen::Vector2d>>& unmatched_image_lines)
 {
+  if (image.empty())
+    return drawOverlay(image, width, height, camera, map_lines, matched_image_lines, unmatched_image_lines);
+  cv::Mat canvas = drawOverlay(image, width, height, camera, {}, {}, unmatched_image_lines);
+  const int thickness = std::max(1, width / 640);
+  // Every map line in view first as left out; the parts the check counted are drawn over it (as thick at least).
+  for (const auto& segment : map_lines)
+    drawDashedPolyline(&canvas, curveInView(camera, segment, width, height), kLeftOutLineColour, thickness);
+  for (const EdgeSamples& line : checked_map_lines)
+  {
+    if (!line.counted)
+    {
+      drawDashedPolyline(&canvas, line.points, kLeftOutLineColour, thickness);
+      continue;
+    }
+    for (size_t k = 1; k < line.points.size(); ++k)
+    {
+      const bool supported = line.on_edge[k - 1] && line.on_edge[k];
+      cv::line(canvas, toPoint(line.points[k - 1]), toPoint(line.points[k]), kMapLineColour,
+               supported ? 2 * thickness + 1 : thickness, cv::LINE_AA, 4);
+    }
+  }
+  for (const auto& line : matched_image_lines)
+    drawPolyline(&canvas, line, kMatchedLineColour, thickness);
+  return canvas;
+}
+
+void drawOverlayLegend(cv::Mat* canvas, bool with_unmatched, MapLineLegend map_lines)
+{
+  enum Style
+  {
+    kWide,
+    kThin,
+    kThinDashed
+  };
   struct Entry
   {
     cv::Scalar colour;
     std::string text;
-    bool thin_dashed;
+    Style style;
   };
-  std::vector<Entry> entries = {
-      {kMapLineColour, with_hidden ? "map lines on an image edge" : "map lines through the calibration", false}};
-  if (with_hidden)
-    entries.push_back({kMapLineColour, "map lines with no image edge (hidden or faint)", true});
-  entries.push_back({kMatchedLineColour, "matched image lines", false});
+  std::vector<Entry> entries;
+  switch (map_lines)
+  {
+    case MapLineLegend::kThroughCalibration:
+      entries.push_back({kMapLineColour, "map lines through the calibration", kWide});
+      break;
+    case MapLineLegend::kEdgeSupport:
+      entries.push_back({kMapLineColour, "map lines on an image edge", kWide});
+      entries.push_back({kMapLineColour, "map lines with no image edge (hidden or faint)", kThinDashed});
+      break;
+    case MapLineLegend::kFinalCheck:
+      entries.push_back({kMapLineColour, "map lines on an image edge", kWide});
+      entries.push_back({kMapLineColour, "map lines with no image edge (count against the camera)", kThin});
+      entries.push_back({kLeftOutLineColour, "map lines the check left out (hidden, or plain floor)", kThinDashed});
+      break;
+  }
+  entries.push_back({kMatchedLineColour, "matched image lines", kWide});
   if (with_unmatched)
-    entries.push_back({kUnmatchedLineColour, "unmatched image lines", false});
+    entries.push_back({kUnmatchedLineColour, "unmatched image lines", kWide});
   const double scale = std::max(0.5, canvas->cols / 1280.0);
   const int row = cvRound(28 * scale), pad = cvRound(10 * scale), sample = cvRound(40 * scale);
   const int font = cv::FONT_HERSHEY_SIMPLEX, text_thickness = std::max(1, cvRound(scale));
@@ -117,11 +195,11 @@ void drawOverlayLegend(cv::Mat* canvas, bool with_unmatched, bool with_hidden)
   for (size_t k = 0; k < entries.size(); ++k)
   {
     const int y = box.y + pad / 2 + row * static_cast<int>(k) + row / 2;
-    const int dashes = entries[k].thin_dashed ? 4 : 1;
+    const int dashes = entries[k].style == kThinDashed ? 4 : 1;
     for (int d = 0; d < dashes; ++d)  // a dashed sample: 4 dashes with gaps of their length
       cv::line(*canvas, cv::Point(box.x + pad + sample * 2 * d / (2 * dashes - 1), y),
                cv::Point(box.x + pad + sample * (2 * d + 1) / (2 * dashes - 1), y), entries[k].colour,
-               entries[k].thin_dashed ? std::max(1, cvRound(scale)) : std::max(2, cvRound(3 * scale)), cv::LINE_AA);
+               entries[k].style == kWide ? std::max(2, cvRound(3 * scale)) : std::max(1, cvRound(scale)), cv::LINE_AA);
     cv::putText(*canvas, entries[k].text, cv::Point(box.x + 2 * pad + sample, y + cvRound(6 * scale)), font,
                 0.6 * scale, cv::Scalar(255, 255, 255), text_thickness, cv::LINE_AA);
   }

@@ -191,10 +191,26 @@ std::vector<LineRow> lineRows(const CalibrationReport& report)
 
 cv::Mat overlayFigure(const CalibrationReport& report)
 {
-  cv::Mat canvas =
-      drawOverlayWithHiddenEdges(report.image, report.image_width, report.image_height, report.calibration.camera,
+  const bool with_unmatched = !report.unmatched_image_lines.empty();
+  if (report.image.empty())
+  {
+    cv::Mat canvas = drawOverlay(report.image, report.image_width, report.image_height, report.calibration.camera,
                                  report.map_lines, report.matched_image_lines, report.unmatched_image_lines);
-  drawOverlayLegend(&canvas, !report.unmatched_image_lines.empty(), !report.image.empty());
+    drawOverlayLegend(&canvas, with_unmatched);
+    return canvas;
+  }
+  if (report.checked_map_lines.empty())  // no final check (a correspondence file, or refused before it)
+  {
+    cv::Mat canvas =
+        drawOverlayWithHiddenEdges(report.image, report.image_width, report.image_height, report.calibration.camera,
+                                   report.map_lines, report.matched_image_lines, report.unmatched_image_lines);
+    drawOverlayLegend(&canvas, with_unmatched, MapLineLegend::kEdgeSupport);
+    return canvas;
+  }
+  cv::Mat canvas = drawFinalCheckOverlay(report.image, report.image_width, report.image_height,
+                                         report.calibration.camera, report.map_lines, report.checked_map_lines,
+                                         report.matched_image_lines, report.unmatched_image_lines);
+  drawOverlayLegend(&canvas, with_unmatched, MapLineLegend::kFinalCheck);
   return canvas;
 }
 
