@@ -245,3 +245,43 @@ TEST(LineMatcher, LocalMovesFromSeveralDistinctStartsKeepTheBestExplanation)
     EXPECT_EQ(trace.chosen, best->first);
   }
 }
+
+// final_map_line_sigmas_m change the chosen result's final calibration only: the same as the search's sigmas, the
+// same result; larger on some matched lines, the same matches (the search is untouched), those lines weighed less
+// in the final fit and its reported uncertainty larger.
+TEST(LineMatcher, FinalSigmasWeighOnlyTheFinalCalibration)
+{
+  std::mt19937 rng(41);
+  const std::vector<ic::Segment3d> room = makeRoom(rng);
+  ic::SyntheticCameraOptions camera_options;
+  camera_options.focal_min_px = 800;
+  camera_options.focal_max_px = 1000;
+  const ic::CameraModel truth = ic::randomCamera(camera_options, rng);
+  const auto image = imageLines(truth, room, 0.3, 0, rng);
+  ic::CameraModel start = truth;  // a camera close to the truth: matchAndCalibrateFrom, no prior search
+  start.intrinsics().fx *= 1.01;
+  start.intrinsics().fy *= 1.01;
+  const std::vector<double> sigmas(room.size(), 0.001);
+  const auto plain = ic::matchAndCalibrateFrom(room, image, start, kWidth, kHeight, {}, sigmas);
+  ASSERT_TRUE(plain) << plain.error().describe();
+  const auto same = ic::matchAndCalibrateFrom(room, image, start, kWidth, kHeight, {}, sigmas, {}, sigmas);
+  ASSERT_TRUE(same);
+  EXPECT_EQ(same->calibration.camera.intrinsics().fx, plain->calibration.camera.intrinsics().fx);
+  EXPECT_EQ(same->calibration.camera.pose().translation, plain->calibration.camera.pose().translation);
+
+  std::vector<double> final_sigmas = sigmas;  // every other matched map line 2 cm uncertain
+  for (size_t k = 0; k < plain->candidate_matches.size(); k += 2)
+    final_sigmas[plain->candidate_matches[k].map_line] = 0.02;
+  const auto weighed = ic::matchAndCalibrateFrom(room, image, start, kWidth, kHeight, {}, sigmas, {}, final_sigmas);
+  ASSERT_TRUE(weighed);
+  ASSERT_EQ(weighed->candidate_matches.size(), plain->candidate_matches.size());
+  for (size_t k = 0; k < plain->candidate_matches.size(); ++k)
+  {
+    EXPECT_EQ(weighed->candidate_matches[k].image_line, plain->candidate_matches[k].image_line);
+    EXPECT_EQ(weighed->candidate_matches[k].map_line, plain->candidate_matches[k].map_line);
+    EXPECT_EQ(weighed->correspondences.lines[k].world_sigma_m, final_sigmas[plain->candidate_matches[k].map_line]);
+  }
+  ASSERT_TRUE(plain->calibration.uncertainty.available && weighed->calibration.uncertainty.available);
+  EXPECT_GT(weighed->calibration.uncertainty.position_m, 1.2 * plain->calibration.uncertainty.position_m);
+  EXPECT_LT(ic::compareCameras(truth, weighed->calibration.camera).center_m, 0.03);
+}

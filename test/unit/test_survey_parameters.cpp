@@ -46,6 +46,7 @@ TEST(SurveyParameters, UnsetParametersKeepTheStructsDefaults)
   EXPECT_EQ(read.cameras.image_lines.refiner.thin_lines, defaults.cameras.image_lines.refiner.thin_lines);
   EXPECT_FALSE(read.cameras.image_lines.refiner.thin_lines);  // off by default (docs/measurements.md, "Thin lines")
   EXPECT_TRUE(read.cameras.explanation.leave_out_plain_floor);
+  EXPECT_TRUE(read.cameras.unresolved_joints.enabled);
 }
 
 TEST(SurveyParameters, EverySetParameterIsTaken)
@@ -76,6 +77,7 @@ refine: no
 thin_lines: true
 thin_line_sigma: 0.005
 plain_floor_test: false
+unresolved_joints: false
 cameras: []
 )");
   const ic::SurveyOptions o = ic::readSurveyParameters(source);
@@ -114,6 +116,7 @@ cameras: []
   EXPECT_TRUE(o.cameras.image_lines.refiner.thin_lines);
   EXPECT_EQ(o.cameras.thin_line_sigma_m, 0.005);
   EXPECT_FALSE(o.cameras.explanation.leave_out_plain_floor);
+  EXPECT_FALSE(o.cameras.unresolved_joints.enabled);
 }
 
 TEST(SurveyParameters, BadValuesAreEachReportedAndKeepTheirDefaults)

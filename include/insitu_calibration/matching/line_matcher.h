@@ -144,12 +144,16 @@ std::vector<size_t> distinctStarts(const std::vector<CameraModel>& cameras, cons
 // map_line_sigmas_m: optional, per map line how far off it may be (LineCorrespondence::world_sigma_m).
 // image_line_world_sigmas_m: optional, per image line how far the 3D line it shows may be from the map line it
 // matches (a thin line's centre from the joint's edges: FixedCameraOptions::thin_line_sigma_m); added in quadrature.
+// final_map_line_sigmas_m: optional, per map line, in place of map_line_sigmas_m in the chosen result's final
+// calibration and its uncertainty only (lines known less well than the search should weigh them: map lines that are
+// one flank of a joint the camera does not resolve, map/joint_lines.h).
 Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_lines,
                                             const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                             const CameraPrior& prior, int image_width, int image_height,
                                             const LineMatcherOptions& options = {},
                                             const std::vector<double>& map_line_sigmas_m = {},
-                                            const std::vector<double>& image_line_world_sigmas_m = {});
+                                            const std::vector<double>& image_line_world_sigmas_m = {},
+                                            const std::vector<double>& final_map_line_sigmas_m = {});
 
 // Steps 2 and 3 from a camera known to be close (an earlier calibration: the paper's loop after re-extracting the
 // image lines with its distortion), without the prior search.
@@ -158,7 +162,8 @@ Expected<LineMatchResult> matchAndCalibrateFrom(const std::vector<Segment3d>& ma
                                                 const CameraModel& start, int image_width, int image_height,
                                                 const LineMatcherOptions& options = {},
                                                 const std::vector<double>& map_line_sigmas_m = {},
-                                                const std::vector<double>& image_line_world_sigmas_m = {});
+                                                const std::vector<double>& image_line_world_sigmas_m = {},
+                                                const std::vector<double>& final_map_line_sigmas_m = {});
 
 // How well a camera explains the image lines, the score the matcher picks among its starts and local moves by: per
 // image line the squared mean distance to the nearest compatible projected map line, capped at

@@ -15,6 +15,7 @@
 #include "insitu_calibration/geometry/segment.h"
 #include "insitu_calibration/io/calibration_file.h"
 #include "insitu_calibration/lines/image_lines.h"
+#include "insitu_calibration/map/joint_lines.h"
 #include "insitu_calibration/map/surface_voxels.h"
 #include "insitu_calibration/matching/line_matcher.h"
 #include "insitu_calibration/survey/camera_verification.h"
@@ -47,6 +48,9 @@ struct FixedCameraOptions
   // are extracted (image_lines.refiner.thin_lines, off by default) only once a camera is known: from the prior their
   // repetition would offer the search a match one joint over.
   double thin_line_sigma_m = 0.003;
+  // Map lines that are one flank of a joint this camera does not resolve (map/joint_lines.h, judged from the
+  // prior's position and field of view) count as less certain by half the joint's width.
+  UnresolvedJointOptions unresolved_joints;
   LineMatcherOptions matcher;
   int max_loops = 3;                // the paper's loop: extract lines with the current distortion, calibrate, repeat
   double loop_tolerance_px = 0.05;  // ... until the principal point and the corner distortion move less than this

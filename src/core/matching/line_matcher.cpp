@@ -108,6 +108,9 @@ void calibrateFinally(const MatchingProblem& problem, LineMatchResult* best)
   const LineMatcherOptions& options = problem.options;
   CorrespondenceSet set = best->correspondences;
   set.straight_lines = straightLinesOf(best->candidate_matches, problem.image_lines, options.min_straight_line_px);
+  if (problem.final_map_sigmas && !problem.final_map_sigmas->empty())  // the lines' k-th is the k-th candidate match
+    for (size_t k = 0; k < set.lines.size() && k < best->candidate_matches.size(); ++k)
+      set.lines[k].world_sigma_m = worldSigmaOf(best->candidate_matches[k], problem, *problem.final_map_sigmas);
   auto polished = calibrateCamera(set, options.calibration, best->calibration.camera);
   if (!polished)
     return;
@@ -177,7 +180,8 @@ Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_li
                                             const CameraPrior& prior, int image_width, int image_height,
                                             const LineMatcherOptions& options,
                                             const std::vector<double>& map_line_sigmas_m,
-                                            const std::vector<double>& image_line_world_sigmas_m)
+                                            const std::vector<double>& image_line_world_sigmas_m,
+                                            const std::vector<double>& final_map_line_sigmas_m)
 {
   if (const Status valid = matching::checkMatchInputs(map_lines, image_lines, image_width, image_height); !valid)
     return valid.error();
@@ -189,6 +193,7 @@ Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_li
   matching::MatchingProblem problem(map_lines, map_line_sigmas_m, image_lines, image_width, image_height, options);
   problem.prior = &prior;
   problem.image_world_sigmas = &image_line_world_sigmas_m;
+  problem.final_map_sigmas = &final_map_line_sigmas_m;
   return matching::matchFromStarts(problem, matching::searchPrior(problem, prior), options.initial_max_distance_px,
                                    true);
 }
@@ -198,12 +203,14 @@ Expected<LineMatchResult> matchAndCalibrateFrom(const std::vector<Segment3d>& ma
                                                 const CameraModel& start, int image_width, int image_height,
                                                 const LineMatcherOptions& options,
                                                 const std::vector<double>& map_line_sigmas_m,
-                                                const std::vector<double>& image_line_world_sigmas_m)
+                                                const std::vector<double>& image_line_world_sigmas_m,
+                                                const std::vector<double>& final_map_line_sigmas_m)
 {
   if (const Status valid = matching::checkMatchInputs(map_lines, image_lines, image_width, image_height); !valid)
     return valid.error();
   matching::MatchingProblem problem(map_lines, map_line_sigmas_m, image_lines, image_width, image_height, options);
   problem.image_world_sigmas = &image_line_world_sigmas_m;
+  problem.final_map_sigmas = &final_map_line_sigmas_m;
   return matching::matchFromStarts(problem, {start}, options.known_camera_max_distance_px, false);
 }
 

@@ -30,6 +30,14 @@ std::vector<std::vector<Eigen::Vector2d>> straightLinesOf(const std::vector<Line
   return out;
 }
 
+double worldSigmaOf(const LineMatch& match, const MatchingProblem& problem, const std::vector<double>& map_sigmas)
+{
+  const double map = match.map_line < map_sigmas.size() ? map_sigmas[match.map_line] : 0.0;
+  if (problem.image_world_sigmas && match.image_line < problem.image_world_sigmas->size())
+    return std::hypot(map, (*problem.image_world_sigmas)[match.image_line]);
+  return map;
+}
+
 namespace
 {
 // Each match's image line with world_points_per_line points along the visible part of its map line.
@@ -47,10 +55,7 @@ CorrespondenceSet correspondencesOf(const std::vector<LineMatch>& matches, const
     const double t1 = interval ? interval->second : 1.0;
     LineCorrespondence line;
     line.image = problem.image_lines[m.image_line];
-    if (m.map_line < problem.map_sigmas.size())
-      line.world_sigma_m = problem.map_sigmas[m.map_line];
-    if (problem.image_world_sigmas && m.image_line < problem.image_world_sigmas->size())
-      line.world_sigma_m = std::hypot(line.world_sigma_m, (*problem.image_world_sigmas)[m.image_line]);
+    line.world_sigma_m = worldSigmaOf(m, problem, problem.map_sigmas);
     const int n = std::max(2, problem.options.world_points_per_line);
     for (int k = 0; k < n; ++k)
       line.world.push_back(s.pointAt(t0 + (t1 - t0) * k / double(n - 1)));

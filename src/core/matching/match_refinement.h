@@ -19,6 +19,10 @@ Expected<LineMatchResult> refineMatches(const MatchingProblem& problem, const Ca
                                         double initial_max_distance_px, const PairSet& banned,
                                         double abandon_above = std::numeric_limits<double>::infinity());
 
+// A match's world sigma (LineCorrespondence::world_sigma_m): its map line's from map_sigmas (none: 0) and its image
+// line's from the problem's image_world_sigmas, in quadrature.
+double worldSigmaOf(const LineMatch& match, const MatchingProblem& problem, const std::vector<double>& map_sigmas);
+
 // The image lines left unmatched are straight edges too (plumb lines for the distortion), when they have 3 or more
 // points and a chord of at least min_length_px (0: none).
 std::vector<std::vector<Eigen::Vector2d>> straightLinesOf(const std::vector<LineMatch>& matches,

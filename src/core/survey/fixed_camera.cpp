@@ -309,6 +309,14 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
   std::vector<double> sigmas = map_line_sigmas_all;
   const std::vector<Segment3d> map_lines = seeableFromPrior(all_map_lines, &sigmas);
   const std::vector<double>& map_line_sigmas_m = sigmas;
+  // The search weighs every map line by its own sigma; the chosen result's final calibration and its uncertainty
+  // count the flanks of joints this camera does not resolve as known only to within the joint.
+  const std::vector<double> final_sigmas =
+      config_.prior ? unresolvedJointSigmas(
+                          map_lines, sigmas, config_.prior->position,
+                          cameraFromPrior(*config_.prior, config_.image_width, config_.image_height).intrinsics().fx,
+                          options_.unresolved_joints)
+                    : sigmas;
   const cv::Mat median = median_.median();
   DivisionModel distortion{0.0, imageCenter(config_.image_width, config_.image_height)};
   std::optional<FixedCameraResult> best;
@@ -337,10 +345,11 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
     // would refuse for their distance to the prior behind the others.
     LineMatcherOptions matcher = options_.matcher;
     matcher.max_prior_distance_sigmas = options_.max_prior_distance_sigmas;
-    auto matched = best ? matchAndCalibrateFrom(map_lines, polylines, best->calibration.camera, config_.image_width,
-                                                config_.image_height, matcher, map_line_sigmas_m, image_line_sigmas)
-                        : matchAndCalibrate(map_lines, polylines, *config_.prior, config_.image_width,
-                                            config_.image_height, matcher, map_line_sigmas_m, image_line_sigmas);
+    auto matched =
+        best ? matchAndCalibrateFrom(map_lines, polylines, best->calibration.camera, config_.image_width,
+                                     config_.image_height, matcher, map_line_sigmas_m, image_line_sigmas, final_sigmas)
+             : matchAndCalibrate(map_lines, polylines, *config_.prior, config_.image_width, config_.image_height,
+                                 matcher, map_line_sigmas_m, image_line_sigmas, final_sigmas);
     if (!matched)
     {
       if (best)

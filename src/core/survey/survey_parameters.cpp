@@ -91,6 +91,7 @@ void readCameraParameters(ParameterSource& read, FixedCameraOptions& camera)
   camera.image_lines.refiner.thin_lines = read.flag("thin_lines", camera.image_lines.refiner.thin_lines);
   camera.thin_line_sigma_m = read.number("thin_line_sigma", camera.thin_line_sigma_m, Range::closed(0.0, 0.1, "m"));
   camera.explanation.leave_out_plain_floor = read.flag("plain_floor_test", camera.explanation.leave_out_plain_floor);
+  camera.unresolved_joints.enabled = read.flag("unresolved_joints", camera.unresolved_joints.enabled);
 }
 }  // namespace
 

@@ -1,0 +1,67 @@
+#include "insitu_calibration/map/joint_lines.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace insitu_calibration
+{
+namespace
+{
+// The separation vector from line a to the part of line b beside it (perpendicular to a), when b is parallel to a
+// within cos_max and overlaps it along a by at least min_overlap of the shorter length; none otherwise.
+bool twinSeparation(const Segment3d& a, const Segment3d& b, double cos_max, double min_overlap,
+                    Eigen::Vector3d* separation)
+{
+  const double la = a.length(), lb = b.length();
+  if (la < 1e-9 || lb < 1e-9)
+    return false;
+  const Eigen::Vector3d u = (a.b - a.a) / la;
+  const Eigen::Vector3d v = (b.b - b.a) / lb;
+  if (std::abs(u.dot(v)) < cos_max)
+    return false;
+  const double s0 = (b.a - a.a).dot(u), s1 = (b.b - a.a).dot(u);
+  const double lo = std::max(0.0, std::min(s0, s1)), hi = std::min(la, std::max(s0, s1));
+  if (hi - lo < min_overlap * std::min(la, lb))
+    return false;
+  const Eigen::Vector3d mid = b.pointAt(0.5);
+  const Eigen::Vector3d offset = mid - a.a;
+  *separation = offset - offset.dot(u) * u;
+  return true;
+}
+}  // namespace
+
+std::vector<double> unresolvedJointSigmas(const std::vector<Segment3d>& lines, const std::vector<double>& sigmas_m,
+                                          const Eigen::Vector3d& viewpoint, double focal_px,
+                                          const UnresolvedJointOptions& options)
+{
+  std::vector<double> out = sigmas_m;
+  if (!options.enabled || sigmas_m.size() != lines.size() || !(focal_px > 0.0))
+    return out;
+  const double cos_max = std::cos(options.max_angle_deg * M_PI / 180.0);
+  for (size_t i = 0; i < lines.size(); ++i)
+  {
+    const Eigen::Vector3d ray = lines[i].pointAt(0.5) - viewpoint;
+    const double range = ray.norm();
+    if (range < 1e-6)
+      continue;
+    const Eigen::Vector3d view = ray / range;
+    double widest = 0.0;  // the unresolved twins' widest separation: the ridge's edge may lie anywhere across it
+    for (size_t j = 0; j < lines.size(); ++j)
+    {
+      Eigen::Vector3d s;
+      if (j == i || !twinSeparation(lines[i], lines[j], cos_max, options.min_overlap, &s))
+        continue;
+      const double width = s.norm();
+      if (width > options.max_separation_m || width <= widest)
+        continue;
+      // Across the line in the image: the separation's part perpendicular to the viewing ray (a floor joint seen
+      // at a grazing angle is narrower), in px at this range.
+      if ((s - s.dot(view) * view).norm() * focal_px / range < options.min_resolved_px)
+        widest = width;
+    }
+    if (widest > 0.0)
+      out[i] = std::hypot(sigmas_m[i], 0.5 * widest);
+  }
+  return out;
+}
+}  // namespace insitu_calibration

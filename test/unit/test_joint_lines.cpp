@@ -1,0 +1,76 @@
+// Map lines that are one flank of a joint a fixed camera does not resolve (map/joint_lines.h): a joint's two flanks
+// 1 cm apart are one ridge from 10 m and two edges from 2 m; a floor joint seen at a grazing angle is one ridge
+// even from 3 m; lines that are not twins (turned, too far apart, beside each other end to end) keep their sigma.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "insitu_calibration/map/joint_lines.h"
+
+namespace ic = insitu_calibration;
+
+namespace
+{
+constexpr double kSigma = 0.001;
+constexpr double kFocal = 1000.0;
+
+ic::Segment3d horizontal(double y, double z, double x0 = -1.0, double x1 = 1.0)
+{
+  return {Eigen::Vector3d(x0, y, z), Eigen::Vector3d(x1, y, z)};
+}
+
+std::vector<double> sigmasOf(const std::vector<ic::Segment3d>& lines, const Eigen::Vector3d& viewpoint,
+                             const ic::UnresolvedJointOptions& options = {})
+{
+  return ic::unresolvedJointSigmas(lines, std::vector<double>(lines.size(), kSigma), viewpoint, kFocal, options);
+}
+}  // namespace
+
+TEST(UnresolvedJoints, AMortarJointIsOneRidgeFromAfarAndTwoEdgesFromNear)
+{
+  // A wall at y = 0; a 1 cm mortar joint's flanks at z = 1.00 and 1.01; an edge 10 cm below.
+  const std::vector<ic::Segment3d> wall = {horizontal(0.0, 1.0), horizontal(0.0, 1.01), horizontal(0.0, 0.9)};
+  const auto far = sigmasOf(wall, Eigen::Vector3d(0.0, -10.0, 1.0));  // 1 cm = 1 px across
+  EXPECT_NEAR(far[0], std::hypot(kSigma, 0.005), 1e-12);
+  EXPECT_NEAR(far[1], std::hypot(kSigma, 0.005), 1e-12);
+  EXPECT_EQ(far[2], kSigma);                                          // 10 cm is a separate edge
+  const auto near = sigmasOf(wall, Eigen::Vector3d(0.0, -2.0, 1.0));  // 5 px across: resolved
+  for (const double s : near)
+    EXPECT_EQ(s, kSigma);
+}
+
+TEST(UnresolvedJoints, AFloorJointAtAGrazingAngleIsOneRidge)
+{
+  // Floor joints along x at y = 0 and 0.01, seen from 3 m away along y at 0.3 m height (0.33 px across), against
+  // the same joint on a wall facing the camera at the same range (3.3 px across).
+  const std::vector<ic::Segment3d> floor = {horizontal(0.0, 0.0), horizontal(0.01, 0.0)};
+  const auto grazing = sigmasOf(floor, Eigen::Vector3d(0.0, -3.0, 0.3));
+  EXPECT_GT(grazing[0], 4.0 * kSigma);
+  EXPECT_GT(grazing[1], 4.0 * kSigma);
+  const std::vector<ic::Segment3d> wall = {horizontal(0.0, 1.0), horizontal(0.0, 1.01)};
+  for (const double s : sigmasOf(wall, Eigen::Vector3d(0.0, -3.0, 1.0)))
+    EXPECT_EQ(s, kSigma);
+}
+
+TEST(UnresolvedJoints, LinesThatAreNotTwinsKeepTheirSigma)
+{
+  const Eigen::Vector3d far(0.0, -10.0, 1.0);
+  const ic::Segment3d base = horizontal(0.0, 1.0);
+  ic::Segment3d turned = horizontal(0.0, 1.01);
+  turned.b.z() += 2.0 * std::tan(5.0 * M_PI / 180.0);  // 5 deg
+  const std::vector<std::vector<ic::Segment3d>> pairs = {
+      {base, turned},
+      {base, horizontal(0.0, 1.04)},            // 4 cm apart: wider than a joint
+      {base, horizontal(0.0, 1.01, 1.5, 3.0)},  // beside it, not along it
+      {base, horizontal(0.0, 1.0, 0.5, 2.0)}};  // collinear, overlapping: no width
+  for (const auto& pair : pairs)
+    for (const double s : sigmasOf(pair, far))
+      EXPECT_EQ(s, kSigma);
+  // Off, or sigmas that do not match the lines: unchanged.
+  ic::UnresolvedJointOptions off;
+  off.enabled = false;
+  const std::vector<ic::Segment3d> joint = {base, horizontal(0.0, 1.01)};
+  for (const double s : sigmasOf(joint, far, off))
+    EXPECT_EQ(s, kSigma);
+  EXPECT_TRUE(ic::unresolvedJointSigmas(joint, {}, far, kFocal).empty());
+}
