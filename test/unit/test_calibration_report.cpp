@@ -362,7 +362,9 @@ TEST(CalibrationReportOverlay, ShowsWhatTheFinalCheckCountedAndWhatItLeftOut)
   };
   // Counted, on an edge: wide (5 px at this size).
   EXPECT_GT(count(100, 560, [&](int x) { return red(x, 478) && red(x, 482); }), 440u);
-  // Counted, no edge: thin red on the line, not wide, not blue.
+  // Counted: no blue dashes show through it.
+  EXPECT_EQ(count(100, 1200, [&](int x) { return blue(x, 479) || blue(x, 480) || blue(x, 481); }), 0u);
+  // Counted, no edge: thin red on the line, not wide.
   EXPECT_GT(count(720, 1200, [&](int x) { return red(x, 480) || red(x, 481); }), 440u);
   EXPECT_EQ(count(720, 1200, [&](int x) { return red(x, 477) || red(x, 483); }), 0u);
   // Left out and hidden: blue dashes (about half of their length), never red.

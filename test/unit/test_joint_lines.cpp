@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 
 #include "insitu_calibration/map/joint_lines.h"
 
@@ -66,11 +67,62 @@ TEST(UnresolvedJoints, LinesThatAreNotTwinsKeepTheirSigma)
   for (const auto& pair : pairs)
     for (const double s : sigmasOf(pair, far))
       EXPECT_EQ(s, kSigma);
-  // Off, or sigmas that do not match the lines: unchanged.
+  // Off, or sigmas that do not match the lines (one for two): unchanged.
   ic::UnresolvedJointOptions off;
   off.enabled = false;
   const std::vector<ic::Segment3d> joint = {base, horizontal(0.0, 1.01)};
   for (const double s : sigmasOf(joint, far, off))
     EXPECT_EQ(s, kSigma);
-  EXPECT_TRUE(ic::unresolvedJointSigmas(joint, {}, far, kFocal).empty());
+  EXPECT_EQ(ic::unresolvedJointSigmas(joint, {kSigma}, far, kFocal), std::vector<double>{kSigma});
+}
+
+TEST(UnresolvedJoints, AShortFlankBesideALongTiltedOneIsATwinEitherWay)
+{
+  // A 0.5 m line at z = 1 and a 4 m line 5 mm above it, turned 0.7 deg: beside each other they are a 5 mm joint
+  // (1 px at 5 m), whichever is measured from which; far from the short one the long one drifts 2.4 cm away.
+  const ic::Segment3d short_line{Eigen::Vector3d(-0.25, 0.0, 1.0), Eigen::Vector3d(0.25, 0.0, 1.0)};
+  const double slope = std::tan(0.7 * M_PI / 180.0);
+  const ic::Segment3d long_line{Eigen::Vector3d(-0.25, 0.0, 1.005), Eigen::Vector3d(3.75, 0.0, 1.005 + 4.0 * slope)};
+  for (const auto& lines :
+       {std::vector<ic::Segment3d>{short_line, long_line}, std::vector<ic::Segment3d>{long_line, short_line}})
+  {
+    const auto s = sigmasOf(lines, Eigen::Vector3d(0.0, -5.0, 1.0));
+    EXPECT_GT(s[0], kSigma);
+    EXPECT_GT(s[1], kSigma);
+    EXPECT_LT(s[0], std::hypot(kSigma, 0.005));  // at most half the joint near the short line
+  }
+}
+
+TEST(UnresolvedJoints, TheWidestUnresolvedTwinSetsTheSigma)
+{
+  // Three flanks 1 cm and 2.5 cm above a line, 20 m away at 1000 px: all within 1.25 px, one ridge 2.5 cm wide.
+  const std::vector<ic::Segment3d> lines = {horizontal(0.0, 1.0), horizontal(0.0, 1.01), horizontal(0.0, 1.025)};
+  const auto s = sigmasOf(lines, Eigen::Vector3d(0.0, -20.0, 1.0));
+  EXPECT_NEAR(s[0], std::hypot(kSigma, 0.0125), 1e-12);
+  EXPECT_NEAR(s[2], std::hypot(kSigma, 0.0125), 1e-12);
+  EXPECT_NEAR(s[1], std::hypot(kSigma, 0.0075), 1e-12);  // its farthest twin is 1.5 cm away
+}
+
+TEST(UnresolvedJoints, DegenerateInputKeepsItsSigmaOrGetsZero)
+{
+  const Eigen::Vector3d far(0.0, -10.0, 1.0);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const ic::Segment3d joint_a = horizontal(0.0, 1.0), joint_b = horizontal(0.0, 1.01);
+  const std::vector<ic::Segment3d> lines = {joint_a,
+                                            joint_b,
+                                            {Eigen::Vector3d(nan, 0, 1), Eigen::Vector3d(1, 0, 1)},   // NaN
+                                            {Eigen::Vector3d(0, 0, 1), Eigen::Vector3d(0, 0, 1)},     // a point
+                                            {Eigen::Vector3d(0, -5, 1), Eigen::Vector3d(0, -4, 1)}};  // end on
+  const auto s = sigmasOf(lines, far);
+  EXPECT_GT(s[0], kSigma);
+  EXPECT_GT(s[1], kSigma);
+  for (size_t i = 2; i < lines.size(); ++i)
+    EXPECT_EQ(s[i], kSigma) << i;
+  // No focal length: unchanged. No sigmas: 0 for each line, the joints grown from it.
+  EXPECT_EQ(ic::unresolvedJointSigmas(lines, std::vector<double>(lines.size(), kSigma), far, 0.0),
+            std::vector<double>(lines.size(), kSigma));
+  const auto from_zero = ic::unresolvedJointSigmas({joint_a, joint_b, horizontal(0.0, 0.5)}, {}, far, kFocal);
+  ASSERT_EQ(from_zero.size(), 3u);
+  EXPECT_NEAR(from_zero[0], 0.005, 1e-12);
+  EXPECT_EQ(from_zero[2], 0.0);
 }

@@ -56,6 +56,15 @@ std::vector<ic::Segment3d> makeRoom(std::mt19937& rng)
   return lines;
 }
 
+// A camera somewhere in the room (synthetic_lines.h's random camera) with a focal length in [focal_min, focal_max] px.
+ic::CameraModel randomCamera(double focal_min_px, double focal_max_px, std::mt19937& rng)
+{
+  ic::SyntheticCameraOptions options;
+  options.focal_min_px = focal_min_px;
+  options.focal_max_px = focal_max_px;
+  return ic::randomCamera(options, rng);
+}
+
 std::vector<std::vector<Eigen::Vector2d>> imageLines(const ic::CameraModel& camera,
                                                      const std::vector<ic::Segment3d>& lines, double noise,
                                                      int spurious, std::mt19937& rng)
@@ -110,10 +119,7 @@ TEST(LineMatcher, ConvergesFromAnOffPrior)
   {
     std::mt19937 rng(40 + trial);
     const std::vector<ic::Segment3d> room = makeRoom(rng);
-    ic::SyntheticCameraOptions camera_options;
-    camera_options.focal_min_px = 800;
-    camera_options.focal_max_px = 1000;
-    const ic::CameraModel truth = ic::randomCamera(camera_options, rng);
+    const ic::CameraModel truth = randomCamera(800, 1000, rng);
     const auto image = imageLines(truth, room, 0.3, 10, rng);
 
     // The installer's prior: 0.5 m off, the direction 10 degrees off, the field of view 20 % off.
@@ -213,10 +219,7 @@ TEST(LineMatcher, LocalMovesFromSeveralDistinctStartsKeepTheBestExplanation)
 {
   std::mt19937 rng(1000);
   const std::vector<ic::Segment3d> room = makeRoom(rng);
-  ic::SyntheticCameraOptions camera_options;
-  camera_options.focal_min_px = 700;
-  camera_options.focal_max_px = 1300;
-  const ic::CameraModel truth = ic::randomCamera(camera_options, rng);
+  const ic::CameraModel truth = randomCamera(700, 1300, rng);
   const auto image = imageLines(truth, room, 0.3, 15, rng);
   const ic::CameraPrior prior = offPrior(truth, 1.0, 15.0, 1.3, rng);
 
@@ -253,10 +256,7 @@ TEST(LineMatcher, FinalSigmasWeighOnlyTheFinalCalibration)
 {
   std::mt19937 rng(41);
   const std::vector<ic::Segment3d> room = makeRoom(rng);
-  ic::SyntheticCameraOptions camera_options;
-  camera_options.focal_min_px = 800;
-  camera_options.focal_max_px = 1000;
-  const ic::CameraModel truth = ic::randomCamera(camera_options, rng);
+  const ic::CameraModel truth = randomCamera(800, 1000, rng);
   const auto image = imageLines(truth, room, 0.3, 0, rng);
   ic::CameraModel start = truth;  // a camera close to the truth: matchAndCalibrateFrom, no prior search
   start.intrinsics().fx *= 1.01;
@@ -279,6 +279,7 @@ TEST(LineMatcher, FinalSigmasWeighOnlyTheFinalCalibration)
   {
     EXPECT_EQ(weighed->candidate_matches[k].image_line, plain->candidate_matches[k].image_line);
     EXPECT_EQ(weighed->candidate_matches[k].map_line, plain->candidate_matches[k].map_line);
+    EXPECT_EQ(weighed->correspondences.lines[k].image, image[weighed->candidate_matches[k].image_line]);
     EXPECT_EQ(weighed->correspondences.lines[k].world_sigma_m, final_sigmas[plain->candidate_matches[k].map_line]);
   }
   ASSERT_TRUE(plain->calibration.uncertainty.available && weighed->calibration.uncertainty.available);

@@ -29,8 +29,8 @@ struct UnresolvedJointOptions
 // Per map line, its sigma (m) grown in quadrature by half the separation from its farthest unresolved twin: a
 // parallel map line within max_separation_m that overlaps it and that, seen from `viewpoint` through a focal length
 // of `focal_px`, lies closer than min_resolved_px across it in the image (a cluster of such lines blurs into one
-// ridge whose fitted edge may lie anywhere across it). Lines without one keep their sigma. sigmas_m
-// must have one entry per line (else they are returned unchanged).
+// ridge whose fitted edge may lie anywhere across it). Lines without one keep their sigma. Empty sigmas_m count as 0
+// for every line; otherwise they must have one entry per line (else they are returned unchanged, as when off).
 std::vector<double> unresolvedJointSigmas(const std::vector<Segment3d>& lines, const std::vector<double>& sigmas_m,
                                           const Eigen::Vector3d& viewpoint, double focal_px,
                                           const UnresolvedJointOptions& options = {});

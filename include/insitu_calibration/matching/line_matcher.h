@@ -144,8 +144,8 @@ std::vector<size_t> distinctStarts(const std::vector<CameraModel>& cameras, cons
 // map_line_sigmas_m: optional, per map line how far off it may be (LineCorrespondence::world_sigma_m).
 // image_line_world_sigmas_m: optional, per image line how far the 3D line it shows may be from the map line it
 // matches (a thin line's centre from the joint's edges: FixedCameraOptions::thin_line_sigma_m); added in quadrature.
-// final_map_line_sigmas_m: optional, per map line, in place of map_line_sigmas_m in the chosen result's final
-// calibration and its uncertainty only (lines known less well than the search should weigh them: map lines that are
+// final_map_line_sigmas_m: optional (used with one entry per map line), in place of map_line_sigmas_m in the chosen
+// result's final calibration and its uncertainty only (lines known less well than the search should weigh them: map lines that are
 // one flank of a joint the camera does not resolve, map/joint_lines.h).
 Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_lines,
                                             const std::vector<std::vector<Eigen::Vector2d>>& image_lines,

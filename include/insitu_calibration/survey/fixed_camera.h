@@ -153,6 +153,9 @@ private:
   Expected<FixedCameraResult> calibrateFromFile(const std::string& world_frame);
   Expected<FixedCameraResult> calibrateFromMap(const std::vector<Segment3d>& map_lines, const std::string& world_frame,
                                                const std::vector<double>& map_line_sigmas_m);
+  // The sigmas of a result's final calibration: the flanks of joints this camera does not resolve, as seen from the
+  // prior, grown (map/joint_lines.h); the map lines' own without a prior.
+  std::vector<double> finalSigmas(const std::vector<Segment3d>& map_lines, const std::vector<double>& sigmas) const;
   // The map lines not hidden from every viewpoint near the prior by the occluders (all without either), with their
   // sigmas (when given) kept in step.
   std::vector<Segment3d> seeableFromPrior(const std::vector<Segment3d>& map_lines, std::vector<double>* sigmas) const;

@@ -32,8 +32,8 @@ cv::Mat drawOverlayWithHiddenEdges(const cv::Mat& image, int width, int height, 
 // The report's overlay of a result the final check assessed: the map lines as it saw them (checked_map_lines:
 // FixedCameraResult::checked_map_lines). Counted lines wide red where an image edge lies under them and thin red
 // where none does (what counts against the camera); every other part of a map line in view in thin blue dashes:
-// left out of the check, as hidden behind surfaces the survey measured or as floor joints where the floor looks
-// plain. Without an image: drawOverlay.
+// left out of the check, as hidden behind surfaces the survey measured, as floor joints where the floor looks plain,
+// or as too short (under 20 px) or too near the border (3 px) to assess. Without an image: drawOverlay.
 cv::Mat drawFinalCheckOverlay(const cv::Mat& image, int width, int height, const CameraModel& camera,
                               const std::vector<Segment3d>& map_lines,
                               const std::vector<EdgeSamples>& checked_map_lines,

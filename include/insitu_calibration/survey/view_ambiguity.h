@@ -97,14 +97,12 @@ struct ViewAmbiguity
 
 // The alternatives of an accepted camera: the matching (matchAndCalibrateFrom) redone from the camera shifted by
 // each repetition (both ways, with and without focal compensation). image_lines: the distorted-pixel polylines the
-// camera was matched on.
-ViewAmbiguity findAlternativeCameras(const std::vector<Segment3d>& map_lines,
-                                     const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
-                                     const CameraCalibration& accepted,
-                                     const std::vector<Segment3d>& accepted_matched_map_lines, int image_width,
-                                     int image_height, const LineMatcherOptions& matcher,
-                                     const std::vector<double>& map_line_sigmas_m,
-                                     const ViewAmbiguityOptions& options = {});
+// camera was matched on. The sigmas as matchAndCalibrateFrom's (the final ones as the accepted camera's were).
+ViewAmbiguity findAlternativeCameras(
+    const std::vector<Segment3d>& map_lines, const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+    const CameraCalibration& accepted, const std::vector<Segment3d>& accepted_matched_map_lines, int image_width,
+    int image_height, const LineMatcherOptions& matcher, const std::vector<double>& map_line_sigmas_m,
+    const std::vector<double>& final_map_line_sigmas_m, const ViewAmbiguityOptions& options = {});
 
 // Whether an alternative explains the image about as well as the accepted camera (score and matched lines).
 bool explainsAsWell(const AlternativeCamera& alternative, const ViewAmbiguity& ambiguity,

@@ -3,28 +3,31 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/Geometry>
+
 namespace insitu_calibration
 {
 namespace
 {
-// The separation vector from line a to the part of line b beside it (perpendicular to a), when b is parallel to a
-// within cos_max and overlaps it along a by at least min_overlap of the shorter length; none otherwise.
+// When b is parallel to a within cos_max and they overlap along a by at least min_overlap of the shorter length: the
+// separation vector from a to b in the middle of their overlap, across a. None otherwise.
 bool twinSeparation(const Segment3d& a, const Segment3d& b, double cos_max, double min_overlap,
                     Eigen::Vector3d* separation)
 {
   const double la = a.length(), lb = b.length();
-  if (la < 1e-9 || lb < 1e-9)
+  if (!(la > 1e-9) || !(lb > 1e-9))  // also NaN
     return false;
   const Eigen::Vector3d u = (a.b - a.a) / la;
   const Eigen::Vector3d v = (b.b - b.a) / lb;
-  if (std::abs(u.dot(v)) < cos_max)
+  if (!(std::abs(u.dot(v)) >= cos_max))
     return false;
   const double s0 = (b.a - a.a).dot(u), s1 = (b.b - a.a).dot(u);
   const double lo = std::max(0.0, std::min(s0, s1)), hi = std::min(la, std::max(s0, s1));
   if (hi - lo < min_overlap * std::min(la, lb))
     return false;
-  const Eigen::Vector3d mid = b.pointAt(0.5);
-  const Eigen::Vector3d offset = mid - a.a;
+  const Eigen::Vector3d on_a = a.a + 0.5 * (lo + hi) * u;
+  const Eigen::Vector3d on_b = b.a + (on_a - b.a).dot(v) * v;  // b's point beside it
+  const Eigen::Vector3d offset = on_b - on_a;
   *separation = offset - offset.dot(u) * u;
   return true;
 }
@@ -34,17 +37,19 @@ std::vector<double> unresolvedJointSigmas(const std::vector<Segment3d>& lines, c
                                           const Eigen::Vector3d& viewpoint, double focal_px,
                                           const UnresolvedJointOptions& options)
 {
-  std::vector<double> out = sigmas_m;
-  if (!options.enabled || sigmas_m.size() != lines.size() || !(focal_px > 0.0))
-    return out;
+  std::vector<double> out = sigmas_m.empty() ? std::vector<double>(lines.size(), 0.0) : sigmas_m;
+  if (!options.enabled || out.size() != lines.size() || !(focal_px > 0.0))
+    return sigmas_m;
   const double cos_max = std::cos(options.max_angle_deg * M_PI / 180.0);
   for (size_t i = 0; i < lines.size(); ++i)
   {
     const Eigen::Vector3d ray = lines[i].pointAt(0.5) - viewpoint;
     const double range = ray.norm();
-    if (range < 1e-6)
+    // Across the line's image: perpendicular to the line and to the viewing ray (none for a line seen end on).
+    const Eigen::Vector3d across = (lines[i].b - lines[i].a).cross(ray);
+    if (!(range > 1e-6) || !(across.norm() > 1e-9 * range * lines[i].length()))
       continue;
-    const Eigen::Vector3d view = ray / range;
+    const Eigen::Vector3d normal = across.normalized();
     double widest = 0.0;  // the unresolved twins' widest separation: the ridge's edge may lie anywhere across it
     for (size_t j = 0; j < lines.size(); ++j)
     {
@@ -54,13 +59,11 @@ std::vector<double> unresolvedJointSigmas(const std::vector<Segment3d>& lines, c
       const double width = s.norm();
       if (width > options.max_separation_m || width <= widest)
         continue;
-      // Across the line in the image: the separation's part perpendicular to the viewing ray (a floor joint seen
-      // at a grazing angle is narrower), in px at this range.
-      if ((s - s.dot(view) * view).norm() * focal_px / range < options.min_resolved_px)
+      if (std::abs(s.dot(normal)) * focal_px / range < options.min_resolved_px)  // px across, at this range
         widest = width;
     }
     if (widest > 0.0)
-      out[i] = std::hypot(sigmas_m[i], 0.5 * widest);
+      out[i] = std::hypot(out[i], 0.5 * widest);
   }
   return out;
 }

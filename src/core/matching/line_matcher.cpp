@@ -108,7 +108,8 @@ void calibrateFinally(const MatchingProblem& problem, LineMatchResult* best)
   const LineMatcherOptions& options = problem.options;
   CorrespondenceSet set = best->correspondences;
   set.straight_lines = straightLinesOf(best->candidate_matches, problem.image_lines, options.min_straight_line_px);
-  if (problem.final_map_sigmas && !problem.final_map_sigmas->empty())  // the lines' k-th is the k-th candidate match
+  if (problem.final_map_sigmas &&
+      problem.final_map_sigmas->size() == problem.map_lines.size())  // k-th line: k-th match
     for (size_t k = 0; k < set.lines.size() && k < best->candidate_matches.size(); ++k)
       set.lines[k].world_sigma_m = worldSigmaOf(best->candidate_matches[k], problem, *problem.final_map_sigmas);
   auto polished = calibrateCamera(set, options.calibration, best->calibration.camera);

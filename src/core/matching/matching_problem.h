@@ -42,8 +42,8 @@ struct MatchingProblem
   // Per image line, m (may be empty): added to its match's map line sigma (matchAndCalibrate's
   // image_line_world_sigmas_m, outliving the problem).
   const std::vector<double>* image_world_sigmas = nullptr;
-  // Per map line, m (may be null or empty: map_sigmas): the sigmas of the chosen result's final calibration and its
-  // uncertainty, where they differ from the search's (matchAndCalibrate's final_map_line_sigmas_m).
+  // Per map line, m: the sigmas of the chosen result's final calibration and its uncertainty, where they differ from
+  // the search's (matchAndCalibrate's final_map_line_sigmas_m); used only with one entry per map line.
   const std::vector<double>* final_map_sigmas = nullptr;
 };
 

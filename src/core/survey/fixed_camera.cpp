@@ -163,6 +163,15 @@ Status FixedCamera::check(const CameraCalibration& c, size_t matched_lines, bool
   return Success{};
 }
 
+std::vector<double> FixedCamera::finalSigmas(const std::vector<Segment3d>& map_lines,
+                                             const std::vector<double>& sigmas) const
+{
+  if (!config_.prior)
+    return sigmas;
+  const double focal = cameraFromPrior(*config_.prior, config_.image_width, config_.image_height).intrinsics().fx;
+  return unresolvedJointSigmas(map_lines, sigmas, config_.prior->position, focal, options_.unresolved_joints);
+}
+
 std::vector<Segment3d> FixedCamera::unhiddenLines(const CameraModel& camera,
                                                   const std::vector<Segment3d>& map_lines) const
 {
@@ -205,8 +214,9 @@ Status FixedCamera::checkAmbiguity(FixedCameraResult& result, const std::vector<
   std::vector<std::vector<Eigen::Vector2d>> image_lines = result.matched_image_lines;
   image_lines.insert(image_lines.end(), result.unmatched_image_lines.begin(), result.unmatched_image_lines.end());
   const int w = config_.image_width, h = config_.image_height;
-  result.ambiguity = findAlternativeCameras(map_lines, image_lines, result.calibration, result.matched_map_lines, w, h,
-                                            options_.matcher, map_line_sigmas_m, o);
+  result.ambiguity =
+      findAlternativeCameras(map_lines, image_lines, result.calibration, result.matched_map_lines, w, h,
+                             options_.matcher, map_line_sigmas_m, finalSigmas(map_lines, map_line_sigmas_m), o);
   const cv::Mat median = median_.median();
   for (AlternativeCamera& alt : result.ambiguity.alternatives)
   {
@@ -311,12 +321,7 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
   const std::vector<double>& map_line_sigmas_m = sigmas;
   // The search weighs every map line by its own sigma; the chosen result's final calibration and its uncertainty
   // count the flanks of joints this camera does not resolve as known only to within the joint.
-  const std::vector<double> final_sigmas =
-      config_.prior ? unresolvedJointSigmas(
-                          map_lines, sigmas, config_.prior->position,
-                          cameraFromPrior(*config_.prior, config_.image_width, config_.image_height).intrinsics().fx,
-                          options_.unresolved_joints)
-                    : sigmas;
+  const std::vector<double> final_sigmas = finalSigmas(map_lines, sigmas);
   const cv::Mat median = median_.median();
   DivisionModel distortion{0.0, imageCenter(config_.image_width, config_.image_height)};
   std::optional<FixedCameraResult> best;

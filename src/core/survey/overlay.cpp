@@ -51,6 +51,8 @@ void drawDashedPolyline(cv::Mat* canvas, const std::vector<Eigen::Vector2d>& poi
   {
     const Eigen::Vector2d a = points[j - 1], d = points[j] - a;
     const double length = d.norm();
+    if (!std::isfinite(length))
+      continue;
     for (double t = 0.0; t < length;)
     {
       const double phase = std::fmod(along + t, 2.0 * dash);
@@ -100,19 +102,55 @@ cv::Mat drawOverlay(const cv::Mat& image, int width, int height, const CameraMod
   return canvas;
 }
 
-cv::Mat drawOverlayWithHiddenEdges(const cv::Mat& image, int width, int height, const CameraModel& camera,
-                                   const std::vector<Segment3d>& map_lines,
-                                   const std::vector<std::vector<Eigen::Vector2d>>& matched_image_lines,
-                                   const std::vector<std::vector<Eigen::Vector2d>>& unmatched_image_lines)
+namespace
+{
+// Every map line in view first in blue dashes (left out of the final check); the parts the check counted over them,
+// wide red on an image edge and thin red elsewhere (as thick as the dashes at least: they cover them).
+void drawCheckedMapLines(cv::Mat* canvas, const CameraModel& camera, int width, int height,
+                         const std::vector<Segment3d>& map_lines, const std::vector<EdgeSamples>& checked_map_lines,
+                         int thickness)
+{
+  for (const auto& segment : map_lines)
+    drawDashedPolyline(canvas, curveInView(camera, segment, width, height), kLeftOutLineColour, thickness);
+  for (const EdgeSamples& line : checked_map_lines)
+    for (size_t k = 1; line.counted && k < line.points.size(); ++k)
+    {
+      const bool supported = line.on_edge[k - 1] && line.on_edge[k];
+      cv::line(*canvas, toPoint(line.points[k - 1]), toPoint(line.points[k]), kMapLineColour,
+               supported ? 2 * thickness + 1 : thickness, cv::LINE_AA, 4);
+    }
+}
+
+// A report's overlay: the image with its unmatched image lines, the map lines as draw_map_lines(canvas, thickness)
+// draws them, the matched image lines on top. Without an image: drawOverlay.
+template <typename DrawMapLines>
+cv::Mat reportOverlay(const cv::Mat& image, int width, int height, const CameraModel& camera,
+                      const std::vector<Segment3d>& map_lines,
+                      const std::vector<std::vector<Eigen::Vector2d>>& matched_image_lines,
+                      const std::vector<std::vector<Eigen::Vector2d>>& unmatched_image_lines,
+                      DrawMapLines draw_map_lines)
 {
   if (image.empty())
     return drawOverlay(image, width, height, camera, map_lines, matched_image_lines, unmatched_image_lines);
   cv::Mat canvas = drawOverlay(image, width, height, camera, {}, {}, unmatched_image_lines);
   const int thickness = std::max(1, width / 640);
-  drawSupportedMapLines(&canvas, sampleEdgeSupport(image, camera, width, height, map_lines), thickness);
+  draw_map_lines(&canvas, thickness);
   for (const auto& line : matched_image_lines)
     drawPolyline(&canvas, line, kMatchedLineColour, thickness);
   return canvas;
+}
+}  // namespace
+
+cv::Mat drawOverlayWithHiddenEdges(const cv::Mat& image, int width, int height, const CameraModel& camera,
+                                   const std::vector<Segment3d>& map_lines,
+                                   const std::vector<std::vector<Eigen::Vector2d>>& matched_image_lines,
+                                   const std::vector<std::vector<Eigen::Vector2d>>& unmatched_image_lines)
+{
+  return reportOverlay(image, width, height, camera, map_lines, matched_image_lines, unmatched_image_lines,
+                       [&](cv::Mat* canvas, int thickness) {
+                         drawSupportedMapLines(canvas, sampleEdgeSupport(image, camera, width, height, map_lines),
+                                               thickness);
+                       });
 }
 
 cv::Mat drawFinalCheckOverlay(const cv::Mat& image, int width, int height, const CameraModel& camera,
@@ -121,30 +159,10 @@ cv::Mat drawFinalCheckOverlay(const cv::Mat& image, int width, int height, const
                               const std::vector<std::vector<Eigen::Vector2d>>& matched_image_lines,
                               const std::vector<std::vector<Eigen::Vector2d>>& unmatched_image_lines)
 {
-  if (image.empty())
-    return drawOverlay(image, width, height, camera, map_lines, matched_image_lines, unmatched_image_lines);
-  cv::Mat canvas = drawOverlay(image, width, height, camera, {}, {}, unmatched_image_lines);
-  const int thickness = std::max(1, width / 640);
-  // Every map line in view first as left out; the parts the check counted are drawn over it (as thick at least).
-  for (const auto& segment : map_lines)
-    drawDashedPolyline(&canvas, curveInView(camera, segment, width, height), kLeftOutLineColour, thickness);
-  for (const EdgeSamples& line : checked_map_lines)
-  {
-    if (!line.counted)
-    {
-      drawDashedPolyline(&canvas, line.points, kLeftOutLineColour, thickness);
-      continue;
-    }
-    for (size_t k = 1; k < line.points.size(); ++k)
-    {
-      const bool supported = line.on_edge[k - 1] && line.on_edge[k];
-      cv::line(canvas, toPoint(line.points[k - 1]), toPoint(line.points[k]), kMapLineColour,
-               supported ? 2 * thickness + 1 : thickness, cv::LINE_AA, 4);
-    }
-  }
-  for (const auto& line : matched_image_lines)
-    drawPolyline(&canvas, line, kMatchedLineColour, thickness);
-  return canvas;
+  return reportOverlay(image, width, height, camera, map_lines, matched_image_lines, unmatched_image_lines,
+                       [&](cv::Mat* canvas, int thickness) {
+                         drawCheckedMapLines(canvas, camera, width, height, map_lines, checked_map_lines, thickness);
+                       });
 }
 
 void drawOverlayLegend(cv::Mat* canvas, bool with_unmatched, MapLineLegend map_lines)
@@ -174,7 +192,7 @@ void drawOverlayLegend(cv::Mat* canvas, bool with_unmatched, MapLineLegend map_l
     case MapLineLegend::kFinalCheck:
       entries.push_back({kMapLineColour, "map lines on an image edge", kWide});
       entries.push_back({kMapLineColour, "map lines with no image edge (count against the camera)", kThin});
-      entries.push_back({kLeftOutLineColour, "map lines the check left out (hidden, or plain floor)", kThinDashed});
+      entries.push_back({kLeftOutLineColour, "map lines the check left out (hidden, plain floor, short)", kThinDashed});
       break;
   }
   entries.push_back({kMatchedLineColour, "matched image lines", kWide});

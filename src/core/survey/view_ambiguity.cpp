@@ -184,7 +184,8 @@ ViewAmbiguity findAlternativeCameras(const std::vector<Segment3d>& map_lines,
                                      const CameraCalibration& accepted,
                                      const std::vector<Segment3d>& accepted_matched_map_lines, int image_width,
                                      int image_height, const LineMatcherOptions& matcher,
-                                     const std::vector<double>& map_line_sigmas_m, const ViewAmbiguityOptions& o)
+                                     const std::vector<double>& map_line_sigmas_m,
+                                     const std::vector<double>& final_map_line_sigmas_m, const ViewAmbiguityOptions& o)
 {
   const auto start_time = std::chrono::steady_clock::now();
   ViewAmbiguity out;
@@ -205,8 +206,8 @@ ViewAmbiguity findAlternativeCameras(const std::vector<Segment3d>& map_lines,
         const Eigen::Vector3d shift = sign * repetition.shift;
         const CameraModel start = shiftedCamera(accepted.camera, shift, compensate, depth);
         ++out.tried;
-        const auto matched =
-            matchAndCalibrateFrom(map_lines, image_lines, start, image_width, image_height, quiet, map_line_sigmas_m);
+        const auto matched = matchAndCalibrateFrom(map_lines, image_lines, start, image_width, image_height, quiet,
+                                                   map_line_sigmas_m, {}, final_map_line_sigmas_m);
         if (!matched)
           continue;
         AlternativeCamera alt;
