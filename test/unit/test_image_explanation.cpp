@@ -25,6 +25,30 @@ ic::CameraModel moved(ic::CameraModel c, const Eigen::Vector3d& shift_world)
   pose.translation -= pose.rotation * shift_world;  // centre + shift
   return c;
 }
+// What the report's overlay draws is what the test counted: the left-out lines, and the counted samples' share on an
+// edge.
+void expectCheckedLinesAsCounted(const cv::Mat& image, const sim::SimulatedFixedCamera& cam,
+                                 const std::vector<ic::Segment3d>& map, const ic::ImageExplanationOptions& options,
+                                 const ic::ImageExplanation& expected)
+{
+  std::vector<ic::EdgeSamples> checked;
+  const auto with_samples = ic::explainImage(image, cam.camera, cam.width, cam.height, map, nullptr, options, &checked);
+  size_t left_out = 0, counted_samples = 0, counted_on_edge = 0;
+  for (const ic::EdgeSamples& line : checked)
+  {
+    left_out += line.counted ? 0 : 1;
+    if (line.counted)
+    {
+      counted_samples += line.on_edge.size();
+      counted_on_edge += static_cast<size_t>(std::count(line.on_edge.begin(), line.on_edge.end(), true));
+    }
+  }
+  EXPECT_EQ(checked.size(), expected.map_lines + expected.plain_floor_lines) << cam.name;
+  EXPECT_EQ(left_out, expected.plain_floor_lines) << cam.name;
+  EXPECT_EQ(counted_samples, expected.samples) << cam.name;
+  EXPECT_DOUBLE_EQ(static_cast<double>(counted_on_edge) / counted_samples, expected.overlay_agreement) << cam.name;
+  EXPECT_DOUBLE_EQ(with_samples.overlay_agreement, expected.overlay_agreement) << cam.name;
+}
 }  // namespace
 
 TEST(ImageExplanation, TrueCameraAcceptedWrongCamerasRefused)
@@ -97,26 +121,7 @@ TEST(ImageExplanation, UnresolvedFloorJointsDoNotRefuseTheTrueCamera)
     std::printf("%s true camera, every floor line: %s\n  plain floor left out: %s\n", cam.name.c_str(),
                 all.describe().c_str(), plain_out.describe().c_str());
     refused_with_every_floor_line += ic::acceptExplanation(all, every_floor_line) ? 0 : 1;
-    // What the report's overlay draws is what the test counted: the left-out lines, and the counted samples' share on
-    // an edge.
-    std::vector<ic::EdgeSamples> checked;
-    const auto with_samples =
-        ic::explainImage(view.rgb, cam.camera, cam.width, cam.height, map, nullptr, options, &checked);
-    size_t left_out = 0, counted_samples = 0, counted_on_edge = 0;
-    for (const ic::EdgeSamples& line : checked)
-    {
-      left_out += line.counted ? 0 : 1;
-      if (line.counted)
-      {
-        counted_samples += line.on_edge.size();
-        counted_on_edge += static_cast<size_t>(std::count(line.on_edge.begin(), line.on_edge.end(), true));
-      }
-    }
-    EXPECT_EQ(checked.size(), plain_out.map_lines + plain_out.plain_floor_lines) << cam.name;
-    EXPECT_EQ(left_out, plain_out.plain_floor_lines) << cam.name;
-    EXPECT_EQ(counted_samples, plain_out.samples) << cam.name;
-    EXPECT_DOUBLE_EQ(static_cast<double>(counted_on_edge) / counted_samples, plain_out.overlay_agreement) << cam.name;
-    EXPECT_DOUBLE_EQ(with_samples.overlay_agreement, plain_out.overlay_agreement) << cam.name;
+    expectCheckedLinesAsCounted(view.rgb, cam, map, options, plain_out);
     EXPECT_LT(all.overlay_agreement, plain_out.overlay_agreement - 0.05) << cam.name;
     EXPECT_TRUE(ic::acceptExplanation(plain_out, options)) << cam.name;
     EXPECT_GT(plain_out.plain_floor_lines, 10u) << cam.name;

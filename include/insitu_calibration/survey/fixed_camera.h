@@ -153,6 +153,10 @@ private:
   Expected<FixedCameraResult> calibrateFromFile(const std::string& world_frame);
   Expected<FixedCameraResult> calibrateFromMap(const std::vector<Segment3d>& map_lines, const std::string& world_frame,
                                                const std::vector<double>& map_line_sigmas_m);
+  // A matching's result as the camera's: its matched and unmatched image lines, correspondences and calibration file.
+  FixedCameraResult resultOfMatching(LineMatchResult matched,
+                                     const std::vector<std::vector<Eigen::Vector2d>>& polylines,
+                                     const std::vector<Segment3d>& map_lines, const std::string& world_frame) const;
   // The sigmas of a result's final calibration: the flanks of joints this camera does not resolve, as seen from the
   // prior, grown (map/joint_lines.h); the map lines' own without a prior.
   std::vector<double> finalSigmas(const std::vector<Segment3d>& map_lines, const std::vector<double>& sigmas) const;

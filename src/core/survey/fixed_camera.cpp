@@ -306,6 +306,29 @@ std::vector<Segment3d> FixedCamera::seeableFromPrior(const std::vector<Segment3d
   return seeable;
 }
 
+FixedCameraResult FixedCamera::resultOfMatching(LineMatchResult matched,
+                                                const std::vector<std::vector<Eigen::Vector2d>>& polylines,
+                                                const std::vector<Segment3d>& map_lines,
+                                                const std::string& world_frame) const
+{
+  FixedCameraResult result;
+  result.calibration = matched.calibration;
+  std::vector<bool> matched_image(polylines.size(), false);
+  for (const auto& m : matched.matches)
+  {
+    result.matched_image_lines.push_back(polylines[m.image_line]);
+    result.matched_map_lines.push_back(map_lines[m.map_line]);
+    matched_image[m.image_line] = true;
+  }
+  for (size_t i = 0; i < polylines.size(); ++i)
+    if (!matched_image[i])
+      result.unmatched_image_lines.push_back(polylines[i]);
+  result.correspondences = std::move(matched.correspondences);
+  result.correspondences.camera_name = config_.name;
+  result.file = toCalibrationFile(result.correspondences, matched.calibration, world_frame);
+  return result;
+}
+
 Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segment3d>& all_map_lines,
                                                           const std::string& world_frame,
                                                           const std::vector<double>& map_line_sigmas_all)
@@ -325,7 +348,6 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
   const cv::Mat median = median_.median();
   DivisionModel distortion{0.0, imageCenter(config_.image_width, config_.image_height)};
   std::optional<FixedCameraResult> best;
-  std::string last_error;
   for (int loop = 0; loop < options_.max_loops; ++loop)
   {
     // Thin lines (joints: often a repeating grid) only once a camera is known: from the prior their repetition would
@@ -362,23 +384,9 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
       return matched.error();
     }
     last_matched_ = matched->matches.size();
-    FixedCameraResult result;
-    result.calibration = matched->calibration;
+    FixedCameraResult result = resultOfMatching(std::move(*matched), polylines, map_lines, world_frame);
     result.loops = loop + 1;
-    std::vector<bool> matched_image(polylines.size(), false);
-    for (const auto& m : matched->matches)
-    {
-      result.matched_image_lines.push_back(polylines[m.image_line]);
-      result.matched_map_lines.push_back(map_lines[m.map_line]);
-      matched_image[m.image_line] = true;
-    }
-    for (size_t i = 0; i < polylines.size(); ++i)
-      if (!matched_image[i])
-        result.unmatched_image_lines.push_back(polylines[i]);
-    result.correspondences = std::move(matched->correspondences);
-    result.correspondences.camera_name = config_.name;
-    result.file = toCalibrationFile(result.correspondences, matched->calibration, world_frame);
-    const DivisionModel next = matched->calibration.camera.distortion();
+    const DivisionModel next = result.calibration.camera.distortion();
     const double moved = std::max((next.center - distortion.center).norm(),
                                   std::abs(cornerDisplacement(next) - cornerDisplacement(distortion)));
     best = std::move(result);
