@@ -21,6 +21,7 @@
 #include "insitu_calibration/metrics.h"
 #include "insitu_calibration/ros/survey_bag_reader.h"
 #include "insitu_calibration/simulation/edge_sightings.h"
+#include "insitu_calibration/simulation/renderer.h"
 #include "insitu_calibration/simulation/survey.h"
 #include "insitu_calibration/simulation/true_edges.h"
 #include "insitu_calibration/survey/camera_config.h"
@@ -113,6 +114,9 @@ Options:
                         (default 0: off)
   --occlusion-test 0|1  the final check leaves out map lines that surfaces the survey's depth measured hide from
                         the camera (default 1)
+  --plain-floor-samples 0|1
+                        the final check leaves floor samples out one by one where the floor looks plain there
+                        instead of whole plain floor lines (params plain_floor_samples; default 0)
   --occluders-follow-adjustment 0|1
                         those surfaces are inserted again under the map adjustment's corrected keyframe poses
                         (default 0: at tf's poses)
@@ -122,6 +126,7 @@ Options:
                         the local moves (basin hopping, influence check) run from this many of the best refined
                         starts, the best result wins (default 3; 1: from the best start only)
   --hypothesis-starts N extra starts from line-correspondence hypotheses in the prior's 3-sigma cone (default 4)
+  --prior-start 0|1     the prior itself is one of the starts, as it is (params prior_start; default 1)
   --truth-dir DIR       the simulator's truth folder (<bag>_truth): also report, per camera, how many matches pair
                         the wrong edges and how far the matched map lines are from the true edges, the localiser's
                         limit (its error averaged over the keyframes, at the camera: "truth-limit" lines) and the
@@ -133,7 +138,11 @@ Options:
                         with --truth-dir: per image line the map lacks, why (the simulator's WORLD file rendered
                         at each keyframe: never in the Xtion's view, in view without depth, with depth but no 3D
                         line, 3D lines too uncertain for the map, in the map but not used or off): "truth-missing"
-                        lines, the share of the image lines' length per cause
+                        lines, the share of the image lines' length per cause; and the final check measured on the
+                        TRUE camera, with why its samples find no image edge (WORLD rendered from it: hidden from it
+                        by a surface the occlusion test missed, a true edge in view that shows no edge, no true
+                        edge): "truth-check" lines; the check's numbers and verdict for the result and each of the
+                        ambiguity test's alternatives, with their errors: "truth-agreement" lines
   --prior-from-truth P,D,F[,SEED]
                         with --truth-dir: replace every camera's prior by its true camera moved P m in a random
                         direction, its viewing direction turned D degrees (about a random axis across it; the
@@ -545,15 +554,9 @@ std::string missingCause(const ic::simulation::EdgeSightings& sight, const ic::S
 }
 
 // Per missing image line its cause and per cause the share of the camera's image lines (truth-missing lines).
-void diagnoseMissingEdges(const std::string& world_file, const ic::Survey& survey, const std::string& name,
+void diagnoseMissingEdges(const ic::simulation::World& world, const ic::Survey& survey, const std::string& name,
                           const ic::MapCoverage& coverage)
 {
-  const auto world = ic::simulation::loadWorldFile(world_file);
-  if (!world)
-  {
-    std::fprintf(stderr, "calibrate_survey: %s\n", world.error().describe().c_str());
-    return;
-  }
   std::vector<ic::Segment3d> parts;
   std::vector<const ic::CoverageLine*> lines;
   for (const auto& d : coverage.details)
@@ -565,11 +568,11 @@ void diagnoseMissingEdges(const std::string& world_file, const ic::Survey& surve
   std::vector<Eigen::Isometry3d> poses;
   for (const auto& kf : survey.keyframes())
     poses.push_back(kf.T_map_camera);
-  const auto sightings = ic::simulation::sightSegments(*world, parts, poses);
+  const auto sightings = ic::simulation::sightSegments(world, parts, poses);
   std::map<std::string, double> by_cause;
   for (size_t i = 0; i < parts.size(); ++i)
   {
-    const std::string cause = missingCause(sightings[i], survey, parts[i], world->xtion.depth.max_range_m);
+    const std::string cause = missingCause(sightings[i], survey, parts[i], world.xtion.depth.max_range_m);
     by_cause[cause] += lines[i]->length_px;
     const auto& a = parts[i].a;
     const auto& b = parts[i].b;
@@ -587,9 +590,109 @@ void diagnoseMissingEdges(const std::string& world_file, const ic::Survey& surve
   std::printf("\n");
 }
 
+// Why the final check's samples of the TRUE camera find no image edge: the map point is hidden from it in the world
+// (the occlusion test missed the surface in front), or it is in view and lies on a true edge (too faint or below the
+// camera's resolution) or on none (the map line is off or false). "truth-check" lines.
+struct CheckSampleCauses
+{
+  size_t samples = 0, on_edge = 0, hidden = 0, hidden_on_edge = 0, faint = 0, off = 0;
+};
+
+CheckSampleCauses classifyCheckSamples(const std::vector<ic::EdgeSamples>& checked, const ic::CameraModel& truth,
+                                       const cv::Mat& depth, const std::vector<ic::Segment3d>& edges)
+{
+  const auto near_true_edge = [&](const Eigen::Vector3d& x) {
+    return std::any_of(edges.begin(), edges.end(), [&](const ic::Segment3d& e) {
+      const Eigen::Vector3d d = e.b - e.a;
+      const double t = std::clamp((x - e.a).dot(d) / std::max(1e-12, d.squaredNorm()), 0.0, 1.0);
+      return (e.a + t * d - x).norm() <= 0.02;
+    });
+  };
+  CheckSampleCauses c;
+  for (const ic::EdgeSamples& line : checked)
+    for (size_t k = 0; k < line.points.size() && k < line.map_points.size(); ++k)
+    {
+      if (!line.countedAt(k))
+        continue;
+      ++c.samples;
+      const Eigen::Vector3d x = truth.toCamera(line.map_points[k]);
+      const int u = static_cast<int>(std::lround(line.points[k].x())),
+                v = static_cast<int>(std::lround(line.points[k].y()));
+      const float z = (u >= 0 && v >= 0 && u < depth.cols && v < depth.rows) ? depth.at<float>(v, u) : 0.0f;
+      const bool hidden = z > 0.0f && z < x.z() - (0.03 + 0.02 * x.z());
+      if (line.on_edge[k])
+      {
+        ++c.on_edge;
+        c.hidden_on_edge += hidden ? 1 : 0;
+      }
+      else if (hidden)
+        ++c.hidden;
+      else if (near_true_edge(line.map_points[k]))
+        ++c.faint;
+      else
+        ++c.off;
+    }
+  return c;
+}
+
+std::string describeError(const ic::CameraModel& camera, const ic::CameraModel& truth)
+{
+  const ic::CameraErrors e = ic::compareCameras(truth, camera);
+  char buffer[100];
+  std::snprintf(buffer, sizeof(buffer), "%.3f %%, %.3f deg, %.1f mm", 100.0 * std::abs(e.focal_relative),
+                e.rotation_rad * 180.0 / M_PI, 1000.0 * e.center_m);
+  return buffer;
+}
+
+// The final check's numbers of one camera and its verdict.
+std::string describeAgreement(const ic::ImageExplanation& e, const ic::ImageExplanationOptions& o)
+{
+  char buffer[160];
+  std::snprintf(buffer, sizeof(buffer), "%.1f %% on edges (chance %.1f %%, excess %.2f, %zu samples): %s",
+                100 * e.overlay_agreement, 100 * e.overlay_chance, e.overlayExcess(), e.samples,
+                ic::acceptExplanation(e, o) ? "passes" : "fails");
+  return buffer;
+}
+
+void diagnoseFinalCheck(const ic::simulation::World& world, const ic::FixedCamera& camera,
+                        const ic::SurfaceVoxels* occluders, const std::string& name, const ic::CameraModel& truth,
+                        const std::vector<ic::Segment3d>& map, const std::vector<ic::Segment3d>& edges)
+{
+  std::vector<ic::EdgeSamples> checked;
+  const ic::ImageExplanation e = camera.explain(truth, map, occluders, nullptr, &checked);
+  const int w = camera.config().image_width, h = camera.config().image_height;
+  ic::simulation::RenderOptions render;
+  render.supersampling = 1;
+  render.color = false;
+  const auto view = ic::simulation::Renderer(world).render(ic::simulation::ViewCamera::fromModel(truth, w, h), render);
+  const CheckSampleCauses c = classifyCheckSamples(checked, truth, view.depth, edges);
+  const double n = std::max<size_t>(1, c.samples);
+  const double on_visible =
+      static_cast<double>(c.on_edge - c.hidden_on_edge) / std::max(1.0, n - c.hidden - c.hidden_on_edge);
+  std::printf(
+      "truth-check %s true camera: %s (%s); of its %zu counted samples %.1f %% on an edge, without one: hidden from it "
+      "%.1f %%, in view on a true edge %.1f %%, on none %.1f %%; on an edge where not hidden %.1f %%\n",
+      name.c_str(), e.describe().c_str(), ic::acceptExplanation(e, camera.options().explanation) ? "passes" : "fails",
+      c.samples, 100.0 * c.on_edge / n, 100.0 * c.hidden / n, 100.0 * c.faint / n, 100.0 * c.off / n,
+      100.0 * on_visible);
+  const ic::ImageExplanationOptions& o = camera.options().explanation;
+  const bool accepted = camera.calibration().has_value() && camera.lastResult();
+  const auto& result = accepted ? camera.lastResult() : camera.lastRefused();
+  if (!result || result->checked_map_lines.empty())
+    return;
+  std::printf("truth-agreement %s %s result (%s): %s\n", name.c_str(), accepted ? "accepted" : "refused",
+              describeError(result->calibration.camera, truth).c_str(),
+              describeAgreement(result->explanation, o).c_str());
+  for (const ic::AlternativeCamera& alt : result->ambiguity.alternatives)
+    std::printf("truth-agreement %s alternative (%s): %s\n", name.c_str(),
+                describeError(alt.calibration.camera, truth).c_str(),
+                describeAgreement(camera.explain(alt.calibration.camera, map, occluders), o).c_str());
+}
+
 // Map coverage (line_evaluation.h): the camera's image lines, extracted from its median under the true distortion,
 // by length on a true edge the used map holds within 1 cm; whatever the calibration's outcome. With a world file,
-// also why the map lacks the others (diagnoseMissingEdges).
+// also why the map lacks the others (diagnoseMissingEdges) and why the final check's samples of the true camera find
+// no image edge (diagnoseFinalCheck).
 void reportCoverageAgainstTruth(const std::string& truth_dir, const ic::Survey& survey, const std::string& name,
                                 const std::vector<ic::Segment3d>& map, const std::string& world_file)
 {
@@ -616,8 +719,17 @@ void reportCoverageAgainstTruth(const std::string& truth_dir, const ic::Survey& 
       "%.1f / %.1f %%)\n",
       name.c_str(), 100.0 * c.fraction(), c.total_px, c.covered_lines, c.lines,
       c.total_px > 0.0 ? 100.0 * c.on_edge_px / c.total_px : 0.0, 100.0 * c3, 100.0 * c10);
-  if (!world_file.empty() && c.total_px > 0.0)
-    diagnoseMissingEdges(world_file, survey, name, c);
+  if (world_file.empty())
+    return;
+  const auto world = ic::simulation::loadWorldFile(world_file);
+  if (!world)
+  {
+    std::fprintf(stderr, "calibrate_survey: %s\n", world.error().describe().c_str());
+    return;
+  }
+  if (c.total_px > 0.0)
+    diagnoseMissingEdges(*world, survey, name, c);
+  diagnoseFinalCheck(*world, survey.camera(name), survey.surfaces().get(), name, truth->camera, map, segments);
 }
 
 // The map lines of one kind (beyond depth: triangulated, ceiling, floor; fused) in use against the true edges:
@@ -1063,6 +1175,8 @@ bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options, bool* 
   options->ceiling.enabled = cli.number("ceiling-lines", options->ceiling.enabled ? 1.0 : 0.0) != 0.0;
   options->triangulated.enabled = cli.number("triangulated-lines", options->triangulated.enabled ? 1.0 : 0.0) != 0.0;
   options->occlusion.enabled = cli.number("occlusion-test", options->occlusion.enabled ? 1.0 : 0.0) != 0.0;
+  options->cameras.explanation.plain_floor_by_sample =
+      cli.number("plain-floor-samples", options->cameras.explanation.plain_floor_by_sample ? 1.0 : 0.0) != 0.0;
   options->occlusion.follow_adjustment =
       cli.number("occluders-follow-adjustment", options->occlusion.follow_adjustment ? 1.0 : 0.0) != 0.0;
   if (cli.flag("no-refine"))
@@ -1075,6 +1189,8 @@ bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options, bool* 
       static_cast<int>(cli.number("local-search-starts", options->cameras.matcher.local_search_starts));
   options->cameras.matcher.hypothesis_starts =
       static_cast<int>(cli.number("hypothesis-starts", options->cameras.matcher.hypothesis_starts));
+  options->cameras.matcher.prior_start =
+      cli.number("prior-start", options->cameras.matcher.prior_start ? 1.0 : 0.0) != 0.0;
   if (cli.flag("trace"))
     options->cameras.matcher.trace = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
   if (!cli.error().empty())
@@ -1329,6 +1445,7 @@ int main(int argc, char** argv)
        "camera",
        "search-starts",
        "local-search-starts",
+       "prior-start",
        "hypothesis-starts",
        "truth-dir",
        "coverage-diagnosis",
@@ -1345,6 +1462,7 @@ int main(int argc, char** argv)
        "floor-max-range",
        "floor-extended",
        "occlusion-test",
+       "plain-floor-samples",
        "occluders-follow-adjustment",
        "triangulated-lines",
        "ceiling-lines",

@@ -25,29 +25,57 @@ ic::CameraModel moved(ic::CameraModel c, const Eigen::Vector3d& shift_world)
   pose.translation -= pose.rotation * shift_world;  // centre + shift
   return c;
 }
-// What the report's overlay draws is what the test counted: the left-out lines, and the counted samples' share on an
-// edge.
+// What the report's overlay draws is what the test counted: the left-out lines and samples, the counted samples'
+// share on an edge, each sample the image of its map point.
 void expectCheckedLinesAsCounted(const cv::Mat& image, const sim::SimulatedFixedCamera& cam,
                                  const std::vector<ic::Segment3d>& map, const ic::ImageExplanationOptions& options,
                                  const ic::ImageExplanation& expected)
 {
   std::vector<ic::EdgeSamples> checked;
   const auto with_samples = ic::explainImage(image, cam.camera, cam.width, cam.height, map, nullptr, options, &checked);
-  size_t left_out = 0, counted_samples = 0, counted_on_edge = 0;
+  size_t left_out = 0, left_out_samples = 0, counted_samples = 0, counted_on_edge = 0;
   for (const ic::EdgeSamples& line : checked)
   {
     left_out += line.counted ? 0 : 1;
-    if (line.counted)
+    ASSERT_TRUE(line.left_out.empty() || line.left_out.size() == line.points.size()) << cam.name;
+    ASSERT_EQ(line.map_points.size(), line.points.size()) << cam.name;
+    for (size_t k = 0; k < line.points.size(); ++k)  // each sample is the image of its map point
     {
-      counted_samples += line.on_edge.size();
-      counted_on_edge += static_cast<size_t>(std::count(line.on_edge.begin(), line.on_edge.end(), true));
+      const auto p = cam.camera.project(line.map_points[k]);
+      ASSERT_TRUE(p.has_value()) << cam.name;
+      EXPECT_LT((*p - line.points[k]).norm(), 1e-6) << cam.name;
+    }
+    for (size_t k = 0; line.counted && k < line.points.size(); ++k)
+    {
+      counted_samples += line.countedAt(k) ? 1 : 0;
+      counted_on_edge += line.countedAt(k) && line.on_edge[k] ? 1 : 0;
+      left_out_samples += line.countedAt(k) ? 0 : 1;
     }
   }
   EXPECT_EQ(checked.size(), expected.map_lines + expected.plain_floor_lines) << cam.name;
   EXPECT_EQ(left_out, expected.plain_floor_lines) << cam.name;
   EXPECT_EQ(counted_samples, expected.samples) << cam.name;
+  EXPECT_EQ(left_out_samples, expected.plain_floor_samples) << cam.name;
   EXPECT_DOUBLE_EQ(static_cast<double>(counted_on_edge) / counted_samples, expected.overlay_agreement) << cam.name;
   EXPECT_DOUBLE_EQ(with_samples.overlay_agreement, expected.overlay_agreement) << cam.name;
+}
+
+// Cameras the final check must refuse: 6 % off in focal length, 15 cm sideways, one floor tile along x, rolled 2 deg.
+std::vector<std::pair<std::string, ic::CameraModel>> wrongCameras(const ic::CameraModel& truth)
+{
+  std::vector<std::pair<std::string, ic::CameraModel>> wrong;
+  ic::CameraModel focal = truth;
+  focal.intrinsics().fx *= 1.06;
+  focal.intrinsics().fy *= 1.06;
+  wrong.emplace_back("focal +6 %", focal);
+  wrong.emplace_back("moved 0.15 m sideways", moved(truth, 0.15 * truth.pose().rotation.row(0).transpose()));
+  wrong.emplace_back("moved one floor tile (0.5 m) along x", moved(truth, Eigen::Vector3d(0.5, 0, 0)));
+  ic::CameraModel turned = truth;
+  const Eigen::Matrix3d roll = Eigen::AngleAxisd(2.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  turned.pose().rotation = roll * truth.pose().rotation;
+  turned.pose().translation = roll * truth.pose().translation;
+  wrong.emplace_back("rolled 2 deg about its axis", turned);
+  return wrong;
 }
 }  // namespace
 
@@ -66,21 +94,7 @@ TEST(ImageExplanation, TrueCameraAcceptedWrongCamerasRefused)
     EXPECT_TRUE(ic::acceptExplanation(truth, options)) << cam.name;
     EXPECT_GT(truth.map_lines, 20u);
 
-    std::vector<std::pair<std::string, ic::CameraModel>> wrong;
-    ic::CameraModel focal = cam.camera;
-    focal.intrinsics().fx *= 1.06;
-    focal.intrinsics().fy *= 1.06;
-    wrong.emplace_back("focal +6 %", focal);
-    wrong.emplace_back("moved 0.15 m sideways",
-                       moved(cam.camera, 0.15 * cam.camera.pose().rotation.row(0).transpose()));
-    wrong.emplace_back("moved one floor tile (0.5 m) along x", moved(cam.camera, Eigen::Vector3d(0.5, 0, 0)));
-    ic::CameraModel turned = cam.camera;
-    turned.pose().rotation =
-        Eigen::AngleAxisd(2.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix() * turned.pose().rotation;
-    turned.pose().translation = Eigen::AngleAxisd(2.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
-                                cam.camera.pose().translation;
-    wrong.emplace_back("rolled 2 deg about its axis", turned);
-    for (const auto& [what, camera] : wrong)
+    for (const auto& [what, camera] : wrongCameras(cam.camera))
     {
       const auto e = ic::explainImage(view.rgb, camera, cam.width, cam.height, map, nullptr, options);
       const ic::Status accepted = ic::acceptExplanation(e, options);
@@ -159,4 +173,77 @@ TEST(ImageExplanation, UnresolvedFloorJointsDoNotRefuseTheTrueCamera)
     }
   }
   EXPECT_GE(refused_with_every_floor_line, 2);  // the joints matter: cam_east and cam_desk (cam_wide sees more)
+}
+
+// A camera that sees none of the map lines (here: turned to face away from them all, as a wrong camera behind a wall
+// whose lines the measured surfaces all hide would) has nothing that speaks for it: refused. Without an image nothing
+// was checked: not refused for that.
+TEST(ImageExplanation, NoMapLineToCheckIsRefused)
+{
+  const auto world = sim::loadWorldFile(kWorld);
+  ASSERT_TRUE(world) << world.error().describe();
+  const sim::Renderer renderer(*world);
+  const ic::ImageExplanationOptions options = ic::FixedCameraOptions{}.explanation;
+  const auto& cam = world->fixed_cameras.front();
+  const auto view = renderer.render(sim::ViewCamera::fromModel(cam.camera, cam.width, cam.height));
+  const auto map = ic::edgesSeenInView(*world, cam.camera, view);
+  ASSERT_FALSE(map.empty());
+  ic::CameraModel away = cam.camera;  // turned 180 deg about the vertical through its centre
+  const Eigen::Matrix3d half_turn = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const Eigen::Vector3d centre = cam.camera.pose().center();
+  away.pose().rotation = cam.camera.pose().rotation * half_turn.transpose();
+  away.pose().translation = -away.pose().rotation * centre;
+  ASSERT_LT((away.pose().center() - centre).norm(), 1e-9);
+  const auto e = ic::explainImage(view.rgb, away, cam.width, cam.height, map, nullptr, options);
+  EXPECT_TRUE(e.image_checked);
+  EXPECT_EQ(e.samples, 0u);
+  const ic::Status refused = ic::acceptExplanation(e, options);
+  ASSERT_FALSE(refused);
+  EXPECT_NE(refused.error().message().find("sees none of the map lines"), std::string::npos);
+
+  const auto unchecked = ic::explainImage(cv::Mat(), away, cam.width, cam.height, map, nullptr, options);
+  EXPECT_FALSE(unchecked.image_checked);
+  EXPECT_TRUE(ic::acceptExplanation(unchecked, options));
+}
+
+// Floor samples left out one by one where the floor looks plain there (plain_floor_by_sample): the true cameras are
+// still accepted and the wrong ones still refused; what is left out is exactly the floor lines' samples without an
+// edge on or beside them (the samples on an edge are those of every floor line counted).
+TEST(ImageExplanation, PlainFloorSamplesLeftOutOneByOne)
+{
+  const auto world = sim::loadWorldFile(kWorld);
+  ASSERT_TRUE(world) << world.error().describe();
+  const sim::Renderer renderer(*world);
+  ic::ImageExplanationOptions by_sample = ic::FixedCameraOptions{}.explanation;
+  by_sample.plain_floor_by_sample = true;
+  ic::ImageExplanationOptions every_floor_line = by_sample;
+  every_floor_line.leave_out_plain_floor = false;
+  size_t left_out_samples = 0;
+  for (const auto& cam : world->fixed_cameras)
+  {
+    const auto view = renderer.render(sim::ViewCamera::fromModel(cam.camera, cam.width, cam.height));
+    const auto map = ic::edgesSeenInView(*world, cam.camera, view);
+    const auto e = ic::explainImage(view.rgb, cam.camera, cam.width, cam.height, map, nullptr, by_sample);
+    const auto all = ic::explainImage(view.rgb, cam.camera, cam.width, cam.height, map, nullptr, every_floor_line);
+    std::printf("%s by sample: %s\n", cam.name.c_str(), e.describe().c_str());
+    EXPECT_TRUE(ic::acceptExplanation(e, by_sample)) << cam.name;
+    EXPECT_GT(e.overlay_agreement, all.overlay_agreement) << cam.name;
+    const double on = e.overlay_agreement * e.samples;  // the same samples on an edge
+    EXPECT_NEAR(on, all.overlay_agreement * all.samples, 1e-6) << cam.name;
+    std::vector<ic::EdgeSamples> checked;  // the same samples assessed
+    ic::explainImage(view.rgb, cam.camera, cam.width, cam.height, map, nullptr, by_sample, &checked);
+    size_t assessed = 0;
+    for (const ic::EdgeSamples& line : checked)
+      assessed += line.points.size();
+    EXPECT_EQ(assessed, all.samples) << cam.name;
+    expectCheckedLinesAsCounted(view.rgb, cam, map, by_sample, e);
+    left_out_samples += e.plain_floor_samples;
+    for (const auto& [what, camera] : wrongCameras(cam.camera))
+    {
+      const auto w = ic::explainImage(view.rgb, camera, cam.width, cam.height, map, nullptr, by_sample);
+      std::printf("  %s: %s\n", what.c_str(), w.describe().c_str());
+      EXPECT_FALSE(ic::acceptExplanation(w, by_sample)) << cam.name << " " << what;
+    }
+  }
+  EXPECT_GT(left_out_samples, 100u);  // the floor's joints are not all resolved
 }

@@ -47,6 +47,8 @@ TEST(SurveyParameters, UnsetParametersKeepTheStructsDefaults)
   EXPECT_FALSE(read.cameras.image_lines.refiner.thin_lines);  // off by default (docs/measurements.md, "Thin lines")
   EXPECT_TRUE(read.cameras.explanation.leave_out_plain_floor);
   EXPECT_TRUE(read.cameras.unresolved_joints.enabled);
+  EXPECT_TRUE(read.cameras.matcher.prior_start);
+  EXPECT_FALSE(read.cameras.explanation.plain_floor_by_sample);
 }
 
 TEST(SurveyParameters, EverySetParameterIsTaken)
@@ -71,12 +73,14 @@ min_matched_lines: 12
 search_starts: 6
 hypothesis_starts: 3
 local_search_starts: 2
+prior_start: false
 ransac_threshold_px: 4.5
 ransac: false
 refine: no
 thin_lines: true
 thin_line_sigma: 0.005
 plain_floor_test: false
+plain_floor_samples: true
 unresolved_joints: false
 cameras: []
 )");
@@ -117,6 +121,8 @@ cameras: []
   EXPECT_EQ(o.cameras.thin_line_sigma_m, 0.005);
   EXPECT_FALSE(o.cameras.explanation.leave_out_plain_floor);
   EXPECT_FALSE(o.cameras.unresolved_joints.enabled);
+  EXPECT_FALSE(o.cameras.matcher.prior_start);
+  EXPECT_TRUE(o.cameras.explanation.plain_floor_by_sample);
 }
 
 TEST(SurveyParameters, BadValuesAreEachReportedAndKeepTheirDefaults)

@@ -69,6 +69,9 @@ struct LineMatcherOptions
   double search_min_cap_px = 4.0;
   double search_cap_shrink = 0.5;
   int search_starts = 4;  // distinct search results each refined; the one explaining most image lines wins
+  // The prior itself joins the starts as it is, without the pattern search (which moves a start by half the prior's
+  // sigmas and can leave a prior that was close but stated with wide sigmas).
+  bool prior_start = true;
   // Hypotheses from line correspondences (src/core/matching/hypotheses.cpp, docs/survey_calibration.md): cameras
   // anywhere in the prior's 3-sigma cone, their rotation and focal length from image lines taken as vertical or as
   // the map's dominant directions (hypothesis_iterations samples), their centre from image/map line pairs, scored

@@ -148,6 +148,12 @@ public:
 
   // The camera used to look at the map: the calibration when there is one, else the prior's.
   std::optional<CameraModel> currentCamera() const;
+  // The final check's measurement (image_explanation.h) of any camera against the median image: the map lines in its
+  // view less those the occluders (none: nothing hidden) hide from it. For a result, and for the truth's camera in
+  // diagnostics (with Survey::surfaces()).
+  ImageExplanation explain(const CameraModel& camera, const std::vector<Segment3d>& map_lines,
+                           const SurfaceVoxels* occluders, const RefinementResult* refinement = nullptr,
+                           std::vector<EdgeSamples>* checked_lines = nullptr) const;
 
 private:
   Expected<FixedCameraResult> calibrateFromFile(const std::string& world_frame);
@@ -167,8 +173,9 @@ private:
   Status check(const CameraCalibration& calibration, size_t matched_lines, bool check_prior = true) const;
   // The final check of a map-based result: measures how well it explains the median image, refuses it if badly.
   Status checkExplanation(FixedCameraResult& result, const std::vector<Segment3d>& map_lines) const;
-  // The map lines in the camera's view, clipped to it, less the parts the occluders hide from it.
-  std::vector<Segment3d> unhiddenLines(const CameraModel& camera, const std::vector<Segment3d>& map_lines) const;
+  // The map lines in the camera's view, clipped to it, less the parts the occluders (none: nothing) hide from it.
+  std::vector<Segment3d> unhiddenLines(const CameraModel& camera, const std::vector<Segment3d>& map_lines,
+                                       const SurfaceVoxels* occluders) const;
   // Its ambiguity test: refuses a result when a camera at a clearly different pose explains the image about as well
   // and would pass the checks too.
   // Whether the prior makes an alternative camera implausible (ViewAmbiguityOptions::prior_margin_sigmas).

@@ -152,6 +152,8 @@ std::vector<CameraModel> searchPrior(const MatchingProblem& problem, const Camer
 {
   const SearchGrid grid(problem, prior);
   std::vector<CameraModel> cameras;
+  if (problem.options.prior_start)
+    cameras.push_back(cameraOf(prior, problem.width, problem.height, SearchState{}));
   for (const SearchState& seed : bestGridCells(problem, prior, grid))
     cameras.push_back(patternSearch(problem, prior, grid, seed));
   // Starts from line correspondences anywhere in the prior's cone, each refined by the same pattern search about it.

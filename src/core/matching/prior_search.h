@@ -4,7 +4,7 @@
 
 #include <vector>
 
-#include "matching/matching_problem.h"
+#include "matching_problem.h"  // beside this header: unit tests include it without src/core on their path
 
 namespace insitu_calibration
 {
@@ -13,7 +13,8 @@ namespace matching
 // A grid over yaw, pitch and field of view within 1.5 sigma; the search_starts best distinct cells are then each
 // refined by a pattern search over all seven values (repetitive structure such as a row of windows gives several
 // local optima, and the best grid cell is not always the right one). With hypothesis_starts, the best hypotheses from
-// line correspondences (hypotheses.h) follow, each refined by the same pattern search.
+// line correspondences (hypotheses.h) follow, each refined by the same pattern search. With prior_start, the prior
+// itself comes first.
 std::vector<CameraModel> searchPrior(const MatchingProblem& problem, const CameraPrior& prior);
 }  // namespace matching
 }  // namespace insitu_calibration

@@ -172,25 +172,31 @@ std::vector<double> FixedCamera::finalSigmas(const std::vector<Segment3d>& map_l
   return unresolvedJointSigmas(map_lines, sigmas, config_.prior->position, focal, options_.unresolved_joints);
 }
 
-std::vector<Segment3d> FixedCamera::unhiddenLines(const CameraModel& camera,
-                                                  const std::vector<Segment3d>& map_lines) const
+std::vector<Segment3d> FixedCamera::unhiddenLines(const CameraModel& camera, const std::vector<Segment3d>& map_lines,
+                                                  const SurfaceVoxels* occluders) const
 {
-  if (!occluders_)
+  if (!occluders)
     return map_lines;
   std::vector<Segment3d> in_view;
   for (const Segment3d& line : map_lines)
     if (const auto interval = visibleInterval(camera, line, config_.image_width, config_.image_height))
       in_view.push_back({line.pointAt(interval->first), line.pointAt(interval->second)});
-  return occluders_->unoccludedParts(camera.pose().center(), in_view);
+  return occluders->unoccludedParts(camera.pose().center(), in_view);
+}
+
+ImageExplanation FixedCamera::explain(const CameraModel& camera, const std::vector<Segment3d>& map_lines,
+                                      const SurfaceVoxels* occluders, const RefinementResult* refinement,
+                                      std::vector<EdgeSamples>* checked_lines) const
+{
+  return explainImage(median_.median(), camera, config_.image_width, config_.image_height,
+                      unhiddenLines(camera, map_lines, occluders), refinement, options_.explanation, checked_lines);
 }
 
 Status FixedCamera::checkExplanation(FixedCameraResult& result, const std::vector<Segment3d>& map_lines) const
 {
   const CameraCalibration& c = result.calibration;
-  const std::vector<Segment3d> seen = unhiddenLines(c.camera, map_lines);
-  result.explanation =
-      explainImage(median_.median(), c.camera, config_.image_width, config_.image_height, seen,
-                   c.refinement ? &*c.refinement : nullptr, options_.explanation, &result.checked_map_lines);
+  result.explanation = explain(c.camera, map_lines, occluders_.get(), c.refinement ? &*c.refinement : nullptr,
+                               &result.checked_map_lines);
   return acceptExplanation(result.explanation, options_.explanation);
 }
 
@@ -217,7 +223,6 @@ Status FixedCamera::checkAmbiguity(FixedCameraResult& result, const std::vector<
   result.ambiguity =
       findAlternativeCameras(map_lines, image_lines, result.calibration, result.matched_map_lines, w, h,
                              options_.matcher, map_line_sigmas_m, finalSigmas(map_lines, map_line_sigmas_m), o);
-  const cv::Mat median = median_.median();
   for (AlternativeCamera& alt : result.ambiguity.alternatives)
   {
     if (!alt.clearly_different)
@@ -240,8 +245,7 @@ Status FixedCamera::checkAmbiguity(FixedCameraResult& result, const std::vector<
     }
     const CameraCalibration& c = alt.calibration;
     // Measured as the accepted camera's was: without the map lines hidden from it.
-    const ImageExplanation e = explainImage(median, c.camera, w, h, unhiddenLines(c.camera, map_lines),
-                                            c.refinement ? &*c.refinement : nullptr, options_.explanation);
+    const ImageExplanation e = explain(c.camera, map_lines, occluders_.get(), c.refinement ? &*c.refinement : nullptr);
     if (e.samples > 0 && e.overlay_agreement < result.explanation.overlay_agreement - o.overlay_margin)
     {  // its map lines meet image edges less often: the accepted camera explains the view better
       alt.dismissed = "overlay " + std::to_string(static_cast<int>(100.0 * e.overlay_agreement)) + " %";

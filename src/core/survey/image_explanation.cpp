@@ -65,8 +65,8 @@ bool onEdge(const Gradients& g, const Eigen::Vector2d& p, const Eigen::Vector2d&
   return false;
 }
 
-// Calls visit(pixel, unit normal) for each sample of one map line's projection (sample_step_px apart, 3 px inside
-// the image); false when the projection is too short to assess.
+// Calls visit(pixel, unit normal, map point) for each sample of one map line's projection (sample_step_px apart, 3 px
+// inside the image); false when the projection is too short to assess.
 template <typename Visit>
 bool forEachSample(const CameraModel& camera, const Segment3d& line, const std::pair<double, double>& interval,
                    int width, int height, const ImageExplanationOptions& o, Visit visit)
@@ -88,7 +88,7 @@ bool forEachSample(const CameraModel& camera, const Segment3d& line, const std::
     const Eigen::Vector2d d = (*q - *r).normalized(), normal(-d.y(), d.x());
     if (p->x() < 3 || p->y() < 3 || p->x() > width - 4 || p->y() > height - 4)
       continue;
-    visit(*p, normal);
+    visit(*p, normal, a + t * (b - a));
   }
   return true;
 }
@@ -97,6 +97,7 @@ bool forEachSample(const CameraModel& camera, const Segment3d& line, const std::
 struct LineSupport
 {
   size_t samples = 0, on = 0, beside = 0;
+  size_t left_out = 0;  // plain floor samples left out one by one (not in on, beside: they have no edge)
 };
 
 // One map line as the final check sees it: its counts, and (when asked for) its samples for the report's overlay.
@@ -106,42 +107,74 @@ struct AssessedLine
   EdgeSamples samples;
 };
 
+// One sample's edge test on the line and beside it, counted into a (kept in a.samples with keep_samples).
+// leave_out_plain: a sample with no edge on it or beside it is left out (plain floor there).
+void assessSample(const Gradients& g, const Eigen::Vector2d& p, const Eigen::Vector2d& normal,
+                  const Eigen::Vector3d& point, const ImageExplanationOptions& o, bool keep_samples,
+                  bool leave_out_plain, AssessedLine& a)
+{
+  const bool on = onEdge(g, p, normal, o);
+  const int beside = (onEdge(g, p + o.chance_offset_px * normal, normal, o) ? 1 : 0) +
+                     (onEdge(g, p - o.chance_offset_px * normal, normal, o) ? 1 : 0);
+  const bool left_out = leave_out_plain && !on && beside == 0;
+  ++a.support.samples;
+  a.support.on += on ? 1 : 0;
+  a.support.beside += beside;
+  a.support.left_out += left_out ? 1 : 0;
+  if (!keep_samples)
+    return;
+  a.samples.points.push_back(p);
+  a.samples.map_points.push_back(point);
+  a.samples.on_edge.push_back(on);
+  if (leave_out_plain)
+    a.samples.left_out.push_back(left_out);
+}
+
 // None when the projection is too short to assess.
 std::optional<AssessedLine> assessLine(const Gradients& g, const CameraModel& camera, const Segment3d& line,
                                        const std::pair<double, double>& interval, int width, int height,
-                                       const ImageExplanationOptions& o, bool keep_samples)
+                                       const ImageExplanationOptions& o, bool keep_samples, bool leave_out_plain)
 {
   AssessedLine a;
-  const bool assessed = forEachSample(
-      camera, line, interval, width, height, o, [&](const Eigen::Vector2d& p, const Eigen::Vector2d& normal) {
-        const bool on = onEdge(g, p, normal, o);
-        ++a.support.samples;
-        a.support.on += on ? 1 : 0;
-        a.support.beside += onEdge(g, p + o.chance_offset_px * normal, normal, o) ? 1 : 0;
-        a.support.beside += onEdge(g, p - o.chance_offset_px * normal, normal, o) ? 1 : 0;
-        if (keep_samples)
-        {
-          a.samples.points.push_back(p);
-          a.samples.on_edge.push_back(on);
-        }
-      });
+  const bool assessed =
+      forEachSample(camera, line, interval, width, height, o,
+                    [&](const Eigen::Vector2d& p, const Eigen::Vector2d& normal, const Eigen::Vector3d& point) {
+                      assessSample(g, p, normal, point, o, keep_samples, leave_out_plain, a);
+                    });
   if (!assessed)
     return std::nullopt;
   return a;
 }
 
-// A floor line whose image shows hardly any edge on it or beside it: texture this camera does not resolve.
+// A floor line the plain-floor test applies to.
+bool isFloorLine(const Segment3d& line, const ImageExplanationOptions& o)
+{
+  return o.leave_out_plain_floor && segmentOnFloor(line.a, line.b, o.floor_height_m, o.floor_tolerance_m);
+}
+
+// A floor line whose image shows hardly any edge on it or beside it: texture this camera does not resolve. With
+// plain_floor_by_sample, one whose every sample was left out.
 bool onPlainFloor(const Segment3d& line, const LineSupport& s, const ImageExplanationOptions& o)
 {
-  if (!o.leave_out_plain_floor || s.samples == 0 ||
-      !segmentOnFloor(line.a, line.b, o.floor_height_m, o.floor_tolerance_m))
+  if (s.samples == 0 || !isFloorLine(line, o))
     return false;
+  if (o.plain_floor_by_sample)
+    return s.left_out == s.samples;
   const double n = static_cast<double>(s.samples);
   return s.on < o.plain_floor_on_edge * n && 0.5 * s.beside < o.plain_floor_beside * n;
 }
 
+// Every sample of the line counts again (too few other lines to judge the camera on).
+void countWhole(AssessedLine& a)
+{
+  a.samples.counted = true;
+  a.support.left_out = 0;
+  a.samples.left_out.clear();
+}
+
 // The map lines in view that the overlay test assesses (projections long enough, with a sample inside the image),
-// each with samples.counted set: false for a plain-floor line left out (when enough others remain).
+// each with samples.counted set: false for a plain-floor line left out (when enough others remain); with
+// plain_floor_by_sample the floor lines' plain samples are left out one by one.
 std::vector<AssessedLine> assessOverlay(const cv::Mat& image, const CameraModel& camera, int width, int height,
                                         const std::vector<Segment3d>& map_lines, const ImageExplanationOptions& options,
                                         bool keep_samples)
@@ -152,8 +185,9 @@ std::vector<AssessedLine> assessOverlay(const cv::Mat& image, const CameraModel&
   for (const auto& line : map_lines)
   {
     const auto interval = visibleInterval(camera, line, width, height);
-    auto assessed =
-        interval ? assessLine(g, camera, line, *interval, width, height, options, keep_samples) : std::nullopt;
+    const bool by_sample = options.plain_floor_by_sample && isFloorLine(line, options);
+    auto assessed = interval ? assessLine(g, camera, line, *interval, width, height, options, keep_samples, by_sample)
+                             : std::nullopt;
     if (!assessed || assessed->support.samples == 0)  // not assessed, or only at the border
       continue;
     assessed->samples.counted = !onPlainFloor(line, assessed->support, options);
@@ -162,7 +196,7 @@ std::vector<AssessedLine> assessOverlay(const cv::Mat& image, const CameraModel&
   }
   if (lines.size() - plain_count < std::max<size_t>(1, options.min_lines_without_plain_floor))
     for (AssessedLine& a : lines)  // too few others to judge the camera on: every line counts
-      a.samples.counted = true;
+      countWhole(a);
   return lines;
 }
 
@@ -178,7 +212,8 @@ void measureOverlay(const std::vector<AssessedLine>& lines, ImageExplanation& ou
       continue;
     }
     ++out.map_lines;
-    out.samples += a.support.samples;
+    out.samples += a.support.samples - a.support.left_out;
+    out.plain_floor_samples += a.support.left_out;
     on += a.support.on;
     beside += a.support.beside;
   }
@@ -199,10 +234,12 @@ std::string ImageExplanation::describe() const
       "%zu matched lines: median residual %.3f px, held out %.3f px",
       map_lines, 100.0 * overlay_agreement, 100.0 * overlay_chance, overlayExcess(), matched_lines, median_rms_px,
       median_heldout_px);
-  if (plain_floor_lines == 0)
-    return buffer;
-  return std::string(buffer) + "; " + std::to_string(plain_floor_lines) +
-         " floor lines left out where the floor looks plain";
+  std::string out = buffer;
+  if (plain_floor_lines > 0)
+    out += "; " + std::to_string(plain_floor_lines) + " floor lines left out where the floor looks plain";
+  if (plain_floor_samples > 0)
+    out += "; " + std::to_string(plain_floor_samples) + " samples of other floor lines left out where it looks plain";
+  return out;
 }
 
 ImageExplanation explainImage(const cv::Mat& image, const CameraModel& camera, int width, int height,
@@ -214,6 +251,7 @@ ImageExplanation explainImage(const cv::Mat& image, const CameraModel& camera, i
     checked_lines->clear();
   if (!image.empty())
   {
+    out.image_checked = true;
     std::vector<AssessedLine> lines =
         assessOverlay(image, camera, width, height, map_lines, options, checked_lines != nullptr);
     measureOverlay(lines, out);
@@ -249,6 +287,12 @@ std::vector<EdgeSamples> sampleEdgeSupport(const cv::Mat& image, const CameraMod
 Status acceptExplanation(const ImageExplanation& e, const ImageExplanationOptions& o)
 {
   const std::string numbers = " (" + e.describe() + ")";
+  const bool overlay_tested = o.min_overlay_agreement > 0.0 || o.min_overlay_excess > 0.0;
+  if (overlay_tested && e.image_checked && e.samples == 0)
+    return Error(ErrorCode::kNoSolution,
+                 "the camera does not explain the image: it sees none of the map lines long enough to check" + numbers +
+                     " (the surfaces the survey measured hide them from it, or they lie outside its view); the "
+                     "matches are probably wrong: check the prior, or survey more of the view");
   if (o.min_overlay_agreement > 0.0 && e.samples > 0 && e.overlay_agreement < o.min_overlay_agreement)
     return Error(ErrorCode::kNoSolution,
                  "the camera does not explain the image: too few of the map lines it sees fall on image edges" +

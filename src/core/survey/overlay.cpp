@@ -115,6 +115,8 @@ void drawCheckedMapLines(cv::Mat* canvas, const CameraModel& camera, int width, 
   for (const EdgeSamples& line : checked_map_lines)
     for (size_t k = 1; line.counted && k < line.points.size(); ++k)
     {
+      if (!line.countedAt(k - 1) || !line.countedAt(k))
+        continue;
       const bool supported = line.on_edge[k - 1] && line.on_edge[k];
       cv::line(*canvas, toPoint(line.points[k - 1]), toPoint(line.points[k]), kMapLineColour,
                supported ? 2 * thickness + 1 : thickness, cv::LINE_AA, 4);

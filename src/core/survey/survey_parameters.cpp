@@ -85,12 +85,14 @@ void readCameraParameters(ParameterSource& read, FixedCameraOptions& camera)
       read.integer("hypothesis_starts", camera.matcher.hypothesis_starts, Range::integers(0, 16));
   camera.matcher.local_search_starts =
       read.integer("local_search_starts", camera.matcher.local_search_starts, Range::integers(1, 32));
+  camera.matcher.prior_start = read.flag("prior_start", camera.matcher.prior_start);
   CalibrationOptions& calibration = camera.matcher.calibration;
   calibration.refine = read.flag("refine", calibration.refine);
   calibration.ransac = read.flag("ransac", calibration.ransac);
   camera.image_lines.refiner.thin_lines = read.flag("thin_lines", camera.image_lines.refiner.thin_lines);
   camera.thin_line_sigma_m = read.number("thin_line_sigma", camera.thin_line_sigma_m, Range::closed(0.0, 0.1, "m"));
   camera.explanation.leave_out_plain_floor = read.flag("plain_floor_test", camera.explanation.leave_out_plain_floor);
+  camera.explanation.plain_floor_by_sample = read.flag("plain_floor_samples", camera.explanation.plain_floor_by_sample);
   camera.unresolved_joints.enabled = read.flag("unresolved_joints", camera.unresolved_joints.enabled);
 }
 }  // namespace
