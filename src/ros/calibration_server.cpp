@@ -393,22 +393,37 @@ void CalibrationServer::rgbdCallback(const sensor_msgs::ImageConstPtr& rgb, cons
 void CalibrationServer::estimateDepthRegistration(const RgbdFrame& keyframe, const std::vector<Segment2d>& segments)
 {
   std::lock_guard<std::mutex> lock(registration_mutex_);
-  if (!registration_estimator_->addFrame(keyframe, segments, registration_rgbd_))
+  if (registration_estimator_->addFrame(keyframe, segments, registration_rgbd_))
+    solveDepthRegistration(0.25, false);
+}
+
+void CalibrationServer::settleDepthRegistration()
+{
+  if (!registration_estimator_)
     return;
-  const auto due = registration_estimator_->estimateWhenGrown();
+  std::lock_guard<std::mutex> lock(registration_mutex_);
+  solveDepthRegistration(0.0, true);
+}
+
+void CalibrationServer::solveDepthRegistration(double growth, bool log_any_growth)
+{
+  const auto due = registration_estimator_->estimateWhenGrown(growth);
   if (due && !*due)
   {
     registration_refused_ = due->error().message();
-    ROS_INFO_THROTTLE(30.0, "calibration_node: depth registration %s: %s",
-                      registration_estimate_ ? "not estimated again (the last estimate stands)" : "not estimated yet",
-                      registration_refused_.c_str());
+    const char* state = registration_estimate_ ? "not estimated again (the last estimate stands)" : "not estimated yet";
+    if (log_any_growth)  // a calibration's settling solve: once per request, so always said
+      ROS_INFO("calibration_node: depth registration %s: %s", state, registration_refused_.c_str());
+    else
+      ROS_INFO_THROTTLE(30.0, "calibration_node: depth registration %s: %s", state, registration_refused_.c_str());
   }
   if (!due || !*due)
     return;
   const auto& e = *due;
   registration_estimate_ = *e;
   registration_refused_.clear();
-  if (e->creases < 2 * registration_logged_creases_)
+  const size_t log_from = log_any_growth ? registration_logged_creases_ + 1 : 2 * registration_logged_creases_;
+  if (e->creases < log_from)
     return;
   registration_logged_creases_ = e->creases;
   const Eigen::Vector2d& used = registration_rgbd_.sampler.registration_offset_px;
@@ -695,6 +710,7 @@ CalibrationServer::CalibrationOutcome CalibrationServer::calibrateCameras(const 
     calibrateOne(
         names[i], [&](const std::string& stage) { report(names[i], stage, i); }, &outcome);
   }
+  settleDepthRegistration();
   if (const std::string warning = depthRegistrationWarning(); !warning.empty())
   {
     ROS_WARN_STREAM("calibration_node: " << warning);

@@ -104,7 +104,7 @@ Options:
                         intersection and confirmed from several keyframes, become map lines (default 0: off)
   --max-fusion-sigma M  observations too uncertain for the map alone (sigma above 3 mm) up to M m are fused into
                         map lines used when many keyframes agree (params map/max_fusion_sigma; default 0: off;
-                        0.012 measured: it let one wrong camera through on a held-out building)
+                        0.012 measured: docs/measurements.md, "Fusion measured again")
   --min-fusion-keyframes N
                         distinct keyframes a fused map line needs (params map/min_fusion_keyframes, default 4)
   --fusion-floor M      added in quadrature to a fused map line's predicted error: what averaging cannot remove
@@ -116,7 +116,7 @@ Options:
                         the camera (default 1)
   --plain-floor-samples 0|1
                         the final check leaves floor samples out one by one where the floor looks plain there
-                        instead of whole plain floor lines (params plain_floor_samples; default 0)
+                        instead of whole plain floor lines (params plain_floor_samples; default 1)
   --occluders-follow-adjustment 0|1
                         those surfaces are inserted again under the map adjustment's corrected keyframe poses
                         (default 0: at tf's poses)
@@ -1117,6 +1117,30 @@ bool estimateDepthRegistration(const std::string& bag, const ic::SurveyBagOption
   return true;
 }
 
+// --name 0|1: an option that switches something on or off (any non-zero number is on).
+bool onOff(ic::CommandLine& cli, const std::string& name, bool current)
+{
+  return cli.number(name, current ? 1.0 : 0.0) != 0.0;
+}
+
+// The options of each fixed camera's calibration: its final check and its matching.
+void parseCameraOptions(ic::CommandLine& cli, ic::FixedCameraOptions* cameras)
+{
+  cameras->explanation.plain_floor_by_sample =
+      onOff(cli, "plain-floor-samples", cameras->explanation.plain_floor_by_sample);
+  ic::LineMatcherOptions& matcher = cameras->matcher;
+  if (cli.flag("no-refine"))
+    matcher.calibration.refine = false;
+  if (cli.flag("no-ransac"))
+    matcher.calibration.ransac = false;
+  matcher.search_starts = static_cast<int>(cli.number("search-starts", matcher.search_starts));
+  matcher.local_search_starts = static_cast<int>(cli.number("local-search-starts", matcher.local_search_starts));
+  matcher.hypothesis_starts = static_cast<int>(cli.number("hypothesis-starts", matcher.hypothesis_starts));
+  matcher.prior_start = onOff(cli, "prior-start", matcher.prior_start);
+  if (cli.flag("trace"))
+    matcher.trace = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
+}
+
 // registration_given: whether the parameters set depth_registration/x_px or y_px.
 bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options, bool* registration_given)
 {
@@ -1162,37 +1186,22 @@ bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options, bool* 
     if (v.size() == 3)
       options->localization_correlation_s = v[2];
   }
-  options->floor.enabled = cli.number("floor-lines", options->floor.enabled ? 1.0 : 0.0) != 0.0;
+  options->floor.enabled = onOff(cli, "floor-lines", options->floor.enabled);
   options->floor.floor_height_m = cli.number("floor-height", options->floor.floor_height_m);
   options->floor.max_range_m = cli.number("floor-max-range", options->floor.max_range_m);
-  const bool extended = cli.number("floor-extended", options->floor.depth_confirmation ? 1.0 : 0.0) != 0.0;
+  const bool extended = onOff(cli, "floor-extended", options->floor.depth_confirmation);
   options->floor.depth_confirmation = options->floor.extend_confirmed = extended;
 
   options->map.max_fusion_sigma_m = cli.number("max-fusion-sigma", options->map.max_fusion_sigma_m);
   options->map.min_fusion_keyframes =
       static_cast<int>(cli.number("min-fusion-keyframes", options->map.min_fusion_keyframes));
   options->map.fusion_floor_m = cli.number("fusion-floor", options->map.fusion_floor_m);
-  options->ceiling.enabled = cli.number("ceiling-lines", options->ceiling.enabled ? 1.0 : 0.0) != 0.0;
-  options->triangulated.enabled = cli.number("triangulated-lines", options->triangulated.enabled ? 1.0 : 0.0) != 0.0;
-  options->occlusion.enabled = cli.number("occlusion-test", options->occlusion.enabled ? 1.0 : 0.0) != 0.0;
-  options->cameras.explanation.plain_floor_by_sample =
-      cli.number("plain-floor-samples", options->cameras.explanation.plain_floor_by_sample ? 1.0 : 0.0) != 0.0;
+  options->ceiling.enabled = onOff(cli, "ceiling-lines", options->ceiling.enabled);
+  options->triangulated.enabled = onOff(cli, "triangulated-lines", options->triangulated.enabled);
+  options->occlusion.enabled = onOff(cli, "occlusion-test", options->occlusion.enabled);
   options->occlusion.follow_adjustment =
-      cli.number("occluders-follow-adjustment", options->occlusion.follow_adjustment ? 1.0 : 0.0) != 0.0;
-  if (cli.flag("no-refine"))
-    options->cameras.matcher.calibration.refine = false;
-  if (cli.flag("no-ransac"))
-    options->cameras.matcher.calibration.ransac = false;
-  options->cameras.matcher.search_starts =
-      static_cast<int>(cli.number("search-starts", options->cameras.matcher.search_starts));
-  options->cameras.matcher.local_search_starts =
-      static_cast<int>(cli.number("local-search-starts", options->cameras.matcher.local_search_starts));
-  options->cameras.matcher.hypothesis_starts =
-      static_cast<int>(cli.number("hypothesis-starts", options->cameras.matcher.hypothesis_starts));
-  options->cameras.matcher.prior_start =
-      cli.number("prior-start", options->cameras.matcher.prior_start ? 1.0 : 0.0) != 0.0;
-  if (cli.flag("trace"))
-    options->cameras.matcher.trace = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
+      onOff(cli, "occluders-follow-adjustment", options->occlusion.follow_adjustment);
+  parseCameraOptions(cli, &options->cameras);
   if (!cli.error().empty())
   {
     std::cerr << "calibrate_survey: " << cli.error() << "\n\n" << kUsage;

@@ -248,16 +248,23 @@ TEST(CalibrationNode, CalibratesEveryCameraFromTheSurvey)
 TEST(CalibrationNode, EstimatesTheDepthRegistrationFromTheKeyframes)
 {
   ASSERT_GE(ros::Time::now().toSec(), g_bag_end - 0.5) << "runs after the survey";
-  std::vector<std::string> lines;
-  {
-    std::lock_guard<std::mutex> lock(g_registration_mutex);
-    lines = g_registration_lines;
-  }
   const std::regex estimated(
       "estimated (\\S+), (\\S+) px \\(1 sigma (\\S+), (\\S+) px\\) from (\\d+) creases in (\\d+) keyframes");
+  std::vector<std::string> lines;
   std::smatch m;
-  const auto last = std::find_if(lines.rbegin(), lines.rend(),
-                                 [&](const std::string& l) { return std::regex_search(l, m, estimated); });
+  auto last = lines.rend();
+  // The calibrations above settled the estimate with every crease of the survey; its log line travels through
+  // /rosout, so it is waited for (a few seconds at most).
+  for (const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(10.0);
+       last == lines.rend() && ros::WallTime::now() < give_up; ros::WallDuration(0.2).sleep())
+  {
+    {
+      std::lock_guard<std::mutex> lock(g_registration_mutex);
+      lines = g_registration_lines;
+    }
+    last = std::find_if(lines.rbegin(), lines.rend(),
+                        [&](const std::string& l) { return std::regex_search(l, m, estimated); });
+  }
   ASSERT_NE(last, lines.rend()) << lines.size() << " registration lines, none with an estimate"
                                 << (lines.empty() ? std::string() : ": " + lines.back());
   std::printf("%s\n", last->c_str());

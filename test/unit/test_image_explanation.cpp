@@ -116,7 +116,9 @@ TEST(ImageExplanation, UnresolvedFloorJointsDoNotRefuseTheTrueCamera)
   const auto world = sim::loadWorldFile(kWorld);
   ASSERT_TRUE(world) << world.error().describe();
   const sim::Renderer renderer(*world);
-  const ic::ImageExplanationOptions options = ic::FixedCameraOptions{}.explanation;
+  // The whole-line rule (the default's by-sample rule has its own test below).
+  ic::ImageExplanationOptions options = ic::FixedCameraOptions{}.explanation;
+  options.plain_floor_by_sample = false;
   ic::ImageExplanationOptions every_floor_line = options;
   every_floor_line.leave_out_plain_floor = false;
   std::vector<ic::Segment3d> joints;  // 0.5 m tiles on the 8 x 6 m floor: their centre lines

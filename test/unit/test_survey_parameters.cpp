@@ -48,7 +48,7 @@ TEST(SurveyParameters, UnsetParametersKeepTheStructsDefaults)
   EXPECT_TRUE(read.cameras.explanation.leave_out_plain_floor);
   EXPECT_TRUE(read.cameras.unresolved_joints.enabled);
   EXPECT_TRUE(read.cameras.matcher.prior_start);
-  EXPECT_FALSE(read.cameras.explanation.plain_floor_by_sample);
+  EXPECT_TRUE(read.cameras.explanation.plain_floor_by_sample);
 }
 
 TEST(SurveyParameters, EverySetParameterIsTaken)
@@ -80,7 +80,7 @@ refine: no
 thin_lines: true
 thin_line_sigma: 0.005
 plain_floor_test: false
-plain_floor_samples: true
+plain_floor_samples: false
 unresolved_joints: false
 cameras: []
 )");
@@ -122,7 +122,7 @@ cameras: []
   EXPECT_FALSE(o.cameras.explanation.leave_out_plain_floor);
   EXPECT_FALSE(o.cameras.unresolved_joints.enabled);
   EXPECT_FALSE(o.cameras.matcher.prior_start);
-  EXPECT_TRUE(o.cameras.explanation.plain_floor_by_sample);
+  EXPECT_FALSE(o.cameras.explanation.plain_floor_by_sample);
 }
 
 TEST(SurveyParameters, BadValuesAreEachReportedAndKeepTheirDefaults)

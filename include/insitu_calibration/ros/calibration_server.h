@@ -61,9 +61,14 @@ private:
   // lies more than 3 sigma from it.
   std::string describeDepthRegistration();
   std::string depthRegistrationWarning();
-  // With depth_registration/estimate: a keyframe's creases into the estimate, logged when it is first determined
-  // and whenever its creases have doubled since.
+  // With depth_registration/estimate: a keyframe's creases into the estimate, solved again when they have grown by a
+  // quarter, logged when it is first determined and whenever its creases have doubled since.
   void estimateDepthRegistration(const RgbdFrame& keyframe, const std::vector<Segment2d>& segments);
+  // Solves again with every crease found so far (growth 0: any new one), so that a calibration's note and log state
+  // the whole survey's estimate, not that of the last quarter's growth; logged when its creases grew at all.
+  void settleDepthRegistration();
+  // Under registration_mutex_: solves when the creases grew by `growth` since the last solve, logs as stated above.
+  void solveDepthRegistration(double growth, bool log_any_growth);
   // The ROS side of a fixed camera; its core is survey_->camera(name).
   struct Camera
   {

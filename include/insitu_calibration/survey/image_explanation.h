@@ -51,10 +51,11 @@ struct ImageExplanationOptions
   // the sample nor chance_offset_px to either side of it) instead of whole floor lines by plain_floor_on_edge and
   // plain_floor_beside: a joint this camera resolves near it and not farther away then counts where it is resolved.
   // Measured (docs/measurements.md, "Why true cameras fail the final check"): of 38 true cameras 5 fail the check
-  // as it is, 2 with it; none of 256 fitted wrong cameras (the ambiguity test's alternatives) changes its verdict. Off
-  // until a benchmark of the whole pipeline with it has run (the ambiguity test compares agreements too; parameter
-  // plain_floor_samples).
-  bool plain_floor_by_sample = false;
+  // as it is, 2 with it; none of 256 fitted wrong cameras (the ambiguity test's alternatives) changes its verdict. The
+  // whole pipeline (docs/measurements.md, "Fusion measured again"): set A 192809 cam_b and fresh set C 394178 cam_a,
+  // both right and refused by the check without it, accepted; no camera lost, none wrong. On since 2026-12-03
+  // (parameter plain_floor_samples).
+  bool plain_floor_by_sample = true;
   // Left out only when at least this many map lines remain (fewer are too little to judge the camera on: every
   // floor line counts then).
   size_t min_lines_without_plain_floor = 30;
