@@ -127,13 +127,18 @@ Options:
                         starts, the best result wins (default 3; 1: from the best start only)
   --hypothesis-starts N extra starts from line-correspondence hypotheses in the prior's 3-sigma cone (default 4)
   --prior-start 0|1     the prior itself is one of the starts, as it is (params prior_start; default 1)
+  --ambiguity-neighbourhood SHARE
+                        the ambiguity test also redoes the matching from the accepted camera moved by SHARE of the
+                        scene's depth towards the faces and corners of a cube around it (params
+                        ambiguity/neighbourhood_share; default 0.05; 0: only the map's repetitions are tried)
   --truth-dir DIR       the simulator's truth folder (<bag>_truth): also report, per camera, how many matches pair
                         the wrong edges and how far the matched map lines are from the true edges, the localiser's
                         limit (its error averaged over the keyframes, at the camera: "truth-limit" lines) and the
                         cameras' poses relative to each other against the truth ("truth-relative" lines),
                         the map's coverage of each camera's image lines ("truth-coverage" lines) and how much of an
                         accepted camera's error its lines' true offsets explain, all, wrong matches and right ones
-                        (linearised through the refinement: "truth-line-shift" lines)
+                        (linearised through the refinement: "truth-line-shift" lines), and where each of the
+                        ambiguity test's alternatives ended ("truth-alternative" lines)
   --coverage-diagnosis WORLD
                         with --truth-dir: per image line the map lacks, why (the simulator's WORLD file rendered
                         at each keyframe: never in the Xtion's view, in view without depth, with depth but no 3D
@@ -216,6 +221,24 @@ void reportLineShiftsAgainstTruth(const ic::CameraModel& truth, const std::vecto
   }
 }
 
+// The ambiguity test's alternatives against the truth: did one of its starts reach the true camera, and how did
+// it compare?
+void reportAlternativesAgainstTruth(const ic::CameraModel& truth, const ic::ViewAmbiguity& ambiguity)
+{
+  for (const ic::AlternativeCamera& alt : ambiguity.alternatives)
+  {
+    const ic::CameraErrors e = ic::compareCameras(truth, alt.calibration.camera);
+    std::printf(
+        "  truth-alternative: start %s %.2f m%s: focal %+.3f %%, rotation %.3f deg, position %.1f mm; "
+        "score %.2f (the result %.2f), %zu lines (the result %zu)%s%s\n",
+        alt.from_neighbourhood ? "neighbourhood" : "repetition", alt.shift.norm(),
+        alt.focal_compensated ? " (focal compensated)" : "", 100.0 * e.focal_relative, e.rotation_rad * 180.0 / M_PI,
+        1000.0 * e.center_m, alt.score, ambiguity.accepted_score, alt.matched_lines, ambiguity.accepted_matched,
+        alt.clearly_different ? "" : "; not clearly different",
+        alt.dismissed.empty() ? "" : ("; " + alt.dismissed).c_str());
+  }
+}
+
 // Diagnostics against the simulator's truth: the true edge of each matched image line (under the true camera) and
 // of each matched map line; a match is wrong when they differ.
 void reportAgainstTruth(const std::string& truth_dir, const std::string& name, const ic::FixedCameraResult& result,
@@ -270,6 +293,7 @@ void reportAgainstTruth(const std::string& truth_dir, const std::string& name, c
       "matched map lines off their edge by median %.2f mm, max %.2f mm\n",
       result.matched_image_lines.size(), wrong, unknown_image, unknown_map, map_stats.median_px, map_stats.max_px);
   reportLineShiftsAgainstTruth(truth->camera, segments, images, result, options, name);
+  reportAlternativesAgainstTruth(truth->camera, result.ambiguity);
 }
 
 // Diagnostic: how far from the truth a result the checks refused was (was the refusal needed?).
@@ -282,6 +306,7 @@ void reportRefusedAgainstTruth(const std::string& truth_dir, const std::string& 
   const ic::CameraErrors e = ic::compareCameras(truth->camera, refused.calibration.camera);
   std::printf("  truth of the refused result: focal %+.3f %%, rotation %.3f deg, position %.1f mm\n",
               100.0 * e.focal_relative, e.rotation_rad * 180.0 / M_PI, 1000.0 * e.center_m);
+  reportAlternativesAgainstTruth(truth->camera, refused.ambiguity);
 }
 
 // The keyframes' pose errors (x, y, yaw) before and after the map adjustment: RMS and mean (the survey's
@@ -1137,6 +1162,9 @@ void parseCameraOptions(ic::CommandLine& cli, ic::FixedCameraOptions* cameras)
   matcher.local_search_starts = static_cast<int>(cli.number("local-search-starts", matcher.local_search_starts));
   matcher.hypothesis_starts = static_cast<int>(cli.number("hypothesis-starts", matcher.hypothesis_starts));
   matcher.prior_start = onOff(cli, "prior-start", matcher.prior_start);
+  std::vector<double>& neighbourhood = cameras->ambiguity.neighbourhood_shares;
+  const double share = cli.number("ambiguity-neighbourhood", neighbourhood.empty() ? 0.0 : neighbourhood[0]);
+  neighbourhood = share > 0.0 ? std::vector<double>{share} : std::vector<double>{};
   if (cli.flag("trace"))
     matcher.trace = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
 }
@@ -1455,6 +1483,7 @@ int main(int argc, char** argv)
        "search-starts",
        "local-search-starts",
        "prior-start",
+       "ambiguity-neighbourhood",
        "hypothesis-starts",
        "truth-dir",
        "coverage-diagnosis",

@@ -96,6 +96,28 @@ TEST(CeilingLines, PlaneHeightIsMeasuredFromHorizontalDepthLinesAboveTheCamera)
   EXPECT_FALSE(ic::measureCeilingHeight(keyframes, options).has_value());
 }
 
+TEST(CeilingLines, ACabinetTopIsNoCeiling)
+{
+  // A cabinet's top 1.77 m high, level, 0.67 m above the camera and seen by more depth lines than the ceiling.
+  const std::vector<Edge> cabinet = {{{2.5, -0.5, 1.77}, {2.5, 0.5, 1.77}},
+                                     {{2.9, -0.5, 1.77}, {2.9, 0.5, 1.77}},
+                                     {{2.5, -0.5, 1.77}, {2.9, -0.5, 1.77}}};
+  std::vector<Edge> measured = ceilingDepthLines();
+  measured.insert(measured.end(), cabinet.begin(), cabinet.end());
+  ic::CeilingLineOptions options;
+  const auto plane = ic::measureCeilingHeight(squarePath({}, measured), options);
+  ASSERT_TRUE(plane.has_value());
+  EXPECT_NEAR(plane->height_m, kCeiling, 1e-9);
+  // Without the ceiling: none, rather than the cabinet.
+  EXPECT_FALSE(ic::measureCeilingHeight(squarePath({}, cabinet), options).has_value());
+  // The limit is above the floor: the same room with its floor 1 m lower in the map finds the cabinet's top 2.77 m
+  // above it.
+  options.floor_height_m = -1.0;
+  const auto lower = ic::measureCeilingHeight(squarePath({}, cabinet), options);
+  ASSERT_TRUE(lower.has_value());
+  EXPECT_NEAR(lower->height_m, 1.77, 1e-9);
+}
+
 TEST(CeilingLines, ExactCeilingEdgesAreRecoveredAndAnEdgeBelowTheCeilingIsRefused)
 {
   const std::vector<Edge> edges = {

@@ -49,6 +49,8 @@ TEST(SurveyParameters, UnsetParametersKeepTheStructsDefaults)
   EXPECT_TRUE(read.cameras.unresolved_joints.enabled);
   EXPECT_TRUE(read.cameras.matcher.prior_start);
   EXPECT_TRUE(read.cameras.explanation.plain_floor_by_sample);
+  EXPECT_EQ(read.cameras.ambiguity.neighbourhood_shares, std::vector<double>{0.05});
+  EXPECT_EQ(read.ceiling.min_height_m, 2.2);
 }
 
 TEST(SurveyParameters, EverySetParameterIsTaken)
@@ -82,6 +84,8 @@ thin_line_sigma: 0.005
 plain_floor_test: false
 plain_floor_samples: false
 unresolved_joints: false
+ambiguity: {neighbourhood_share: 0}
+ceiling: {min_height: 2.5}
 cameras: []
 )");
   const ic::SurveyOptions o = ic::readSurveyParameters(source);
@@ -123,6 +127,8 @@ cameras: []
   EXPECT_FALSE(o.cameras.unresolved_joints.enabled);
   EXPECT_FALSE(o.cameras.matcher.prior_start);
   EXPECT_FALSE(o.cameras.explanation.plain_floor_by_sample);
+  EXPECT_TRUE(o.cameras.ambiguity.neighbourhood_shares.empty());
+  EXPECT_EQ(o.ceiling.min_height_m, 2.5);
 }
 
 TEST(SurveyParameters, BadValuesAreEachReportedAndKeepTheirDefaults)

@@ -2,7 +2,8 @@
 // of identical wall panels, all repeating every metre, explains its image exactly as well as the true camera; the other
 // checks accept it, the ambiguity test refuses it with the reason. The true camera of a room that does not repeat is
 // accepted (the test does not refuse everything). An alternative is dismissed only by a check that says it is wrong,
-// not by one that says it is weakly determined (too few lines).
+// not by one that says it is weakly determined (too few lines). A repetition not tried as one is still found by the
+// neighbourhood of starts.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -80,6 +81,17 @@ cv::Mat render(const ic::LineScene& scene, const ic::CameraModel& camera)
   return rgb;
 }
 
+// The tiled hall seen by a camera above the floor looking at the wall, and the camera one tile along the wall from
+// it (the same view).
+struct HallView
+{
+  ic::LineScene hall;
+  ic::CameraModel truth = cameraLookingAt({12.3, 17.0, 3.0}, {12.6, 22.0, 0.8});
+  ic::CameraModel one_tile_off = ic::shiftedCamera(truth, Eigen::Vector3d(1.0, 0.0, 0.0), false, 0.0);
+  cv::Mat image;
+  explicit HallView(std::vector<ic::Segment3d>* map) : hall(tiledHall(map)), image(render(hall, truth)) {}
+};
+
 // A fixed camera whose installer's prior is the given camera (0.5 m, 2 deg, 5 %), with the image.
 ic::FixedCamera fixedCamera(const ic::CameraModel& prior_camera, const cv::Mat& image,
                             const ic::FixedCameraOptions& options)
@@ -155,11 +167,11 @@ TEST(ViewAmbiguity, TheTileIsTriedWhenItsMultiplesAreBetterSupported)
 TEST(ViewAmbiguity, CameraOneTileOffInATiledHallIsRefused)
 {
   std::vector<ic::Segment3d> map;
-  const ic::LineScene hall = tiledHall(&map);
-  const ic::CameraModel truth = cameraLookingAt({12.3, 17.0, 3.0}, {12.6, 22.0, 0.8});
-  const cv::Mat image = render(hall, truth);
+  const HallView view(&map);
+  const ic::CameraModel& truth = view.truth;
+  const cv::Mat& image = view.image;
   // The installer's prior places the camera one tile along the wall from where it is: the view is the same.
-  const ic::CameraModel wrong = ic::shiftedCamera(truth, Eigen::Vector3d(1.0, 0.0, 0.0), false, 0.0);
+  const ic::CameraModel& wrong = view.one_tile_off;
 
   // The prior search alone, which stays on the prior's tile (hypotheses from anywhere in the prior's cone may land on
   // any tile, here mostly the true one: the view is the same from each).
@@ -232,10 +244,10 @@ TEST(ViewAmbiguity, OnlyACheckSayingTheAlternativeIsWrongDismissesIt)
 TEST(ViewAmbiguity, AnAlternativeWithTooFewLinesStillMakesTheViewRepeat)
 {
   std::vector<ic::Segment3d> full_map, map;
-  const ic::LineScene hall = tiledHall(&full_map);
-  const ic::CameraModel truth = cameraLookingAt({12.3, 17.0, 3.0}, {12.6, 22.0, 0.8});
-  const cv::Mat image = render(hall, truth);
-  const ic::CameraModel wrong = ic::shiftedCamera(truth, Eigen::Vector3d(1.0, 0.0, 0.0), false, 0.0);
+  const HallView view(&full_map);
+  const ic::CameraModel& truth = view.truth;
+  const cv::Mat& image = view.image;
+  const ic::CameraModel& wrong = view.one_tile_off;
   // Panel 9's left edge (x 9.2, the true camera's leftmost whole panel) and panel 18's right edge (x 18.6: what the
   // camera two tiles off takes the true camera's panel 16 for); the camera one tile off sees neither.
   for (const ic::Segment3d& line : full_map)
@@ -273,4 +285,74 @@ TEST(ViewAmbiguity, AnAlternativeWithTooFewLinesStillMakesTheViewRepeat)
   ASSERT_FALSE(refused) << "accepted " << refused->summary;
   EXPECT_EQ(refused.error().code(), ic::ErrorCode::kNoSolution);
   EXPECT_NE(refused.error().message().find("the view repeats"), std::string::npos) << refused.error().message();
+}
+
+TEST(ViewAmbiguity, NeighbourhoodIsTheFacesAndCornersOfACubeAroundTheCamera)
+{
+  const ic::CameraModel camera = cameraLookingAt({1.0, 2.0, 3.0}, {6.0, 4.0, 0.5});
+  const Eigen::Vector3d axis = camera.pose().rotation.row(2).transpose();
+  const auto shifts = ic::neighbourhoodShifts(camera, 0.4);
+  ASSERT_EQ(shifts.size(), 14u);
+  size_t along_axis = 0, horizontal_across = 0;
+  for (const Eigen::Vector3d& s : shifts)
+  {
+    EXPECT_NEAR(s.norm(), 0.4, 1e-12);
+    along_axis += std::abs(std::abs(s.normalized().dot(axis)) - 1.0) < 1e-12;
+    horizontal_across += std::abs(s.z()) < 1e-12 && std::abs(s.dot(axis)) < 1e-12;
+    // Each once, and its opposite too.
+    EXPECT_EQ(
+        std::count_if(shifts.begin(), shifts.end(), [&](const Eigen::Vector3d& t) { return (t - s).norm() < 1e-9; }),
+        1);
+    EXPECT_EQ(
+        std::count_if(shifts.begin(), shifts.end(), [&](const Eigen::Vector3d& t) { return (t + s).norm() < 1e-9; }),
+        1);
+  }
+  EXPECT_EQ(along_axis, 2u);
+  EXPECT_EQ(horizontal_across, 2u);
+  // A camera looking straight down has no horizontal sideways direction from its axis: its own x is used.
+  const auto down = ic::neighbourhoodShifts(cameraLookingAt({0, 0, 3}, {0, 0, 0}), 0.2);
+  ASSERT_EQ(down.size(), 14u);
+  for (const Eigen::Vector3d& s : down)
+    EXPECT_NEAR(s.norm(), 0.2, 1e-12);
+}
+
+// The tiled hall again, with no repetition of the map tried (as a shelf's 0.14 m rows, shorter than the periods the
+// test counts, or door frames the map shows only beside unmatched lines are none): the camera one tile off passes.
+// The neighbourhood of starts, at a radius of about one tile, reaches the true camera.
+TEST(ViewAmbiguity, NeighbourhoodFindsARepetitionTheMapDoesNotShow)
+{
+  std::vector<ic::Segment3d> map;
+  const HallView view(&map);
+  const ic::CameraModel& truth = view.truth;
+  const ic::CameraModel& wrong = view.one_tile_off;
+
+  ic::FixedCameraOptions without;
+  without.matcher.hypothesis_starts = 0;  // the prior search alone: it stays on the prior's tile
+  without.ambiguity.max_periods = 0;      // no repetition of the map is tried: the tile is none to the test
+  without.ambiguity.neighbourhood_shares.clear();
+  ic::FixedCamera unchecked = fixedCamera(wrong, view.image, without);
+  const auto accepted = unchecked.calibrate(map, "world");
+  ASSERT_TRUE(accepted) << accepted.error().describe();
+  const ic::CameraModel& found = accepted->calibration.camera;
+  ASSERT_NEAR((found.pose().center() - truth.pose().center()).norm(), 1.0, 0.05);
+  EXPECT_EQ(accepted->ambiguity.periods, 0u);
+
+  // The scene's depth as the test measures it (the median depth of the matched lines): a radius of one tile.
+  std::vector<double> depths;
+  for (const ic::Segment3d& l : accepted->matched_map_lines)
+    depths.push_back((found.pose().rotation * (0.5 * (l.a + l.b)) + found.pose().translation).z());
+  std::nth_element(depths.begin(), depths.begin() + depths.size() / 2, depths.end());
+  ic::FixedCameraOptions checks = without;
+  checks.ambiguity.neighbourhood_shares = {1.0 / depths[depths.size() / 2]};
+  ic::FixedCamera checked = fixedCamera(wrong, view.image, checks);
+  const auto refused = checked.calibrate(map, "world");
+  ASSERT_FALSE(refused) << "accepted " << refused->summary;
+  std::printf("refused: %s\n", refused.error().message().c_str());
+  EXPECT_EQ(refused.error().code(), ic::ErrorCode::kNoSolution);
+  EXPECT_NE(refused.error().message().find("the view does not decide the camera"), std::string::npos);
+  ASSERT_TRUE(checked.lastRefused());
+  const auto& alternatives = checked.lastRefused()->ambiguity.alternatives;
+  EXPECT_TRUE(std::any_of(alternatives.begin(), alternatives.end(), [&](const ic::AlternativeCamera& a) {
+    return a.from_neighbourhood && (a.calibration.camera.pose().center() - truth.pose().center()).norm() < 0.02;
+  })) << "no start of the neighbourhood reached the true camera";
 }

@@ -25,6 +25,12 @@ struct CeilingLineOptions
   // min_clearance_m above the camera, within plane_tolerance_m of each other, at least min_plane_lines of them; its
   // height the median of those.
   double min_clearance_m = 0.5;
+  // ... and at least min_height_m above the floor (z = floor_height_m in the map; the survey sets it to its floor
+  // lines' floor/height): a cabinet's or a shelf's top seen from below by a low-mounted Xtion is not a ceiling (a
+  // generated office's 1.77 m cabinet top was taken for one and put 176 false lines into a camera's view). Fixed
+  // cameras hang 2.4 m and higher, under the ceiling.
+  double min_height_m = 2.2;
+  double floor_height_m = 0.0;
   double max_tilt_deg = 2.0;
   double plane_tolerance_m = 0.02;
   int min_plane_lines = 20;
@@ -40,7 +46,7 @@ struct CeilingLineOptions
 };
 
 // The ceiling's height and its standard error, measured from the keyframes' depth lines (all of them, also those
-// too uncertain for the map); nullopt when no plane above the cameras has enough lines.
+// too uncertain for the map); nullopt when no plane above the camera and min_height_m has enough lines.
 struct PlaneHeight
 {
   double height_m = 0.0;

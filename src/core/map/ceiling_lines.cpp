@@ -24,7 +24,8 @@ std::optional<PlaneHeight> measureCeilingHeight(const std::vector<Keyframe>& key
       const Eigen::Vector3d a = kf.T_map_camera * l.line.a, b = kf.T_map_camera * l.line.b;
       const double z = 0.5 * (a.z() + b.z());
       if (std::abs((b - a).normalized().z()) <= max_slope &&
-          z >= kf.T_map_camera.translation().z() + options.min_clearance_m)
+          z >= kf.T_map_camera.translation().z() + options.min_clearance_m &&
+          z >= options.floor_height_m + options.min_height_m)
         heights.push_back(z);
     }
   std::sort(heights.begin(), heights.end());

@@ -54,7 +54,9 @@ void addLinesBeyondDepth(const std::vector<Keyframe>& keyframes, const std::vect
   for (const auto& line : map->lines(o.min_map_support))
     if (usedByCalibration(line, o))
       used.push_back(line);
-  for (const auto& line : confirmCeilingLines(keyframes, corrections, used, o.ceiling))
+  CeilingLineOptions ceiling = o.ceiling;
+  ceiling.floor_height_m = o.floor.floor_height_m;
+  for (const auto& line : confirmCeilingLines(keyframes, corrections, used, ceiling))
     map->add(line);
   for (const auto& line : triangulateLines(keyframes, corrections, map->lines(), o.triangulated))
     map->add(line);

@@ -64,6 +64,7 @@ void readCeilingParameters(ParameterSource& read, CeilingLineOptions& ceiling)
   ceiling.enabled = read.flag("ceiling_lines", ceiling.enabled);
   ceiling.min_plane_lines = static_cast<int>(
       read.number("ceiling/min_plane_lines", ceiling.min_plane_lines, Range::closed(3.0, 100000.0, "lines")));
+  ceiling.min_height_m = read.number("ceiling/min_height", ceiling.min_height_m, Range::closed(0.0, 100.0, "m"));
 }
 
 // Lines triangulated from the Xtion's RGB segments (map/triangulated_lines.h).
@@ -94,6 +95,10 @@ void readCameraParameters(ParameterSource& read, FixedCameraOptions& camera)
   camera.explanation.leave_out_plain_floor = read.flag("plain_floor_test", camera.explanation.leave_out_plain_floor);
   camera.explanation.plain_floor_by_sample = read.flag("plain_floor_samples", camera.explanation.plain_floor_by_sample);
   camera.unresolved_joints.enabled = read.flag("unresolved_joints", camera.unresolved_joints.enabled);
+  std::vector<double>& neighbourhood = camera.ambiguity.neighbourhood_shares;
+  const double share = read.number("ambiguity/neighbourhood_share", neighbourhood.empty() ? 0.0 : neighbourhood[0],
+                                   Range::closed(0.0, 0.5));
+  neighbourhood = share > 0.0 ? std::vector<double>{share} : std::vector<double>{};
 }
 }  // namespace
 

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 
 #include "matching/matcher_trace.h"
 
@@ -141,8 +142,30 @@ CameraModel shiftedCamera(CameraModel camera, const Eigen::Vector3d& shift, bool
   return camera;
 }
 
+std::vector<Eigen::Vector3d> neighbourhoodShifts(const CameraModel& camera, double radius_m)
+{
+  const Eigen::Vector3d axis = camera.pose().rotation.row(2).transpose();
+  Eigen::Vector3d side = axis.cross(Eigen::Vector3d::UnitZ());
+  side = side.norm() > 1e-6 ? side.normalized() : Eigen::Vector3d(camera.pose().rotation.row(0).transpose());
+  const Eigen::Vector3d up = side.cross(axis).normalized();
+  std::vector<Eigen::Vector3d> out;
+  for (int i = -1; i <= 1; ++i)
+    for (int j = -1; j <= 1; ++j)
+      for (int k = -1; k <= 1; ++k)
+        if (const int n = std::abs(i) + std::abs(j) + std::abs(k); n == 1 || n == 3)  // faces and corners
+          out.push_back(radius_m * (i * axis + j * side + k * up).normalized());
+  return out;
+}
+
 namespace
 {
+struct AlternativeStart
+{
+  Eigen::Vector3d shift;
+  bool compensate = false;
+  bool neighbourhood = false;
+};
+
 // Median depth (optical-frame z) of the matched map lines' midpoints: the scene the focal compensation keeps in size.
 double sceneDepth(const CameraModel& camera, const std::vector<Segment3d>& lines)
 {
@@ -199,34 +222,40 @@ ViewAmbiguity findAlternativeCameras(const std::vector<Segment3d>& map_lines,
   LineMatcherOptions quiet = matcher;
   quiet.trace = nullptr;
   const double depth = sceneDepth(accepted.camera, accepted_matched_map_lines);
+  std::vector<AlternativeStart> starts;
   for (const auto& repetition : shifts)
     for (const double sign : {1.0, -1.0})
       for (const bool compensate : {false, true})
-      {
-        const Eigen::Vector3d shift = sign * repetition.shift;
-        const CameraModel start = shiftedCamera(accepted.camera, shift, compensate, depth);
-        ++out.tried;
-        const auto matched = matchAndCalibrateFrom(map_lines, image_lines, start, image_width, image_height, quiet,
-                                                   map_line_sigmas_m, {}, final_map_line_sigmas_m);
-        if (!matched)
-          continue;
-        AlternativeCamera alt;
-        alt.calibration = matched->calibration;
-        alt.shift = shift;
-        alt.focal_compensated = compensate;
-        alt.matched_lines = matched->matches.size();
-        alt.score =
-            explanationScore(map_lines, image_lines, alt.calibration.camera, image_width, image_height, matcher);
-        compare(accepted, alt, o);
-        out.alternatives.push_back(std::move(alt));
-      }
+        starts.push_back({sign * repetition.shift, compensate, false});
+  for (const double share : o.neighbourhood_shares)
+    for (const Eigen::Vector3d& shift : neighbourhoodShifts(accepted.camera, share * depth))
+      starts.push_back({shift, true, true});
+  for (const AlternativeStart& start : starts)
+  {
+    ++out.tried;
+    const auto matched = matchAndCalibrateFrom(
+        map_lines, image_lines, shiftedCamera(accepted.camera, start.shift, start.compensate, depth), image_width,
+        image_height, quiet, map_line_sigmas_m, {}, final_map_line_sigmas_m);
+    if (!matched)
+      continue;
+    AlternativeCamera alt;
+    alt.calibration = matched->calibration;
+    alt.shift = start.shift;
+    alt.focal_compensated = start.compensate;
+    alt.from_neighbourhood = start.neighbourhood;
+    alt.matched_lines = matched->matches.size();
+    alt.score = explanationScore(map_lines, image_lines, alt.calibration.camera, image_width, image_height, matcher);
+    compare(accepted, alt, o);
+    out.alternatives.push_back(std::move(alt));
+  }
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
   return out;
 }
 
 bool explainsAsWell(const AlternativeCamera& alt, const ViewAmbiguity& ambiguity, const ViewAmbiguityOptions& o)
 {
-  return alt.score <= ambiguity.accepted_score + o.score_margin &&
+  const double margin = alt.from_neighbourhood ? o.neighbourhood_score_margin : o.score_margin;
+  return alt.score <= ambiguity.accepted_score + margin &&
          static_cast<double>(alt.matched_lines) >= o.min_matched_share * ambiguity.accepted_matched;
 }
 
@@ -258,6 +287,21 @@ Error ambiguityError(const CameraCalibration& accepted, const AlternativeCamera&
 {
   const Eigen::Vector3d a = accepted.camera.pose().center(), b = alt.calibration.camera.pose().center();
   char buffer[900];
+  if (alt.from_neighbourhood)
+  {
+    std::snprintf(buffer, sizeof(buffer),
+                  "the view does not decide the camera: a camera at %.2f %.2f %.2f (fx %.1f) explains the image as "
+                  "well as the one found at %.2f %.2f %.2f (fx %.1f): explanation score %.2f vs %.2f, %zu vs %zu "
+                  "matched lines, %.2f m / %.1f deg / %.1f %% focal length apart (a repeated structure, such as "
+                  "shelf rows or door frames, lets the matches slip by one); survey a distinctive feature in the "
+                  "camera's view (a rug, a sign, a door, a piece of furniture) and more of its view, or give a "
+                  "tighter prior",
+                  b.x(), b.y(), b.z(), alt.calibration.camera.intrinsics().fx, a.x(), a.y(), a.z(),
+                  accepted.camera.intrinsics().fx, alt.score, ambiguity.accepted_score, alt.matched_lines,
+                  ambiguity.accepted_matched, alt.position_difference_m, alt.rotation_difference_deg,
+                  100.0 * alt.focal_difference_relative);
+    return Error(ErrorCode::kNoSolution, buffer);
+  }
   std::snprintf(buffer, sizeof(buffer),
                 "the view repeats: the map lines the camera matched recur every %.2f m along (%.2f %.2f %.2f) (floor "
                 "tiles, a row of identical windows, doors or columns), and a camera at %.2f %.2f %.2f (fx %.1f) "
