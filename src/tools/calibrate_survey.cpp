@@ -1162,9 +1162,8 @@ void parseCameraOptions(ic::CommandLine& cli, ic::FixedCameraOptions* cameras)
   matcher.local_search_starts = static_cast<int>(cli.number("local-search-starts", matcher.local_search_starts));
   matcher.hypothesis_starts = static_cast<int>(cli.number("hypothesis-starts", matcher.hypothesis_starts));
   matcher.prior_start = onOff(cli, "prior-start", matcher.prior_start);
-  std::vector<double>& neighbourhood = cameras->ambiguity.neighbourhood_shares;
-  const double share = cli.number("ambiguity-neighbourhood", neighbourhood.empty() ? 0.0 : neighbourhood[0]);
-  neighbourhood = share > 0.0 ? std::vector<double>{share} : std::vector<double>{};
+  cameras->ambiguity.neighbourhood_share =
+      cli.number("ambiguity-neighbourhood", cameras->ambiguity.neighbourhood_share, 0.0, 0.5);
   if (cli.flag("trace"))
     matcher.trace = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
 }

@@ -6,6 +6,7 @@
 #include <iostream>
 #include <map>
 #include <set>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -87,8 +88,27 @@ public:
     }
     return x;
   }
+  // ... and when it lies outside [lo, hi].
+  double number(const std::string& name, double fallback, double lo, double hi)
+  {
+    const double x = number(name, fallback);
+    if (has(name) && error_.empty() && !(x >= lo && x <= hi))
+    {
+      error_ =
+          "option --" + name + ": " + value(name) + " is outside [" + shortNumber(lo) + ", " + shortNumber(hi) + "]";
+      return fallback;
+    }
+    return x;
+  }
 
 private:
+  static std::string shortNumber(double x)
+  {
+    std::ostringstream out;
+    out << x;
+    return out.str();
+  }
+
   bool help_ = false;
   std::string error_;
   std::vector<std::string> positional_;

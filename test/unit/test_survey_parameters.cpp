@@ -49,7 +49,7 @@ TEST(SurveyParameters, UnsetParametersKeepTheStructsDefaults)
   EXPECT_TRUE(read.cameras.unresolved_joints.enabled);
   EXPECT_TRUE(read.cameras.matcher.prior_start);
   EXPECT_TRUE(read.cameras.explanation.plain_floor_by_sample);
-  EXPECT_EQ(read.cameras.ambiguity.neighbourhood_shares, std::vector<double>{0.05});
+  EXPECT_EQ(read.cameras.ambiguity.neighbourhood_share, 0.05);
   EXPECT_EQ(read.ceiling.min_height_m, 2.2);
 }
 
@@ -127,7 +127,7 @@ cameras: []
   EXPECT_FALSE(o.cameras.unresolved_joints.enabled);
   EXPECT_FALSE(o.cameras.matcher.prior_start);
   EXPECT_FALSE(o.cameras.explanation.plain_floor_by_sample);
-  EXPECT_TRUE(o.cameras.ambiguity.neighbourhood_shares.empty());
+  EXPECT_EQ(o.cameras.ambiguity.neighbourhood_share, 0.0);
   EXPECT_EQ(o.ceiling.min_height_m, 2.5);
 }
 

@@ -329,7 +329,7 @@ TEST(ViewAmbiguity, NeighbourhoodFindsARepetitionTheMapDoesNotShow)
   ic::FixedCameraOptions without;
   without.matcher.hypothesis_starts = 0;  // the prior search alone: it stays on the prior's tile
   without.ambiguity.max_periods = 0;      // no repetition of the map is tried: the tile is none to the test
-  without.ambiguity.neighbourhood_shares.clear();
+  without.ambiguity.neighbourhood_share = 0.0;
   ic::FixedCamera unchecked = fixedCamera(wrong, view.image, without);
   const auto accepted = unchecked.calibrate(map, "world");
   ASSERT_TRUE(accepted) << accepted.error().describe();
@@ -343,7 +343,7 @@ TEST(ViewAmbiguity, NeighbourhoodFindsARepetitionTheMapDoesNotShow)
     depths.push_back((found.pose().rotation * (0.5 * (l.a + l.b)) + found.pose().translation).z());
   std::nth_element(depths.begin(), depths.begin() + depths.size() / 2, depths.end());
   ic::FixedCameraOptions checks = without;
-  checks.ambiguity.neighbourhood_shares = {1.0 / depths[depths.size() / 2]};
+  checks.ambiguity.neighbourhood_share = 1.0 / depths[depths.size() / 2];
   ic::FixedCamera checked = fixedCamera(wrong, view.image, checks);
   const auto refused = checked.calibrate(map, "world");
   ASSERT_FALSE(refused) << "accepted " << refused->summary;

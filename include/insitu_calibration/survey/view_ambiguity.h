@@ -35,9 +35,9 @@ struct ViewAmbiguityOptions
   double cluster_m = 0.08;
   size_t min_support = 3;
   size_t max_periods = 3;  // the best-supported periods tried, each both ways (with and without focal compensation)
-  // The neighbourhood's radii as shares of the scene's depth (the median depth of the matched map lines); each adds
-  // 14 matchings (empty: none).
-  std::vector<double> neighbourhood_shares = {0.05};
+  // The neighbourhood's radius as a share of the scene's depth (the median depth of the matched map lines): 14 more
+  // matchings (0: none).
+  double neighbourhood_share = 0.05;
   // An alternative is at a clearly different pose when it is farther from the accepted camera than both these and
   // three of the accepted result's own sigmas, in position, rotation or focal length.
   double min_position_m = 0.05;

@@ -95,10 +95,8 @@ void readCameraParameters(ParameterSource& read, FixedCameraOptions& camera)
   camera.explanation.leave_out_plain_floor = read.flag("plain_floor_test", camera.explanation.leave_out_plain_floor);
   camera.explanation.plain_floor_by_sample = read.flag("plain_floor_samples", camera.explanation.plain_floor_by_sample);
   camera.unresolved_joints.enabled = read.flag("unresolved_joints", camera.unresolved_joints.enabled);
-  std::vector<double>& neighbourhood = camera.ambiguity.neighbourhood_shares;
-  const double share = read.number("ambiguity/neighbourhood_share", neighbourhood.empty() ? 0.0 : neighbourhood[0],
-                                   Range::closed(0.0, 0.5));
-  neighbourhood = share > 0.0 ? std::vector<double>{share} : std::vector<double>{};
+  camera.ambiguity.neighbourhood_share =
+      read.number("ambiguity/neighbourhood_share", camera.ambiguity.neighbourhood_share, Range::closed(0.0, 0.5));
 }
 }  // namespace
 

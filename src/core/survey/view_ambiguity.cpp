@@ -227,8 +227,8 @@ ViewAmbiguity findAlternativeCameras(const std::vector<Segment3d>& map_lines,
     for (const double sign : {1.0, -1.0})
       for (const bool compensate : {false, true})
         starts.push_back({sign * repetition.shift, compensate, false});
-  for (const double share : o.neighbourhood_shares)
-    for (const Eigen::Vector3d& shift : neighbourhoodShifts(accepted.camera, share * depth))
+  if (o.neighbourhood_share > 0.0)
+    for (const Eigen::Vector3d& shift : neighbourhoodShifts(accepted.camera, o.neighbourhood_share * depth))
       starts.push_back({shift, true, true});
   for (const AlternativeStart& start : starts)
   {
