@@ -487,6 +487,15 @@ Expected<CameraCalibration> calibrateInFrame(const CorrespondenceSet& data, cons
     result.inlier_lines = judged;
   }
   result.reprojection = reprojectionStats(result.camera, inliers);
+  // From wrong correspondences the refinement can carry the camera to where its own lines no longer project (behind
+  // it, tens of metres away, or outside the division model's domain); the RMS would count only the points left: 0 px
+  // when none are. The same majority rule as the decomposition's cheirality test.
+  const ReprojectionStats& r = result.reprojection;
+  if (2 * r.unprojectable > r.count + r.unprojectable)
+    return Error(ErrorCode::kNoSolution, "the refined camera cannot project " + std::to_string(r.unprojectable) +
+                                             " of the " + std::to_string(r.count + r.unprojectable) +
+                                             " world points of its inlier lines (behind it or outside the distortion "
+                                             "model's domain): wrong or degenerate correspondences");
   return result;
 }
 }  // namespace
