@@ -94,6 +94,8 @@ struct CameraCalibration
 // initial: an approximate camera known beforehand (the matcher's current camera). With RANSAC on it is refined
 // robustly on all lines and competes with RANSAC's best hypothesis; the one that explains the lines better (MSAC
 // score) chooses the inliers. The linear DLT on those inliers and the refinement follow as without it.
+// A final camera that cannot project more than half of its inlier lines' world points (behind it, or outside the
+// division model's domain) is kNoSolution: its reprojection statistics would describe only the points left.
 Expected<CameraCalibration> calibrateCamera(const CorrespondenceSet& data, const CalibrationOptions& options = {},
                                             const std::optional<CameraModel>& initial = std::nullopt);
 
