@@ -1311,7 +1311,8 @@ void printSurveySummary(const ic::Survey& survey, size_t frames_without_pose, do
     size_t ceiling = 0;
     for (const auto& line : survey.usedMapLines())
       ceiling += line.source == ic::MapLineSource::kCeiling ? 1 : 0;
-    const auto plane = ic::measureCeilingHeight(survey.keyframes(), survey.options().ceiling);
+    const auto plane =
+        ic::measureCeilingHeight(survey.keyframes(), survey.options().ceiling, survey.options().floor.floor_height_m);
     std::printf("ceiling lines: plane at %.4f m (sigma %.2f mm, %d depth lines), %zu map lines used\n",
                 plane ? plane->height_m : NAN, plane ? 1000.0 * plane->sigma_m : NAN, plane ? plane->lines : 0,
                 ceiling);

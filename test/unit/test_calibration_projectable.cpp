@@ -18,7 +18,7 @@ TEST(CalibrationProjectable, ACameraThatCannotProjectItsLinesIsNoSolution)
   // tens of metres to kilometres away with none of its points projectable, and an RMS of 0 px.
   ic::CalibrationOptions options = ic::LineMatcherOptions().calibration;
   options.refinement.priors_at_fit_noise = false;
-  int refused_so = 0;
+  int refused_unprojectable = 0;
   for (int seed = 1; seed <= 30; ++seed)
   {
     std::mt19937 rng(seed);
@@ -33,12 +33,12 @@ TEST(CalibrationProjectable, ACameraThatCannotProjectItsLinesIsNoSolution)
     const auto result = ic::calibrateCamera(wrong, options, truth);
     if (!result)
     {
-      refused_so += result.error().message().find("cannot project") != std::string::npos ? 1 : 0;
+      refused_unprojectable += result.error().message().find("cannot project") != std::string::npos ? 1 : 0;
       continue;
     }
     EXPECT_GE(result->reprojection.count, result->reprojection.unprojectable) << "seed " << seed;  // at most half
   }
-  EXPECT_GE(refused_so, 3);  // seeds 3, 4, 5, 11, 15 and 18 at the time of writing
+  EXPECT_GE(refused_unprojectable, 3);  // seeds 3, 4, 5, 11, 15 and 18 at the time of writing
 }
 
 TEST(CalibrationProjectable, RightCorrespondencesStillCalibrate)

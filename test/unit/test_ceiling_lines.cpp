@@ -86,14 +86,14 @@ TEST(CeilingLines, PlaneHeightIsMeasuredFromHorizontalDepthLinesAboveTheCamera)
   measured.push_back({{4.0, 2.0, 0.5}, {4.0, 2.0, 2.5}});
   const auto keyframes = squarePath({}, measured);
   ic::CeilingLineOptions options;
-  const auto plane = ic::measureCeilingHeight(keyframes, options);
+  const auto plane = ic::measureCeilingHeight(keyframes, options, 0.0);
   ASSERT_TRUE(plane.has_value());
   EXPECT_NEAR(plane->height_m, kCeiling, 1e-9);
   EXPECT_EQ(plane->lines, 2 * static_cast<int>(keyframes.size()));
   EXPECT_LT(plane->sigma_m, 1e-9);
   // Too few lines on it: no plane.
   options.min_plane_lines = 2 * static_cast<int>(keyframes.size()) + 1;
-  EXPECT_FALSE(ic::measureCeilingHeight(keyframes, options).has_value());
+  EXPECT_FALSE(ic::measureCeilingHeight(keyframes, options, 0.0).has_value());
 }
 
 TEST(CeilingLines, ACabinetTopIsNoCeiling)
@@ -105,15 +105,14 @@ TEST(CeilingLines, ACabinetTopIsNoCeiling)
   std::vector<Edge> measured = ceilingDepthLines();
   measured.insert(measured.end(), cabinet.begin(), cabinet.end());
   ic::CeilingLineOptions options;
-  const auto plane = ic::measureCeilingHeight(squarePath({}, measured), options);
+  const auto plane = ic::measureCeilingHeight(squarePath({}, measured), options, 0.0);
   ASSERT_TRUE(plane.has_value());
   EXPECT_NEAR(plane->height_m, kCeiling, 1e-9);
   // Without the ceiling: none, rather than the cabinet.
-  EXPECT_FALSE(ic::measureCeilingHeight(squarePath({}, cabinet), options).has_value());
+  EXPECT_FALSE(ic::measureCeilingHeight(squarePath({}, cabinet), options, 0.0).has_value());
   // The limit is above the floor: the same room with its floor 1 m lower in the map finds the cabinet's top 2.77 m
   // above it.
-  options.floor_height_m = -1.0;
-  const auto lower = ic::measureCeilingHeight(squarePath({}, cabinet), options);
+  const auto lower = ic::measureCeilingHeight(squarePath({}, cabinet), options, -1.0);
   ASSERT_TRUE(lower.has_value());
   EXPECT_NEAR(lower->height_m, 1.77, 1e-9);
 }
@@ -127,7 +126,7 @@ TEST(CeilingLines, ExactCeilingEdgesAreRecoveredAndAnEdgeBelowTheCeilingIsRefuse
   };
   ic::CeilingLineOptions options;
   options.enabled = true;
-  const auto lines = ic::confirmCeilingLines(squarePath(edges, ceilingDepthLines()), {}, {}, options);
+  const auto lines = ic::confirmCeilingLines(squarePath(edges, ceilingDepthLines()), {}, {}, options, 0.0);
   ASSERT_EQ(lines.size(), 2u);
   for (const auto& line : lines)
   {
@@ -147,13 +146,13 @@ TEST(CeilingLines, NoLinesWithoutAPlaneAboveTheCamera)
   const std::vector<Edge> edges = {{{6.0, -1.0, kCeiling}, {6.0, 1.0, kCeiling}}};
   ic::CeilingLineOptions options;
   options.enabled = true;
-  EXPECT_TRUE(ic::confirmCeilingLines(squarePath(edges, {}), {}, {}, options).empty());
+  EXPECT_TRUE(ic::confirmCeilingLines(squarePath(edges, {}), {}, {}, options, 0.0).empty());
   // A scene without any line: none.
-  EXPECT_TRUE(ic::confirmCeilingLines(squarePath({}, {}), {}, {}, options).empty());
+  EXPECT_TRUE(ic::confirmCeilingLines(squarePath({}, {}), {}, {}, options, 0.0).empty());
   // A depth line that already holds the edge: not made again.
   ic::MapLine depth;
   depth.point = edges[0].first;
   depth.direction = (edges[0].second - edges[0].first).normalized();
   depth.s_max = 2.0;
-  EXPECT_TRUE(ic::confirmCeilingLines(squarePath(edges, ceilingDepthLines()), {}, {depth}, options).empty());
+  EXPECT_TRUE(ic::confirmCeilingLines(squarePath(edges, ceilingDepthLines()), {}, {depth}, options, 0.0).empty());
 }

@@ -25,12 +25,11 @@ struct CeilingLineOptions
   // min_clearance_m above the camera, within plane_tolerance_m of each other, at least min_plane_lines of them; its
   // height the median of those.
   double min_clearance_m = 0.5;
-  // ... and at least min_height_m above the floor (z = floor_height_m in the map; the survey sets it to its floor
-  // lines' floor/height): a cabinet's or a shelf's top seen from below by a low-mounted Xtion is not a ceiling (a
+  // ... and at least min_height_m above the floor (the caller's floor_height_m: the survey passes its floor lines'
+  // floor/height): a cabinet's or a shelf's top seen from below by a low-mounted Xtion is not a ceiling (a
   // generated office's 1.77 m cabinet top was taken for one and put 176 false lines into a camera's view). Fixed
   // cameras hang 2.4 m and higher, under the ceiling.
   double min_height_m = 2.2;
-  double floor_height_m = 0.0;
   double max_tilt_deg = 2.0;
   double plane_tolerance_m = 0.02;
   int min_plane_lines = 20;
@@ -54,14 +53,15 @@ struct PlaneHeight
   int lines = 0;
 };
 std::optional<PlaneHeight> measureCeilingHeight(const std::vector<Keyframe>& keyframes,
-                                                const CeilingLineOptions& options);
+                                                const CeilingLineOptions& options, double floor_height_m);
 
 // The confirmed ceiling lines of the keyframes' ceiling observations (Keyframe::ceiling) under the corrected poses
-// (corrections empty or one per keyframe) that no line of `depth_lines` holds. MapLine::source kCeiling,
-// MapLine::sigma() their predicted error.
+// (corrections empty or one per keyframe) that no line of `depth_lines` holds, the floor at z = floor_height_m in
+// the map. MapLine::source kCeiling, MapLine::sigma() their predicted error.
 std::vector<MapLine> confirmCeilingLines(const std::vector<Keyframe>& keyframes,
                                          const std::vector<PoseCorrection>& corrections,
-                                         const std::vector<MapLine>& depth_lines, const CeilingLineOptions& options);
+                                         const std::vector<MapLine>& depth_lines, const CeilingLineOptions& options,
+                                         double floor_height_m);
 
 }  // namespace insitu_calibration
 

@@ -14,7 +14,7 @@ FloorLineOptions CeilingLineOptions::defaultLineOptions()
 }
 
 std::optional<PlaneHeight> measureCeilingHeight(const std::vector<Keyframe>& keyframes,
-                                                const CeilingLineOptions& options)
+                                                const CeilingLineOptions& options, double floor_height_m)
 {
   std::vector<double> heights;
   const double max_slope = std::sin(options.max_tilt_deg * M_PI / 180.0);
@@ -25,7 +25,7 @@ std::optional<PlaneHeight> measureCeilingHeight(const std::vector<Keyframe>& key
       const double z = 0.5 * (a.z() + b.z());
       if (std::abs((b - a).normalized().z()) <= max_slope &&
           z >= kf.T_map_camera.translation().z() + options.min_clearance_m &&
-          z >= options.floor_height_m + options.min_height_m)
+          z >= floor_height_m + options.min_height_m)
         heights.push_back(z);
     }
   std::sort(heights.begin(), heights.end());
@@ -68,11 +68,12 @@ bool onPlane(const CeilingObservation& obs, double height_m, const CeilingLineOp
 
 std::vector<MapLine> confirmCeilingLines(const std::vector<Keyframe>& keyframes,
                                          const std::vector<PoseCorrection>& corrections,
-                                         const std::vector<MapLine>& depth_lines, const CeilingLineOptions& options)
+                                         const std::vector<MapLine>& depth_lines, const CeilingLineOptions& options,
+                                         double floor_height_m)
 {
   if (!options.enabled)
     return {};
-  const auto plane = measureCeilingHeight(keyframes, options);
+  const auto plane = measureCeilingHeight(keyframes, options, floor_height_m);
   if (!plane)
     return {};
   // The floor lines' machinery on the plane: keyframes reduced to their pose and their observations on it.

@@ -54,9 +54,7 @@ void addLinesBeyondDepth(const std::vector<Keyframe>& keyframes, const std::vect
   for (const auto& line : map->lines(o.min_map_support))
     if (usedByCalibration(line, o))
       used.push_back(line);
-  CeilingLineOptions ceiling = o.ceiling;
-  ceiling.floor_height_m = o.floor.floor_height_m;
-  for (const auto& line : confirmCeilingLines(keyframes, corrections, used, ceiling))
+  for (const auto& line : confirmCeilingLines(keyframes, corrections, used, o.ceiling, o.floor.floor_height_m))
     map->add(line);
   for (const auto& line : triangulateLines(keyframes, corrections, map->lines(), o.triangulated))
     map->add(line);
