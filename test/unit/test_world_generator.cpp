@@ -412,6 +412,27 @@ TEST(RoutePlanner, VisitsReachEachStandpointAndEndFacingItsDirection)
                           [&](const Eigen::Vector2d& p) { return (p - corner_cell).norm() < 0.15; }));
 }
 
+// The hints of fresh set F's corridor 284204 (2026-12-04): three standpoints of one camera 0.3-0.6 m apart across a
+// narrow corridor, and a fourth. Their visits put two waypoints within a millimetre of each other, which the world
+// file (millimetres) wrote as one repeated waypoint and parseWorld refused ("repeats the previous waypoint").
+TEST(WorldGenerator, VisitsCloseTogetherMakeAValidWorld)
+{
+  sim::WorldGeneratorOptions options;
+  options.seed = 284204;
+  options.max_route_s = 120.0;
+  options.view_leg_m = 4.0;
+  options.look_around_spacing_m = 3.0;
+  options.visits = {{{18.467, 1.027}, {1.0, -0.0040}},
+                    {{18.467, 1.341}, {1.0, -0.0029}},
+                    {{18.467, 1.957}, {1.0, -0.0014}},
+                    {{3.932, 1.167}, {0.9708, 0.2399}}};
+  const auto world = sim::generateWorld(options);
+  ASSERT_TRUE(world) << world.error().describe();
+  const auto& w = world->world.route.waypoints;
+  for (size_t k = 1; k < w.size(); ++k)
+    EXPECT_GE((w[k] - w[k - 1]).norm(), 1e-3) << "waypoint " << k;
+}
+
 // generate_world with visits: the same building, cameras and route first, the visits after, and a longer drive.
 TEST(WorldGenerator, VisitsExtendTheRouteAndKeepEverythingElse)
 {

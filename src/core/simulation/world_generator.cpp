@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <sstream>
 
 #include "generator_layouts.h"
@@ -294,8 +295,18 @@ std::string worldYaml(const WorldGeneratorOptions& options, BuildingKind kind, c
       << ", direction: " << vec({rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(0.6, 1.2)}) << "}\nsurfaces:\n"
       << layout.scene.surfaces(options.realistic_appearance ? std::optional<uint64_t>(options.seed) : std::nullopt)
       << "route:\n  waypoints: [";
-  for (size_t k = 0; k < route.size(); ++k)
-    out << (k ? ", " : "") << vec({route[k].x(), route[k].y()});
+  // The file holds millimetres: a waypoint written within about one of the last one written is left out, since
+  // parseWorld refuses a repeat (visits from standpoints close together across a corridor made one).
+  std::optional<V2> last;
+  for (const V2& p : route)
+  {
+    const std::string x = num(p.x()), y = num(p.y());
+    const V2 written(std::stod(x), std::stod(y));
+    if (last && (written - *last).norm() < 1.5e-3)
+      continue;
+    out << (last ? ", [" : "[") << x << ", " << y << "]";
+    last = written;
+  }
   out << "]\n  speed: " << num(options.speed) << "\n  turn_rate_deg: 40\n  loop: false\n";
   out << "xtion:\n  mount_height: " << num(rng.uniform(0.3, 1.5))
       << "\n  mount_forward: 0.1\n  tilt_deg: " << num(rng.uniform(-20.0, 15.0)) << "\n"
