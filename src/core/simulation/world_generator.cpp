@@ -300,11 +300,10 @@ std::string worldYaml(const WorldGeneratorOptions& options, BuildingKind kind, c
   std::optional<V2> last;
   for (const V2& p : route)
   {
-    const std::string x = num(p.x()), y = num(p.y());
-    const V2 written(std::stod(x), std::stod(y));
+    const V2 written(std::stod(num(p.x())), std::stod(num(p.y())));
     if (last && (written - *last).norm() < 1.5e-3)
       continue;
-    out << (last ? ", [" : "[") << x << ", " << y << "]";
+    out << (last ? ", " : "") << vec({p.x(), p.y()});
     last = written;
   }
   out << "]\n  speed: " << num(options.speed) << "\n  turn_rate_deg: 40\n  loop: false\n";
