@@ -109,6 +109,11 @@ Options:
                         distinct keyframes a fused map line needs (params map/min_fusion_keyframes, default 4)
   --fusion-floor M      added in quadrature to a fused map line's predicted error: what averaging cannot remove
                         (params map/fusion_floor, default 0.005)
+  --depth-step-sigmas K a depth step between an edge's two sides too small for one frame (a panel a few mm proud
+                        of its wall) is pooled over a map line's observations; beyond K standard errors (and 1 mm,
+                        params map/depth_step_min) its observations take the nearer side's depth (params
+                        map/depth_step_sigmas, default 0: off; 5 measured: docs/measurements.md, "Depth steps
+                        pooled over the keyframes")
   --triangulated-lines 0|1
                         RGB lines beyond the depth range (4 m) triangulated from five or more keyframes become map lines
                         (default 0: off)
@@ -1223,6 +1228,7 @@ bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options, bool* 
   options->map.min_fusion_keyframes =
       static_cast<int>(cli.number("min-fusion-keyframes", options->map.min_fusion_keyframes));
   options->map.fusion_floor_m = cli.number("fusion-floor", options->map.fusion_floor_m);
+  options->map.depth_step_sigmas = cli.number("depth-step-sigmas", options->map.depth_step_sigmas);
   options->ceiling.enabled = onOff(cli, "ceiling-lines", options->ceiling.enabled);
   options->triangulated.enabled = onOff(cli, "triangulated-lines", options->triangulated.enabled);
   options->occlusion.enabled = onOff(cli, "occlusion-test", options->occlusion.enabled);
@@ -1506,7 +1512,8 @@ int main(int argc, char** argv)
        "ceiling-lines",
        "max-fusion-sigma",
        "min-fusion-keyframes",
-       "fusion-floor"},
+       "fusion-floor",
+       "depth-step-sigmas"},
       {"no-refine", "no-ransac", "no-report", "quiet", "oracle", "oracle-details", "trace", "no-odometry"});
   if (cli.help())
   {

@@ -42,8 +42,8 @@ struct DepthSamplerOptions
   // segment (by more than small_step_sigmas standard errors, and by at least small_step_min_m), the edge takes the
   // nearer side's depth. 0 sigmas: off. A smaller minimum (1 mm) places a window panel 2 mm proud of its wall right
   // without noise but, beyond about 1.5 m, the Xtion's noise keeps such steps under the sigma test of one segment:
-  // measured as no gain (docs/measurements.md, "cam_desk's focal-length bias"); evidence pooled over the keyframes
-  // would be needed.
+  // measured as no gain (docs/measurements.md, "cam_desk's focal-length bias"). The line map can pool the evidence
+  // of a map line's observations instead (LineMapOptions::depth_step_sigmas; off, measured there).
   double small_step_sigmas = 5.0;
   double small_step_min_m = 0.004;
   // The depth image's misregistration with the RGB image: the reading at depth pixel q measures the ray of RGB pixel
@@ -67,7 +67,21 @@ struct DepthSample
   // 0 where a side gave no slope): a registration error of e px across moves depth_m by about e times the slope of
   // the side it moves into. Single samples' slopes are noisy: the fit takes their median along the segment.
   Eigen::Vector2d depth_slope_m_per_px = Eigen::Vector2d::Zero();
+  // Each side's own inverse depth extrapolated to the edge (left, right; 1/m): what a small step between the sides
+  // (measureDepthStep) is measured from. NaN where a side has fewer than two readings, or a farther surface was seen
+  // (a step larger than the jump, decided per sample).
+  Eigen::Vector2d side_inverse_depth = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
 };
+
+// A depth step across an edge smaller than the jump, measured along it: the difference of the two sides' depths at
+// the edge (DepthSample::side_inverse_depth), averaged over the samples that have both.
+struct DepthStep
+{
+  double left_nearer_by_m = 0.0;  // the right side's depth minus the left's (positive: the left side is nearer), m
+  double sigma_m = 0.0;           // its standard error, m
+  int samples = 0;                // with both sides; 0: not measured (fewer than 8)
+};
+DepthStep measureDepthStep(const std::vector<DepthSample>& samples);
 
 // Depth image -> 32FC1 metres, NaN where there is no measurement (0 in 16UC1, 0/NaN/inf in 32FC1, or outside
 // [min_range_m, max_range_m]). Errors: empty image, type other than 16UC1 (mm) / 32FC1 (m) (kInvalidInput), no

@@ -11,11 +11,13 @@
 #ifndef INSITU_CALIBRATION_LINES_LINE3D_FITTER_H
 #define INSITU_CALIBRATION_LINES_LINE3D_FITTER_H
 
+#include <array>
 #include <cstdint>
 #include <limits>
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include "insitu_calibration/error.h"
 #include "insitu_calibration/lines/depth_sampler.h"
@@ -47,9 +49,20 @@ struct Line3d
   Eigen::Vector3d sensor = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
   Segment2d image;     // the RGB segment it comes from (RGB-D lines only)
   double stamp = 0.0;  // of the frame (RGB-D lines only)
+  // RGB-D lines (interpretation-plane refinement): a depth step at the edge smaller than the sampler's jump (a window
+  // panel a few mm proud of its wall) measured over the inliers, and the line each side's depth gives (side 0: left
+  // of the 2D segment, whose direction a -> b follows; NaN where that side had too few readings). One frame rarely
+  // tells a step of 2-4 mm at 2 m from the Xtion's noise; the line map pools the evidence over a map line's
+  // observations and takes the nearer side's lines (LineMapOptions::depth_step_sigmas).
+  DepthStep depth_step;
+  std::array<Eigen::Vector3d, 2> side_a = {nanPoint(), nanPoint()};
+  std::array<Eigen::Vector3d, 2> side_b = {nanPoint(), nanPoint()};
 
   Eigen::Vector3d direction() const { return (b - a).normalized(); }
   double length() const { return (b - a).norm(); }
+  // Its points (end points, side lines, and the sensor where known) moved into another frame by T.
+  void transform(const Eigen::Isometry3d& T);
+  static Eigen::Vector3d nanPoint() { return Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()); }
 };
 
 enum class Line3dRefinement

@@ -161,19 +161,38 @@ std::array<double, 2> oneSidedInverseDepths(const std::vector<double>& offsets, 
 // A step smaller than the per-sample jump (a door frame standing 1-2 cm off its wall, under depth noise of several mm)
 // shows as a consistent difference of the two one-sided depths along the whole segment: then the edge belongs to the
 // nearer side, and its samples take that side's depth.
-void assignSmallStepToNearSide(const DepthSamplerOptions& options, const std::vector<double>& side_left,
-                               const std::vector<double>& side_right, std::vector<DepthSample>* out)
+void assignSmallStepToNearSide(const DepthSamplerOptions& options, std::vector<DepthSample>* out)
+{
+  const DepthStep step = measureDepthStep(*out);
+  const double size_m = std::abs(step.left_nearer_by_m);
+  if (!(step.samples > 0 && size_m > options.small_step_sigmas * step.sigma_m && size_m >= options.small_step_min_m))
+    return;
+  const int near = step.left_nearer_by_m > 0.0 ? 0 : 1;
+  for (auto& sample : *out)
+  {
+    const double v = sample.side_inverse_depth(near);
+    if (std::isfinite(v) && v > 0.0)
+    {
+      sample.depth_m = 1.0 / v;
+      sample.discontinuity = true;
+    }
+  }
+}
+}  // namespace
+
+DepthStep measureDepthStep(const std::vector<DepthSample>& samples)
 {
   std::vector<double> diff;
   double z_sum = 0.0;
-  for (size_t i = 0; i < out->size(); ++i)
-    if (std::isfinite(side_left[i]) && std::isfinite(side_right[i]))
+  for (const auto& sample : samples)
+    if (sample.side_inverse_depth.allFinite())
     {
-      diff.push_back(side_left[i] - side_right[i]);
-      z_sum += (*out)[i].depth_m;
+      diff.push_back(sample.side_inverse_depth(0) - sample.side_inverse_depth(1));
+      z_sum += sample.depth_m;
     }
+  DepthStep step;
   if (diff.size() < 8)
-    return;
+    return step;
   const double m = static_cast<double>(diff.size());
   double mean = 0.0;
   for (double x : diff)
@@ -182,20 +201,13 @@ void assignSmallStepToNearSide(const DepthSamplerOptions& options, const std::ve
   double var = 0.0;
   for (double x : diff)
     var += (x - mean) * (x - mean);
-  const double standard_error = std::sqrt(var / (m - 1.0) / m);
+  // Inverse depth -> depth at the segment's mean depth: dz = -z^2 dv, so a larger left inverse depth is nearer.
   const double z = z_sum / m;
-  const double step_m = std::abs(mean) * z * z;  // inverse-depth difference -> depth difference
-  if (!(std::abs(mean) > options.small_step_sigmas * standard_error && step_m >= options.small_step_min_m))
-    return;
-  const std::vector<double>& near = mean > 0.0 ? side_left : side_right;
-  for (size_t i = 0; i < out->size(); ++i)
-    if (std::isfinite(near[i]) && near[i] > 0.0)
-    {
-      (*out)[i].depth_m = 1.0 / near[i];
-      (*out)[i].discontinuity = true;
-    }
+  step.left_nearer_by_m = mean * z * z;
+  step.sigma_m = std::sqrt(var / (m - 1.0) / m) * z * z;
+  step.samples = static_cast<int>(diff.size());
+  return step;
 }
-}  // namespace
 
 Expected<cv::Mat> depthToMeters(const cv::Mat& depth, double min_range_m, double max_range_m)
 {
@@ -260,9 +272,6 @@ std::vector<DepthSample> sampleDepthAlongSegment(const cv::Mat& depth_m, const S
   const double start = options.end_margin_px + 0.5 * (usable - (count - 1) * options.step_px);
   out.reserve(count);
 
-  // One-sided near-surface inverse depths at the edge, for the small-step test after the loop (NaN: not available).
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  std::vector<double> side_left, side_right;
   std::vector<double> offsets, depths;
   offsets.reserve(2 * band + 1);
   depths.reserve(2 * band + 1);
@@ -290,14 +299,15 @@ std::vector<DepthSample> sampleDepthAlongSegment(const cv::Mat& depth_m, const S
     sample.depth_m = edge->depth_m;
     sample.discontinuity = edge->far_seen;
     sample.depth_slope_m_per_px = edge->slope_m_per_px;
+    if (!edge->far_seen)
+    {
+      const std::array<double, 2> sides = oneSidedInverseDepths(offsets, depths);
+      sample.side_inverse_depth = Eigen::Vector2d(sides[0], sides[1]);
+    }
     out.push_back(sample);
-    const std::array<double, 2> sides =
-        edge->far_seen ? std::array<double, 2>{nan, nan} : oneSidedInverseDepths(offsets, depths);
-    side_left.push_back(sides[0]);
-    side_right.push_back(sides[1]);
   }
   if (options.small_step_sigmas > 0.0)
-    assignSmallStepToNearSide(options, side_left, side_right, &out);
+    assignSmallStepToNearSide(options, &out);
   return out;
 }
 

@@ -189,10 +189,10 @@ void refinePcaLine(const std::vector<Eigen::Vector3d>& points, double threshold,
 }
 
 // Depth samples back-projected (camera frame, m) with their parameter t along the normalised 2D segment xa + t xab.
-// Also each kept sample's depth slopes across the edge (slopes, m per px, left and right).
+// Also the kept samples themselves (kept: for their depth slopes across the edge and their sides' depths).
 void backProjectSamples(const std::vector<DepthSample>& samples, const RgbdCamera& camera, const Eigen::Vector2d& xa,
                         const Eigen::Vector2d& xab, std::vector<Eigen::Vector3d>* points, std::vector<double>* t,
-                        std::vector<Eigen::Vector2d>* slopes)
+                        std::vector<DepthSample>* kept)
 {
   points->reserve(samples.size());
   t->reserve(samples.size());
@@ -203,7 +203,7 @@ void backProjectSamples(const std::vector<DepthSample>& samples, const RgbdCamer
     const Eigen::Vector2d x = camera.normalize(s.pixel);
     points->push_back(s.depth_m * x.homogeneous());
     t->push_back((x - xa).dot(xab) / xab.squaredNorm());
-    slopes->push_back(s.depth_slope_m_per_px);
+    kept->push_back(s);
   }
 }
 
@@ -211,16 +211,16 @@ void backProjectSamples(const std::vector<DepthSample>& samples, const RgbdCamer
 // Across the edge: the steeper side's median slope over the samples (one sample's slope, from 4 readings, is mostly
 // noise); along it: z^2 |dv/ds| per px from the line's end points (inverse depth is affine along the segment).
 // px_per_unit: image pixels per unit of normalised coordinates.
-double registrationSigma(const Line3d& line, const std::vector<Eigen::Vector2d>& slopes, double px_per_unit,
+double registrationSigma(const Line3d& line, const std::vector<DepthSample>& samples, double px_per_unit,
                          double sigma_px)
 {
-  if (!(sigma_px > 0.0) || slopes.empty() || !(px_per_unit > 0.0) || !(line.a.z() > 0.0 && line.b.z() > 0.0))
+  if (!(sigma_px > 0.0) || samples.empty() || !(px_per_unit > 0.0) || !(line.a.z() > 0.0 && line.b.z() > 0.0))
     return 0.0;
   std::vector<double> left, right;
-  for (const Eigen::Vector2d& s : slopes)
+  for (const DepthSample& s : samples)
   {
-    left.push_back(s.x());
-    right.push_back(s.y());
+    left.push_back(s.depth_slope_m_per_px.x());
+    right.push_back(s.depth_slope_m_per_px.y());
   }
   const double across = std::max(std::abs(middleValue(left)), std::abs(middleValue(right)));
   const Eigen::Vector3d mid = 0.5 * (line.a + line.b);
@@ -302,11 +302,48 @@ double inverseDepthEndSigma(const std::vector<Eigen::Vector3d>& points, const st
   return std::max(end_sigma(t_lo, fit.alpha + fit.beta * t_lo, pa), end_sigma(t_hi, fit.alpha + fit.beta * t_hi, pb));
 }
 
+// The line each side's depth gives (Line3d::side_a / side_b) and the step between the sides, over the inliers: each
+// side's inverse depth affine along the segment like the line's, from t_lo to t_hi.
+void addDepthSides(const std::vector<DepthSample>& samples, const std::vector<double>& t,
+                   const std::vector<int>& inliers, const Eigen::Vector2d& xa, const Eigen::Vector2d& xab, double t_lo,
+                   double t_hi, Line3d* line)
+{
+  std::vector<DepthSample> selected;
+  for (int i : inliers)
+    selected.push_back(samples[i]);
+  line->depth_step = measureDepthStep(selected);
+  for (int side = 0; side < 2; ++side)
+  {
+    double sw = 0.0, st = 0.0, sv = 0.0, stt = 0.0, stv = 0.0;
+    for (int i : inliers)
+    {
+      const double v = samples[i].side_inverse_depth(side);
+      if (!(std::isfinite(v) && v > 0.0))
+        continue;
+      sw += 1.0;
+      st += t[i];
+      sv += v;
+      stt += t[i] * t[i];
+      stv += t[i] * v;
+    }
+    const double var = stt - (sw > 0.0 ? st * st / sw : 0.0);
+    if (sw < 8.0 || !(var > 1e-12 * sw))
+      continue;
+    const double beta = (stv - st * sv / sw) / var, alpha = (sv - beta * st) / sw;
+    const double va = alpha + beta * t_lo, vb = alpha + beta * t_hi;
+    if (!(va > 0.0 && vb > 0.0))
+      continue;
+    line->side_a[side] = (xa + t_lo * xab).homogeneous() / va;
+    line->side_b[side] = (xa + t_hi * xab).homogeneous() / vb;
+  }
+}
+
 // The 3D line whose inverse depth is affine along the 2D segment (xa + t xab, normalised coordinates); its extent is
-// the inliers' on the image line.
+// the inliers' on the image line. samples: the points' depth samples (their sides' depths).
 Expected<Line3d> inverseDepthLine(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& t,
-                                  const Eigen::Vector2d& xa, const Eigen::Vector2d& xab, double threshold,
-                                  const Line3dFitOptions& options, std::vector<int> inliers)
+                                  const std::vector<DepthSample>& samples, const Eigen::Vector2d& xa,
+                                  const Eigen::Vector2d& xab, double threshold, const Line3dFitOptions& options,
+                                  std::vector<int> inliers)
 {
   const Expected<InverseDepthLine> fit = fitInverseDepth(points, t, threshold, options, &inliers);
   if (!fit)
@@ -326,9 +363,23 @@ Expected<Line3d> inverseDepthLine(const std::vector<Eigen::Vector3d>& points, co
   line.a = pa;
   line.b = pb;
   line.sigma_m = inverseDepthEndSigma(points, t, inliers, *fit, t_lo, t_hi, pa, pb);
+  addDepthSides(samples, t, inliers, xa, xab, t_lo, t_hi, &line);
   return line;
 }
 }  // namespace
+
+void Line3d::transform(const Eigen::Isometry3d& T)
+{
+  a = T * a;
+  b = T * b;
+  for (int side = 0; side < 2; ++side)
+  {
+    side_a[side] = T * side_a[side];
+    side_b[side] = T * side_b[side];
+  }
+  if (sensor.allFinite())
+    sensor = T * sensor;
+}
 
 Expected<Line3d> fitLine3d(const std::vector<Eigen::Vector3d>& points, const Line3dFitOptions& options)
 {
@@ -370,8 +421,8 @@ Expected<Line3d> fitLine3dToDepthSamples(const Segment2d& segment, const std::ve
   const Eigen::Vector2d xab = camera.normalize(segment.b) - xa;
   std::vector<Eigen::Vector3d> points;
   std::vector<double> t;
-  std::vector<Eigen::Vector2d> slopes;
-  backProjectSamples(samples, camera, xa, xab, &points, &t, &slopes);
+  std::vector<DepthSample> kept;
+  backProjectSamples(samples, camera, xa, xab, &points, &t, &kept);
   if (points.size() < static_cast<size_t>(std::max(2, options.min_inliers)))
     return Error(ErrorCode::kNotEnoughData, std::to_string(points.size()) + " depth samples along the segment, " +
                                                 std::to_string(std::max(2, options.min_inliers)) + " needed");
@@ -391,7 +442,7 @@ Expected<Line3d> fitLine3dToDepthSamples(const Segment2d& segment, const std::ve
   }
   else
   {
-    auto fitted = inverseDepthLine(points, t, xa, xab, threshold, options, consensus->inliers);
+    auto fitted = inverseDepthLine(points, t, kept, xa, xab, threshold, options, consensus->inliers);
     if (!fitted)
       return fitted.error();
     line = *fitted;
@@ -401,8 +452,7 @@ Expected<Line3d> fitLine3dToDepthSamples(const Segment2d& segment, const std::ve
     return Error(ErrorCode::kNoSolution,
                  std::to_string(line.inliers) + " inliers of " + std::to_string(points.size()) + " depth samples");
   line.samples = static_cast<int>(samples.size());
-  line.sigma_systematic_m =
-      registrationSigma(line, slopes, segment.length() / xab.norm(), options.registration_sigma_px);
+  line.sigma_systematic_m = registrationSigma(line, kept, segment.length() / xab.norm(), options.registration_sigma_px);
   line.image = segment;
   line.sensor = Eigen::Vector3d::Zero();
   if (auto s = checkLength(line, options); !s)

@@ -51,13 +51,67 @@ void refit(MapLine* line, const std::vector<Eigen::Vector3d>& extremes)
   line->s_max = hi;
 }
 
+// The nearer side of a depth step pooled over the observations (LineMapOptions::depth_step_sigmas), for the line's
+// direction: 0 (left of it), 1 (right), -1 (no step shown). An observation's left side is the line's when their
+// directions agree: the image side of an edge is the same surface from every viewpoint in front of it.
+int pooledNearerSide(const MapLine& line, const LineMapOptions& o)
+{
+  if (!(o.depth_step_sigmas > 0.0))
+    return -1;
+  std::vector<std::pair<double, double>> steps;  // signed for the line's direction, weight
+  double sw = 0.0, swx = 0.0;
+  for (const auto& obs : line.observations)
+  {
+    if (obs.depth_step.samples == 0 || !(obs.depth_step.sigma_m > 0.0))
+      continue;
+    const double sign = (obs.measured_b - obs.measured_a).dot(line.direction) >= 0.0 ? 1.0 : -1.0;
+    const double w = 1.0 / (obs.depth_step.sigma_m * obs.depth_step.sigma_m);
+    steps.emplace_back(sign * obs.depth_step.left_nearer_by_m, w);
+    sw += w;
+    swx += w * steps.back().first;
+  }
+  if (steps.size() < 3)
+    return -1;
+  const double mean = swx / sw;
+  double scatter = 0.0;
+  for (const auto& [x, w] : steps)
+    scatter += w * (x - mean) * (x - mean);
+  // Observations that disagree more than their errors predict (a step seen from some viewpoints only) widen it.
+  const double standard_error = std::sqrt(std::max(1.0, scatter / static_cast<double>(steps.size() - 1)) / sw);
+  if (!(std::abs(mean) > o.depth_step_sigmas * standard_error && std::abs(mean) >= o.depth_step_min_m))
+    return -1;
+  return mean > 0.0 ? 0 : 1;
+}
+
+// Each observation's end points: the measured line's, or its nearer side's where the pooled evidence shows a step.
+void placeObservationsOnNearerSide(const LineMapOptions& o, MapLine* line)
+{
+  const int near = pooledNearerSide(*line, o);
+  for (auto& obs : line->observations)
+  {
+    obs.a = obs.measured_a;
+    obs.b = obs.measured_b;
+    if (near < 0)
+      continue;
+    const bool along = (obs.measured_b - obs.measured_a).dot(line->direction) >= 0.0;
+    const int side = along ? near : 1 - near;
+    if (obs.side_a[side].allFinite() && obs.side_b[side].allFinite())
+    {
+      obs.a = obs.side_a[side];
+      obs.b = obs.side_b[side];
+    }
+  }
+}
+
 // Gauss-Newton on the line from the observations' end points, each constrained normal to its interpretation plane
 // (sigma_lateral) and in it across the line (sigma_depth), starting from the moments' fit. A few iterations: the
 // start is within millimetres.
-void refitFromObservations(MapLine* line, double robust_k)
+void refitFromObservations(MapLine* line, const LineMapOptions& options)
 {
   if (line->observations.empty())
     return;
+  placeObservationsOnNearerSide(options, line);
+  const double robust_k = options.robust_k;
   Eigen::Vector3d c = line->point, d = line->direction;
   // Graduated Cauchy loss: a few observations are far off across their plane (their 2D edge on another edge).
   const double scales[] = {64.0, 16.0, 8.0, 4.0, 2.0, 1.0, 1.0};
@@ -277,8 +331,11 @@ int LineMap::merge(const Line3d& o, std::vector<MapLine>* lines)
   }
   const double w = observationWeight(o, options_.min_rms_m);
   MapObservation kept;
-  kept.a = o.a;
-  kept.b = o.b;
+  kept.a = kept.measured_a = o.a;
+  kept.b = kept.measured_b = o.b;
+  kept.depth_step = o.depth_step;
+  kept.side_a = o.side_a;
+  kept.side_b = o.side_b;
   kept.normal = normal;
   kept.sigma_lateral = std::max(options_.lateral_floor_m, options_.lateral_sigma_rad * range);
   kept.sigma_depth = std::hypot(o.sigma_m > 0.0 ? o.sigma_m : limit / 3.0, options_.depth_floor_fit_m);
@@ -296,7 +353,7 @@ int LineMap::merge(const Line3d& o, std::vector<MapLine>* lines)
     refit(&line, {o.a, o.b});
     if (options_.max_observations > 0)
       line.observations.push_back(kept);
-    refitFromObservations(&line, options_.robust_k);
+    refitFromObservations(&line, options_);
     lines->push_back(line);
     return static_cast<int>(lines->size()) - 1;
   }
@@ -312,7 +369,7 @@ int LineMap::merge(const Line3d& o, std::vector<MapLine>* lines)
     line.observations.push_back(kept);
     trimObservations(options_.max_observations, &line);
   }
-  refitFromObservations(&line, options_.robust_k);
+  refitFromObservations(&line, options_);
   return fuseWithOthers(best, lines);
 }
 
@@ -356,7 +413,7 @@ int LineMap::fuseWithOthers(int index, std::vector<MapLine>* lines)
       refit(&line, {line.extreme_lo, line.extreme_hi, other.extreme_lo, other.extreme_hi});
       line.observations.insert(line.observations.end(), other.observations.begin(), other.observations.end());
       trimObservations(options_.max_observations, &line);
-      refitFromObservations(&line, options_.robust_k);
+      refitFromObservations(&line, options_);
       // Remove j (swap with the last) and keep track of index.
       const int last = static_cast<int>(all.size()) - 1;
       if (static_cast<int>(j) != last)

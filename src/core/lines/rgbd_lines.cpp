@@ -76,8 +76,7 @@ std::optional<Line3d> RgbdLineExtractor::liftSegment(const RgbdFrame& frame, con
       ++st->no_line;
     return std::nullopt;
   }
-  line->a = frame.T_map_camera * line->a;
-  line->b = frame.T_map_camera * line->b;
+  line->transform(frame.T_map_camera);
   line->sensor = frame.T_map_camera.translation();
   line->stamp = frame.stamp;
   return *line;

@@ -481,8 +481,7 @@ Line3d lineInMap(const Keyframe& keyframe, const KeyframeLine& line, const PoseC
 {
   const Eigen::Isometry3d T = correction.apply(keyframe.T_map_camera);
   Line3d out = line.line;
-  out.a = T * line.line.a;
-  out.b = T * line.line.b;
+  out.transform(T);
   out.sensor = T.translation();
   return out;
 }

@@ -23,8 +23,7 @@ Keyframe toKeyframe(const RgbdFrame& frame, const std::vector<Line3d>& lines, st
   {
     KeyframeLine k;
     k.line = l;
-    k.line.a = camera_from_map * l.a;
-    k.line.b = camera_from_map * l.b;
+    k.line.transform(camera_from_map);
     k.line.sensor = Eigen::Vector3d::Zero();
     k.image_a = frame.camera.normalize(l.image.a);
     k.image_b = frame.camera.normalize(l.image.b);

@@ -19,6 +19,9 @@ void readMapParameters(ParameterSource& read, SurveyOptions& options)
   map.min_fusion_keyframes =
       read.integer("map/min_fusion_keyframes", map.min_fusion_keyframes, Range::integers(1, 1000));
   map.fusion_floor_m = read.number("map/fusion_floor", map.fusion_floor_m, Range::closed(0.0, 1.0, "m"));
+  // Small depth steps pooled over a map line's observations (LineMapOptions::depth_step_sigmas).
+  map.depth_step_sigmas = read.number("map/depth_step_sigmas", map.depth_step_sigmas, Range::closed(0.0, 100.0));
+  map.depth_step_min_m = read.number("map/depth_step_min", map.depth_step_min_m, Range::closed(0.0, 1.0, "m"));
   options.keyframes.min_translation_m =
       read.number("keyframe/min_translation", options.keyframes.min_translation_m, Range::closed(0.0, 100.0, "m"));
   options.keyframes.min_rotation_deg =
