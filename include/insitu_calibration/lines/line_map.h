@@ -68,9 +68,9 @@ struct LineMapOptions
   // step): when the mean step is beyond depth_step_sigmas standard errors (the larger of the predicted one and the
   // observations' scatter) and at least depth_step_min_m, every observation takes the line its nearer side's depth
   // gives (the edge is the near surface's). 0 sigmas: off, the default: on the default world (seeds 1-6, perfect
-  // localiser) 5 sigmas puts the window outlines' map lines on their panels (median 1.3 -> 0.4-0.7 mm off, and no
-  // matched map line farther off) but the cameras come out no better (cam_wide worse on 4 of 6 seeds: the remaining
-  // errors no longer partly cancel), and the texture lines of the flat window frames show steps of 3-10 mm that
+  // localiser) 5 sigmas puts the window outlines' map lines on their panels (median 1.3 -> 0.4-0.7 mm off) but the
+  // cameras come out no better (cam_wide's focal length worse on all 6 seeds: the remaining errors no longer partly
+  // cancel), and the texture lines of the flat window frames show steps of 3-10 mm that
   // are not there (docs/measurements.md, "Depth steps pooled over the keyframes").
   double depth_step_sigmas = 0.0;
   double depth_step_min_m = 0.001;
