@@ -114,6 +114,10 @@ Options:
                         params map/depth_step_min) its observations take the nearer side's depth (params
                         map/depth_step_sigmas, default 0: off; 5 measured: docs/measurements.md, "Depth steps
                         pooled over the keyframes")
+  --depth-slant-allowance 0|1
+                        the depth sampler's jump (what counts as a farther surface beside an edge) widened by how fast
+                        depth grows across the edge on a slanted surface (params depth/slant_allowance, default 1;
+                        0: the jump from the nearest reading alone, as before 2026-12-04)
   --triangulated-lines 0|1
                         RGB lines beyond the depth range (4 m) triangulated from five or more keyframes become map lines
                         (default 0: off)
@@ -1229,6 +1233,7 @@ bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options, bool* 
       static_cast<int>(cli.number("min-fusion-keyframes", options->map.min_fusion_keyframes));
   options->map.fusion_floor_m = cli.number("fusion-floor", options->map.fusion_floor_m);
   options->map.depth_step_sigmas = cli.number("depth-step-sigmas", options->map.depth_step_sigmas);
+  options->rgbd.sampler.slant_allowance = onOff(cli, "depth-slant-allowance", options->rgbd.sampler.slant_allowance);
   options->ceiling.enabled = onOff(cli, "ceiling-lines", options->ceiling.enabled);
   options->triangulated.enabled = onOff(cli, "triangulated-lines", options->triangulated.enabled);
   options->occlusion.enabled = onOff(cli, "occlusion-test", options->occlusion.enabled);
@@ -1513,7 +1518,8 @@ int main(int argc, char** argv)
        "max-fusion-sigma",
        "min-fusion-keyframes",
        "fusion-floor",
-       "depth-step-sigmas"},
+       "depth-step-sigmas",
+       "depth-slant-allowance"},
       {"no-refine", "no-ransac", "no-report", "quiet", "oracle", "oracle-details", "trace", "no-odometry"});
   if (cli.help())
   {

@@ -32,6 +32,11 @@ struct DepthSamplerOptions
   double jump_ratio = 0.03;           // a depth discontinuity: readings farther than max(jump_min_m, jump_ratio z)
   double jump_min_m = 0.03;           //   behind the nearest reading
   double max_extrapolation_px = 2.5;  // the near cluster must come this close to the edge
+  // Widen the jump by how fast depth grows across the edge on a slanted surface (per side the median neighbour
+  // difference along the segment, the smaller side's), times a reading's offset from the nearest one. Without it,
+  // on a wall seen at a grazing angle far away, only samples whose deeper side happens to read near keep both
+  // sides: a false step of several mm, the same in every frame, and an edge depth biased nearer.
+  bool slant_allowance = true;
   // When one side has no reading in the band (no return from a surface seen at a grazing angle, or a projector
   // shadow), the first reading beyond the gap, up to gap_search_px across the edge, tells which: a surface nearer
   // than the readings by more than a jump means the edge may belong to the unseen surface (a chair back's top face

@@ -40,6 +40,8 @@ void readMapParameters(ParameterSource& read, SurveyOptions& options)
   a.iterative_above_keyframes =
       static_cast<size_t>(read.integer("map_adjustment/iterative_above_keyframes",
                                        static_cast<int>(a.iterative_above_keyframes), Range::integers(0, 1000000)));
+  // The depth sampler's jump widened on slanted surfaces (DepthSamplerOptions::slant_allowance).
+  options.rgbd.sampler.slant_allowance = read.flag("depth/slant_allowance", options.rgbd.sampler.slant_allowance);
   // The Xtion's depth-to-RGB misregistration (DepthSamplerOptions::registration_offset_px).
   Eigen::Vector2d& registration = options.rgbd.sampler.registration_offset_px;
   registration.x() = read.number("depth_registration/x_px", registration.x(), Range::closed(-10.0, 10.0, "px"));
