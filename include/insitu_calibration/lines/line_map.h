@@ -70,8 +70,10 @@ struct LineMapOptions
   // gives (the edge is the near surface's). 0 sigmas: off, the default: on the default world (seeds 1-6, perfect
   // localiser) 5 sigmas puts the window outlines' map lines on their panels (median 1.3 -> 0.4-0.7 mm off) but the
   // cameras come out no better (cam_wide's focal length worse on all 6 seeds: the remaining errors no longer partly
-  // cancel), and the texture lines of the flat window frames show steps of 3-10 mm that
-  // are not there (docs/measurements.md, "Depth steps pooled over the keyframes").
+  // cancel). The texture lines of the flat window frames showed steps of 3-10 mm that are not there: the depth
+  // sampler's selection bias on slanted surfaces, since removed (DepthSamplerOptions::slant_allowance); with it
+  // cam_wide is still worse with the pooling than without (docs/measurements.md, "The depth sampler on slanted
+  // surfaces").
   double depth_step_sigmas = 0.0;
   double depth_step_min_m = 0.001;
   // Fusion of uncertain observations (sigma_m above max_sigma_m, up to max_fusion_sigma_m; 0: off): they build map
