@@ -1478,49 +1478,51 @@ int calibrateCameras(const ic::CommandLine& cli, ic::Survey& survey)
       }
   return status;
 }
+
+// The options taking a value and the flags (kUsage explains each).
+const std::set<std::string> kValueOptions = {"cameras",
+                                             "params",
+                                             "out-dir",
+                                             "world-frame",
+                                             "min-support",
+                                             "camera",
+                                             "search-starts",
+                                             "local-search-starts",
+                                             "prior-start",
+                                             "ambiguity-neighbourhood",
+                                             "hypothesis-starts",
+                                             "truth-dir",
+                                             "coverage-diagnosis",
+                                             "prior-from-truth",
+                                             "prior-sigmas",
+                                             "max-spread",
+                                             "localization-sigma",
+                                             "odom-frame",
+                                             "odometry-sigma",
+                                             "floor-lines",
+                                             "depth-registration",
+                                             "depth-registration-sigma",
+                                             "floor-height",
+                                             "floor-max-range",
+                                             "floor-extended",
+                                             "occlusion-test",
+                                             "plain-floor-samples",
+                                             "occluders-follow-adjustment",
+                                             "triangulated-lines",
+                                             "ceiling-lines",
+                                             "max-fusion-sigma",
+                                             "min-fusion-keyframes",
+                                             "fusion-floor",
+                                             "depth-step-sigmas",
+                                             "depth-slant-allowance"};
+const std::set<std::string> kFlagOptions = {"no-refine", "no-ransac",      "no-report", "quiet",
+                                            "oracle",    "oracle-details", "trace",     "no-odometry"};
 }  // namespace
 
 int main(int argc, char** argv)
 {
   ic::quietSolverLogging();
-  ic::CommandLine cli(
-      argc, argv,
-      {"cameras",
-       "params",
-       "out-dir",
-       "world-frame",
-       "min-support",
-       "camera",
-       "search-starts",
-       "local-search-starts",
-       "prior-start",
-       "ambiguity-neighbourhood",
-       "hypothesis-starts",
-       "truth-dir",
-       "coverage-diagnosis",
-       "prior-from-truth",
-       "prior-sigmas",
-       "max-spread",
-       "localization-sigma",
-       "odom-frame",
-       "odometry-sigma",
-       "floor-lines",
-       "depth-registration",
-       "depth-registration-sigma",
-       "floor-height",
-       "floor-max-range",
-       "floor-extended",
-       "occlusion-test",
-       "plain-floor-samples",
-       "occluders-follow-adjustment",
-       "triangulated-lines",
-       "ceiling-lines",
-       "max-fusion-sigma",
-       "min-fusion-keyframes",
-       "fusion-floor",
-       "depth-step-sigmas",
-       "depth-slant-allowance"},
-      {"no-refine", "no-ransac", "no-report", "quiet", "oracle", "oracle-details", "trace", "no-odometry"});
+  ic::CommandLine cli(argc, argv, kValueOptions, kFlagOptions);
   if (cli.help())
   {
     std::cout << kUsage;
