@@ -12,23 +12,95 @@ namespace insitu_calibration
 {
 namespace
 {
+// The valid depth readings in a band of +-band pixels across the edge at one sample: each pixel's signed offset from
+// the edge (its centre, across it) and its depth, in the order of the offsets (a view into SegmentBands' arrays); the
+// nearest reading and its offset.
+struct BandReadings
+{
+  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();
+  double position = 0.0;  // along the segment from its first end, px
+  const double* offsets = nullptr;
+  const double* depths = nullptr;
+  size_t size = 0;
+  double z_min = std::numeric_limits<double>::infinity();  // infinity when there is no reading
+  double z_min_offset = 0.0;
+};
+
+// Every sample's band, read once (at a + position * d, d the segment's unit direction): the slant allowance needs
+// them all before the first sample is measured.
+struct SegmentBands
+{
+  SegmentBands() = default;
+  SegmentBands(SegmentBands&&) = default;  // a move keeps the arrays' buffers, which the bands point into
+  SegmentBands(const SegmentBands&) = delete;
+  SegmentBands& operator=(const SegmentBands&) = delete;
+  std::vector<double> offsets, depths;
+  std::vector<BandReadings> bands;
+};
+
+SegmentBands readBands(const cv::Mat& depth_m, const Eigen::Vector2d& a, const Eigen::Vector2d& d,
+                       const std::vector<double>& positions, int band, const Eigen::Vector2d& registration_offset)
+{
+  SegmentBands out;
+  out.offsets.reserve(positions.size() * (2 * band + 1));
+  out.depths.reserve(positions.size() * (2 * band + 1));
+  out.bands.reserve(positions.size());
+  std::vector<size_t> begin;
+  begin.reserve(positions.size() + 1);
+  const Eigen::Vector2d n(-d.y(), d.x());
+  for (const double s : positions)
+  {
+    BandReadings r;
+    r.pixel = a + s * d;
+    r.position = s;
+    begin.push_back(out.depths.size());
+    for (int j = -band; j <= band; ++j)
+    {
+      const Eigen::Vector2d q = r.pixel + static_cast<double>(j) * n;
+      const int x = static_cast<int>(std::lround(q.x()));
+      const int y = static_cast<int>(std::lround(q.y()));
+      if (x < 0 || y < 0 || x >= depth_m.cols || y >= depth_m.rows)
+        continue;
+      const float z = depth_m.at<float>(y, x);
+      if (!std::isfinite(z))
+        continue;
+      out.offsets.push_back((Eigen::Vector2d(x, y) + registration_offset - r.pixel).dot(n));
+      out.depths.push_back(z);
+      if (z < r.z_min)
+      {
+        r.z_min = z;
+        r.z_min_offset = out.offsets.back();
+      }
+    }
+    out.bands.push_back(r);
+  }
+  begin.push_back(out.depths.size());
+  for (size_t i = 0; i < out.bands.size(); ++i)  // the arrays are complete: no more reallocation
+  {
+    out.bands[i].offsets = out.offsets.data() + begin[i];
+    out.bands[i].depths = out.depths.data() + begin[i];
+    out.bands[i].size = begin[i + 1] - begin[i];
+  }
+  return out;
+}
+
 // True when one side of the edge has no reading in the band and the first reading beyond it (up to search_px across
 // the edge) is nearer than near_limit.
-bool occludedBySurfaceBeyondGap(const cv::Mat& depth_m, const Eigen::Vector2d& p, const Eigen::Vector2d& n,
-                                const std::vector<double>& offsets, int band, int search_px, double near_limit)
+bool occludedBySurfaceBeyondGap(const cv::Mat& depth_m, const BandReadings& readings, const Eigen::Vector2d& n,
+                                int band, int search_px, double near_limit)
 {
   if (search_px <= band)
     return false;
   for (const double side : {-1.0, 1.0})
   {
     bool seen = false;
-    for (const double o : offsets)
-      seen |= side * o > 0.25;
+    for (size_t k = 0; k < readings.size; ++k)
+      seen |= side * readings.offsets[k] > 0.25;
     if (seen)
       continue;
     for (int j = band + 1; j <= search_px; ++j)
     {
-      const Eigen::Vector2d q = p + side * static_cast<double>(j) * n;
+      const Eigen::Vector2d q = readings.pixel + side * static_cast<double>(j) * n;
       const int x = static_cast<int>(std::lround(q.x()));
       const int y = static_cast<int>(std::lround(q.y()));
       if (x < 0 || y < 0 || x >= depth_m.cols || y >= depth_m.rows)
@@ -44,45 +116,6 @@ bool occludedBySurfaceBeyondGap(const cv::Mat& depth_m, const Eigen::Vector2d& p
   return false;
 }
 
-// The valid depth readings in a band of +-band pixels across the edge at one sample: each pixel's signed offset from
-// the edge (its centre, across it) and its depth, in the order of the offsets; the nearest reading and its offset.
-struct BandReadings
-{
-  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();
-  std::vector<double> offsets, depths;
-  double z_min = std::numeric_limits<double>::infinity();  // infinity when there is no reading
-  double z_min_offset = 0.0;
-};
-
-void readBand(const cv::Mat& depth_m, const Eigen::Vector2d& p, const Eigen::Vector2d& n, int band,
-              const Eigen::Vector2d& registration_offset, BandReadings* out)
-{
-  BandReadings& r = *out;  // its vectors reused from sample to sample
-  r.pixel = p;
-  r.offsets.clear();
-  r.depths.clear();
-  r.z_min = std::numeric_limits<double>::infinity();
-  r.z_min_offset = 0.0;
-  for (int j = -band; j <= band; ++j)
-  {
-    const Eigen::Vector2d q = p + static_cast<double>(j) * n;
-    const int x = static_cast<int>(std::lround(q.x()));
-    const int y = static_cast<int>(std::lround(q.y()));
-    if (x < 0 || y < 0 || x >= depth_m.cols || y >= depth_m.rows)
-      continue;
-    const float z = depth_m.at<float>(y, x);
-    if (!std::isfinite(z))
-      continue;
-    r.offsets.push_back((Eigen::Vector2d(x, y) + registration_offset - p).dot(n));
-    r.depths.push_back(z);
-    if (z < r.z_min)
-    {
-      r.z_min = z;
-      r.z_min_offset = r.offsets.back();
-    }
-  }
-}
-
 double medianInPlace(std::vector<double>& v)
 {
   std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
@@ -95,18 +128,14 @@ double medianInPlace(std::vector<double>& v)
 // when it lies a jump behind the nearest one, which on a wall seen at a grazing angle (2 cm per px at 4.5 m) keeps
 // only the samples whose deeper side happens to read near: a false step of several mm, the same in every frame, and
 // an edge depth biased nearer. 0 where a side has too few differences.
-double slantAllowance(const cv::Mat& depth_m, const Segment2d& segment, const std::vector<double>& positions,
-                      const Eigen::Vector2d& n, int band, const Eigen::Vector2d& registration_offset)
+double slantAllowance(const SegmentBands& bands)
 {
   std::array<std::vector<double>, 2> slopes;
-  slopes[0].reserve(positions.size() * band);
-  slopes[1].reserve(positions.size() * band);
-  const Eigen::Vector2d d = (segment.b - segment.a).normalized();
-  BandReadings b;
-  for (const double s : positions)
+  slopes[0].reserve(bands.depths.size());
+  slopes[1].reserve(bands.depths.size());
+  for (const BandReadings& b : bands.bands)
   {
-    readBand(depth_m, segment.a + s * d, n, band, registration_offset, &b);
-    for (size_t k = 0; k + 1 < b.offsets.size(); ++k)
+    for (size_t k = 0; k + 1 < b.size; ++k)
     {
       const double lo = b.offsets[k], hi = b.offsets[k + 1], dx = hi - lo;
       const bool left = (hi < -0.25);
@@ -135,15 +164,15 @@ struct EdgeDepth
 std::optional<EdgeDepth> nearClusterDepth(const BandReadings& band, double jump, double slant_m_per_px,
                                           const DepthSamplerOptions& options)
 {
-  const std::vector<double>& offsets = band.offsets;
-  const std::vector<double>& depths = band.depths;
+  const double* offsets = band.offsets;
+  const double* depths = band.depths;
   Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
   Eigen::Vector3d atb = Eigen::Vector3d::Zero();
   double nearest_offset = std::numeric_limits<double>::infinity();
   double near_lo = std::numeric_limits<double>::infinity(), near_hi = 0.0;
   int left = 0, right = 0;
   EdgeDepth edge;
-  for (size_t k = 0; k < depths.size(); ++k)
+  for (size_t k = 0; k < band.size; ++k)
   {
     if (depths[k] > band.z_min + jump + slant_m_per_px * std::abs(offsets[k] - band.z_min_offset))
     {
@@ -185,18 +214,18 @@ std::optional<EdgeDepth> nearClusterDepth(const BandReadings& band, double jump,
 
 // Each side alone (readings at least half a pixel off the edge), its inverse depth extrapolated to the edge; NaN where
 // a side has fewer than two readings or too little spread.
-std::array<double, 2> oneSidedInverseDepths(const std::vector<double>& offsets, const std::vector<double>& depths)
+std::array<double, 2> oneSidedInverseDepths(const BandReadings& band)
 {
   std::array<double, 2> sides = {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
   for (int side = 0; side < 2; ++side)
   {
     double sw = 0.0, so = 0.0, sv = 0.0, soo = 0.0, sov = 0.0;
-    for (size_t k = 0; k < depths.size(); ++k)
+    for (size_t k = 0; k < band.size; ++k)
     {
-      const double o = offsets[k];
+      const double o = band.offsets[k];
       if (side == 0 ? o > -0.5 : o < 0.5)
         continue;
-      const double v = 1.0 / depths[k];
+      const double v = 1.0 / band.depths[k];
       sw += 1.0;
       so += o;
       sv += v;
@@ -330,20 +359,17 @@ std::vector<DepthSample> sampleDepthAlongSegment(const cv::Mat& depth_m, const S
   std::vector<double> positions(count);
   for (int i = 0; i < count; ++i)
     positions[i] = start + i * options.step_px;
-  const double slant = options.slant_allowance
-                           ? slantAllowance(depth_m, segment, positions, n, band, options.registration_offset_px)
-                           : 0.0;
-  BandReadings r;
-  for (const double s : positions)
+  const SegmentBands bands = readBands(depth_m, segment.a, d, positions, band, options.registration_offset_px);
+  const double slant = options.slant_allowance ? slantAllowance(bands) : 0.0;
+  for (const BandReadings& r : bands.bands)
   {
-    readBand(depth_m, segment.a + s * d, n, band, options.registration_offset_px, &r);
-    if (r.depths.empty())
+    if (r.size == 0)
       continue;
     const double jump = std::max(options.jump_min_m, options.jump_ratio * r.z_min);
     // A side without any reading in the band (no return: a surface seen at a grazing angle, or a projector shadow):
     // when a surface nearer than the readings appears beyond the gap, the edge may belong to the unseen surface and
     // the readings are the background: no sample here.
-    if (occludedBySurfaceBeyondGap(depth_m, r.pixel, n, r.offsets, band, options.gap_search_px, r.z_min - jump))
+    if (occludedBySurfaceBeyondGap(depth_m, r, n, band, options.gap_search_px, r.z_min - jump))
       continue;
     const std::optional<EdgeDepth> edge = nearClusterDepth(r, jump, slant, options);
     if (!edge)
@@ -352,13 +378,13 @@ std::vector<DepthSample> sampleDepthAlongSegment(const cv::Mat& depth_m, const S
     // The readings measure the rays through their pixels moved by the registration offset: along the edge too.
     const double along = options.registration_offset_px.dot(d);
     sample.pixel = r.pixel + along * d;
-    sample.t = (s + along) / length;
+    sample.t = (r.position + along) / length;
     sample.depth_m = edge->depth_m;
     sample.discontinuity = edge->far_seen;
     sample.depth_slope_m_per_px = edge->slope_m_per_px;
     if (!edge->far_seen)
     {
-      const std::array<double, 2> sides = oneSidedInverseDepths(r.offsets, r.depths);
+      const std::array<double, 2> sides = oneSidedInverseDepths(r);
       sample.side_inverse_depth = Eigen::Vector2d(sides[0], sides[1]);
     }
     out.push_back(sample);
