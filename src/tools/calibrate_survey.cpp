@@ -135,6 +135,8 @@ Options:
                         the local moves (basin hopping, influence check) run from this many of the best refined
                         starts, the best result wins (default 3; 1: from the best start only)
   --hypothesis-starts N extra starts from line-correspondence hypotheses in the prior's 3-sigma cone (default 4)
+  --hypothesis-centres N
+                        centres kept per rotation hypothesis (params hypothesis_centres; default 3)
   --prior-start 0|1     the prior itself is one of the starts, as it is (params prior_start; default 1)
   --ambiguity-neighbourhood SHARE
                         the ambiguity test also redoes the matching from the accepted camera moved by SHARE of the
@@ -1169,7 +1171,8 @@ void parseCameraOptions(ic::CommandLine& cli, ic::FixedCameraOptions* cameras)
     matcher.calibration.ransac = false;
   matcher.search_starts = static_cast<int>(cli.number("search-starts", matcher.search_starts));
   matcher.local_search_starts = static_cast<int>(cli.number("local-search-starts", matcher.local_search_starts));
-  matcher.hypothesis_starts = static_cast<int>(cli.number("hypothesis-starts", matcher.hypothesis_starts));
+  matcher.hypothesis_starts = static_cast<int>(cli.number("hypothesis-starts", matcher.hypothesis_starts, 0, 64));
+  matcher.hypothesis_centres = static_cast<int>(cli.number("hypothesis-centres", matcher.hypothesis_centres, 1, 200));
   matcher.prior_start = onOff(cli, "prior-start", matcher.prior_start);
   cameras->ambiguity.neighbourhood_share =
       cli.number("ambiguity-neighbourhood", cameras->ambiguity.neighbourhood_share, 0.0, 0.5);
@@ -1491,6 +1494,7 @@ const std::set<std::string> kValueOptions = {"cameras",
                                              "prior-start",
                                              "ambiguity-neighbourhood",
                                              "hypothesis-starts",
+                                             "hypothesis-centres",
                                              "truth-dir",
                                              "coverage-diagnosis",
                                              "prior-from-truth",

@@ -74,6 +74,7 @@ max_focal_ratio: 5
 min_matched_lines: 12
 search_starts: 6
 hypothesis_starts: 3
+hypothesis_centres: 7
 local_search_starts: 2
 prior_start: false
 ransac_threshold_px: 4.5
@@ -117,6 +118,7 @@ cameras: []
   EXPECT_EQ(o.cameras.min_matched_lines, 12u);
   EXPECT_EQ(o.cameras.matcher.search_starts, 6);
   EXPECT_EQ(o.cameras.matcher.hypothesis_starts, 3);
+  EXPECT_EQ(o.cameras.matcher.hypothesis_centres, 7);
   EXPECT_EQ(o.cameras.matcher.local_search_starts, 2);
   EXPECT_EQ(o.cameras.matcher.calibration.ransac_options.inlier_threshold_px, 4.5);
   EXPECT_FALSE(o.cameras.matcher.calibration.ransac);

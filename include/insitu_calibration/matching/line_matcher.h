@@ -75,8 +75,10 @@ struct LineMatcherOptions
   // Hypotheses from line correspondences (src/core/matching/hypotheses.cpp, docs/survey_calibration.md): cameras
   // anywhere in the prior's 3-sigma cone, their rotation and focal length from image lines taken as vertical or as
   // the map's dominant directions (hypothesis_iterations samples), their centre from image/map line pairs, scored
-  // like the grid; the best hypothesis_starts distinct ones join the starts (0: none).
+  // like the grid; the best hypothesis_starts distinct ones join the starts (0: none). Each rotation keeps its
+  // hypothesis_centres best centres (a corridor's wrong centres can line up more pairs than the true one).
   int hypothesis_starts = 4;
+  int hypothesis_centres = 3;
   int hypothesis_iterations = 4000;
   // The explanation score that picks among results: per image line its squared mean distance to the nearest
   // compatible projected 3D line, capped at this (px), summed.
@@ -148,8 +150,8 @@ std::vector<size_t> distinctStarts(const std::vector<CameraModel>& cameras, cons
 // image_line_world_sigmas_m: optional, per image line how far the 3D line it shows may be from the map line it
 // matches (a thin line's centre from the joint's edges: FixedCameraOptions::thin_line_sigma_m); added in quadrature.
 // final_map_line_sigmas_m: optional (used with one entry per map line), in place of map_line_sigmas_m in the chosen
-// result's final calibration and its uncertainty only (lines known less well than the search should weigh them: map lines that are
-// one flank of a joint the camera does not resolve, map/joint_lines.h).
+// result's final calibration and its uncertainty only (lines known less well than the search should weigh them: map
+// lines that are one flank of a joint the camera does not resolve, map/joint_lines.h).
 Expected<LineMatchResult> matchAndCalibrate(const std::vector<Segment3d>& map_lines,
                                             const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                             const CameraPrior& prior, int image_width, int image_height,

@@ -321,7 +321,8 @@ constexpr int kCentreSamples = 5000;
 
 // Stage 2: centres from three plane pairs (linear), ranked by the image lines with a pair within 3 cm (an image line
 // pairs with every parallel map line in the cone, so counting pairs favours centres where wrong pairs pile up) and
-// refined on those pairs; the best `count` at least 0.2 m apart (a corridor's repeated heights leave several).
+// refined on those pairs; the best `count` (hypothesis_centres) at least 0.2 m apart (a corridor's repeated heights
+// leave several).
 std::vector<Eigen::Vector3d> centreHypotheses(const std::vector<PlanePair>& pairs, const Cone& cone, int iterations,
                                               size_t count, std::mt19937& rng)
 {
@@ -403,7 +404,8 @@ std::vector<CameraModel> lineHypotheses(const MatchingProblem& problem, const Ca
   for (const Rotation& r : rotations)
   {
     const std::vector<PlanePair> pairs = planePairs(problem, cone, r.value, maps);
-    const std::vector<Eigen::Vector3d> centres = centreHypotheses(pairs, cone, kCentreSamples, 3, rng);
+    const std::vector<Eigen::Vector3d> centres =
+        centreHypotheses(pairs, cone, kCentreSamples, static_cast<size_t>(std::max(1, o.hypothesis_centres)), rng);
     trace(o, "hypotheses: rotation supported by %.0f px of lines, fx %.1f, %zu plane pairs, %zu centres", r.support,
           r.value.focal_px, pairs.size(), centres.size());
     for (const Eigen::Vector3d& centre : centres)

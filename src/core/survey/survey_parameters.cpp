@@ -88,7 +88,9 @@ void readCameraParameters(ParameterSource& read, FixedCameraOptions& camera)
       read.integer("median_images", static_cast<int>(camera.median_images), Range::integers(1, 255)));
   camera.matcher.search_starts = read.integer("search_starts", camera.matcher.search_starts, Range::integers(1, 64));
   camera.matcher.hypothesis_starts =
-      read.integer("hypothesis_starts", camera.matcher.hypothesis_starts, Range::integers(0, 16));
+      read.integer("hypothesis_starts", camera.matcher.hypothesis_starts, Range::integers(0, 64));
+  camera.matcher.hypothesis_centres =
+      read.integer("hypothesis_centres", camera.matcher.hypothesis_centres, Range::integers(1, 200));
   camera.matcher.local_search_starts =
       read.integer("local_search_starts", camera.matcher.local_search_starts, Range::integers(1, 32));
   camera.matcher.prior_start = read.flag("prior_start", camera.matcher.prior_start);
