@@ -39,18 +39,20 @@ Expected<CameraMotion> CalibrationServer::verifyCamera(const std::string& name)
 {
   std::optional<FixedCamera> camera;
   std::vector<Segment3d> map;
+  std::vector<double> sigmas;
   CameraVerificationOptions options;
   {
     std::lock_guard<std::mutex> lock(mutex_);  // a snapshot (the copy shares its images); the work without the lock
     camera.emplace(survey_->camera(name));
     map = survey_->latestMapSegments();
+    sigmas = survey_->latestMapLineSigmas();
     options = thresholds_.watchdog;
   }
   if (camera->calibration() && map.empty())
     return Error(ErrorCode::kNotEnoughData, "cannot verify '" + name +
                                                 "': the 3D line map is empty (it is not saved: survey the camera's "
                                                 "view again after a restart)");
-  auto motion = camera->verify(map, options);
+  auto motion = camera->verify(map, options, sigmas);
   if (!motion)
     return motion;
   {

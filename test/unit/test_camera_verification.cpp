@@ -222,3 +222,39 @@ TEST_F(CameraVerification, TooFewMatchingLinesCannotBeVerified)
   EXPECT_EQ(blind->verdict, ic::CameraMotionVerdict::kUnknown);
   EXPECT_FALSE(ic::verifyCameraPose(fixed().camera, fixed().width, fixed().height, {}, lines));
 }
+
+TEST_F(CameraVerification, UncertainMapLinesAreLeftOut)
+{
+  // Beside each precise map line the same edge 12 mm off, as a line fused from uncertain depth may be (sigma 8 mm):
+  // the fit weighs every line alike, so those lines are left out and the motion is measured on the precise ones.
+  const auto precise = surveyedMap(1);
+  std::vector<ic::Segment3d> map = precise;
+  std::vector<double> sigmas(precise.size(), 0.003);
+  const Eigen::Vector3d offset(0.012, 0.0, 0.0);
+  for (const auto& s : precise)
+  {
+    map.push_back({s.a + offset, s.b + offset});
+    sigmas.push_back(0.008);
+  }
+  const ic::CameraVerificationOptions options;
+  const auto used = ic::verificationMapLines(map, sigmas, options);
+  ASSERT_EQ(used.size(), precise.size());
+  for (size_t i = 0; i < used.size(); ++i)
+    EXPECT_EQ(used[i].a, precise[i].a);
+  ic::CameraVerificationOptions every = options;
+  every.max_map_line_sigma_m = 0.0;
+  EXPECT_EQ(ic::verificationMapLines(map, sigmas, every).size(), map.size());
+  EXPECT_EQ(ic::verificationMapLines(map, {}, options).size(), map.size());  // no sigmas: every line
+
+  // The fit on the precise lines; the displacement at every map line in view, as an operator sees the overlay.
+  const Eigen::Isometry3d motion = translation(Eigen::Vector3d(0.05, 0.0, 0.0));
+  const auto measured = ic::verifyCameraPose(fixed().camera, fixed().width, fixed().height, map,
+                                             imageLinesAfter(motion, 1), options, sigmas);
+  ASSERT_TRUE(measured) << measured.error().describe();
+  const ic::CameraPose after = ic::CameraPose::fromWorldFromCamera(fixed().camera.pose().worldFromCamera() * motion);
+  const Outcome o{*measured,
+                  ic::poseDifference(fixed().camera, after,
+                                     ic::visibleMapPoints(fixed().camera, fixed().width, fixed().height, map))};
+  EXPECT_EQ(o.measured.verdict, ic::CameraMotionVerdict::kMoved) << o.measured.message;
+  expectMagnitudes(o);
+}

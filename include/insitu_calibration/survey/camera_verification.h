@@ -43,7 +43,11 @@ struct CameraVerificationOptions
   int max_rounds = 6;  // of the full fit, after rotation_only_rounds rounds fitting a rotation only
   int rotation_only_rounds = 2;
   double robust_scale_px = 1.0;  // Huber scale of the fit; residuals above 3 robust sigmas do not enter the result
-  LineMatcherOptions matcher;    // the matcher's other options (overlap, length, ambiguity)
+  // Map lines predicted worse than this (Survey::mapLineSigmas) are left out: the fit weighs every line alike, and
+  // lines fused from uncertain depth (5-12 mm) pulled a camera moved by 50 mm to 27.6 mm (camera_watchdog.test with
+  // map/max_fusion_sigma 0.012). The map's precise lines are within 3 mm. 0: every line.
+  double max_map_line_sigma_m = 0.004;
+  LineMatcherOptions matcher;  // the matcher's other options (overlap, length, ambiguity)
 };
 
 enum class CameraMotionVerdict
@@ -77,12 +81,21 @@ struct CameraMotion
   std::string message;  // the verdict in words, for diagnostics and the ~verify reply
 };
 
-// The pose change of a camera from its calibration to the image lines given (distorted px of its current image).
+// The pose change of a camera from its calibration to the image lines given (distorted px of its current image),
+// fitted to the map lines verificationMapLines keeps (map_line_sigmas_m: optional, parallel to map_lines); the
+// displacement is measured at all of them, as an operator sees the overlay.
 // Returns a kUnknown result (not an error) when too few lines match. Errors: empty map, invalid image size.
 Expected<CameraMotion> verifyCameraPose(const CameraModel& calibrated, int image_width, int image_height,
                                         const std::vector<Segment3d>& map_lines,
                                         const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
-                                        const CameraVerificationOptions& options = {});
+                                        const CameraVerificationOptions& options = {},
+                                        const std::vector<double>& map_line_sigmas_m = {});
+
+// The map lines the watchdog fits to: those whose sigma (parallel to map_lines; empty: all) is within
+// options.max_map_line_sigma_m.
+std::vector<Segment3d> verificationMapLines(const std::vector<Segment3d>& map_lines,
+                                            const std::vector<double>& map_line_sigmas_m,
+                                            const CameraVerificationOptions& options);
 
 // The image displacement (px, RMS over the points) and rotation (deg) between two poses of a camera with the same
 // intrinsics, at the given world points (e.g. two calibrations of one camera, at its map lines' points).

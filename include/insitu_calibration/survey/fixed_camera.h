@@ -127,9 +127,10 @@ public:
   FixedCameraStatus status(const std::vector<Segment3d>& map_lines) const;
   // The moved-camera check (camera_verification.h): the lines of the median of the recent images, extracted with the
   // calibration's distortion, against the map lines projected through the calibration. Errors: not calibrated, no
-  // image, the extraction failed, an empty map.
-  Expected<CameraMotion> verify(const std::vector<Segment3d>& map_lines,
-                                const CameraVerificationOptions& options = {}) const;
+  // image, the extraction failed, an empty map. map_line_sigmas_m: optional, parallel to map_lines
+  // (verifyCameraPose).
+  Expected<CameraMotion> verify(const std::vector<Segment3d>& map_lines, const CameraVerificationOptions& options = {},
+                                const std::vector<double>& map_line_sigmas_m = {}) const;
 
   const std::optional<CalibrationFile>& calibration() const { return calibration_; }
   const std::optional<FixedCameraResult>& lastResult() const { return last_result_; }
@@ -184,7 +185,8 @@ private:
                         const std::vector<double>& map_line_sigmas_m) const;
   // The image lines of the median image under a distortion (the polylines only).
   Expected<std::vector<std::vector<Eigen::Vector2d>>> medianLines(const DivisionModel& distortion) const;
-  void measureVerificationReference(const std::vector<Segment3d>& map_lines);
+  void measureVerificationReference(const std::vector<Segment3d>& map_lines,
+                                    const std::vector<double>& map_line_sigmas_m);
 
   FixedCameraConfig config_;
   FixedCameraOptions options_;

@@ -417,21 +417,23 @@ CameraMotion tooFewLines(size_t matched, const CameraVerificationOptions& option
 Expected<CameraMotion> verifyCameraPose(const CameraModel& calibrated, int image_width, int image_height,
                                         const std::vector<Segment3d>& map_lines,
                                         const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
-                                        const CameraVerificationOptions& options)
+                                        const CameraVerificationOptions& options,
+                                        const std::vector<double>& map_line_sigmas_m)
 {
   if (image_width <= 0 || image_height <= 0)
     return Error(ErrorCode::kInvalidInput, "verifyCameraPose: the image size must be positive");
   if (map_lines.empty())
     return Error(ErrorCode::kNotEnoughData, "cannot verify the camera: the line map is empty");
+  const std::vector<Segment3d> fitted = verificationMapLines(map_lines, map_line_sigmas_m, options);
   PoseFit fit;  // the last successful fit
-  fit.delta = coarseRotation(calibrated, image_width, image_height, map_lines, image_lines, options);
+  fit.delta = coarseRotation(calibrated, image_width, image_height, fitted, image_lines, options);
   MatchedLines used;  // its matches
   size_t last_matched = 0;
   double threshold_px = options.search_distance_px;
   for (int round = 0; round < options.max_rounds + options.rotation_only_rounds; ++round)
   {
     MatchedLines matched =
-        matchUnder(calibrated, fit.delta, image_width, image_height, map_lines, image_lines, threshold_px, options);
+        matchUnder(calibrated, fit.delta, image_width, image_height, fitted, image_lines, threshold_px, options);
     last_matched = matched.measurements.size();
     if (last_matched < options.min_matched_lines)
       break;
@@ -483,6 +485,19 @@ std::string describeChange(const PoseDifference& change)
   std::snprintf(text, sizeof(text), "moved by %.2f px / %.3f deg / %.1f mm since the previous calibration",
                 change.displacement_px, change.rotation_deg, 1000.0 * change.translation_m);
   return text;
+}
+
+std::vector<Segment3d> verificationMapLines(const std::vector<Segment3d>& map_lines,
+                                            const std::vector<double>& map_line_sigmas_m,
+                                            const CameraVerificationOptions& options)
+{
+  if (options.max_map_line_sigma_m <= 0.0 || map_line_sigmas_m.size() != map_lines.size())
+    return map_lines;
+  std::vector<Segment3d> precise;
+  for (size_t i = 0; i < map_lines.size(); ++i)
+    if (map_line_sigmas_m[i] <= options.max_map_line_sigma_m)
+      precise.push_back(map_lines[i]);
+  return precise;
 }
 
 }  // namespace insitu_calibration

@@ -427,7 +427,7 @@ Expected<FixedCameraResult> FixedCamera::calibrate(const std::vector<Segment3d>&
     result->summary += "; " + result->explanation.describe() + "; " + result->ambiguity.describe();
   calibration_ = result->file;
   if (config_.correspondence_file.empty())
-    measureVerificationReference(map_lines);
+    measureVerificationReference(map_lines, map_line_sigmas_m);
   last_result_ = *result;
   return result;
 }
@@ -443,7 +443,8 @@ Expected<std::vector<std::vector<Eigen::Vector2d>>> FixedCamera::medianLines(con
   return polylines;
 }
 
-void FixedCamera::measureVerificationReference(const std::vector<Segment3d>& map_lines)
+void FixedCamera::measureVerificationReference(const std::vector<Segment3d>& map_lines,
+                                               const std::vector<double>& map_line_sigmas_m)
 {
   verification_reference_.reset();
   const CameraModel& camera = calibration_->camera;
@@ -452,7 +453,8 @@ void FixedCamera::measureVerificationReference(const std::vector<Segment3d>& map
     return;
   CameraVerificationOptions options;
   options.search_range_deg = 0.0;  // the camera is where it was calibrated: no search
-  const auto zero = verifyCameraPose(camera, config_.image_width, config_.image_height, map_lines, *lines, options);
+  const auto zero = verifyCameraPose(camera, config_.image_width, config_.image_height, map_lines, *lines, options,
+                                     map_line_sigmas_m);
   if (!zero || zero->verdict != CameraMotionVerdict::kUnmoved)
     return;  // no sane zero: the calibration itself serves
   VerificationReference r;
@@ -463,7 +465,8 @@ void FixedCamera::measureVerificationReference(const std::vector<Segment3d>& map
 }
 
 Expected<CameraMotion> FixedCamera::verify(const std::vector<Segment3d>& map_lines,
-                                           const CameraVerificationOptions& options) const
+                                           const CameraVerificationOptions& options,
+                                           const std::vector<double>& map_line_sigmas_m) const
 {
   if (!calibration_)
     return Error(ErrorCode::kNotEnoughData, "camera " + config_.name + " is not calibrated: nothing to verify");
@@ -476,7 +479,8 @@ Expected<CameraMotion> FixedCamera::verify(const std::vector<Segment3d>& map_lin
   const auto lines = medianLines(zero.distortion());
   if (!lines)
     return lines.error();
-  return verifyCameraPose(zero, config_.image_width, config_.image_height, map_lines, *lines, options);
+  return verifyCameraPose(zero, config_.image_width, config_.image_height, map_lines, *lines, options,
+                          map_line_sigmas_m);
 }
 
 FixedCameraStatus FixedCamera::status(const std::vector<Segment3d>& map_lines) const
