@@ -37,11 +37,13 @@ std::string CalibrationServer::publishSurveyGuidance(const std::string& name, co
                                                      const std::vector<Segment3d>& map, const Error& error)
 {
   ImageLineOptions image_lines;
+  SurveyGuidanceOptions options;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     image_lines = survey_->options().cameras.image_lines;
+    options.xtion = xtionViewOf(survey_->keyframes(), survey_->options().floor.floor_height_m);
+    options.visited = visitedPositions(survey_->keyframes());
   }
-  SurveyGuidanceOptions options;
   options.max_regions = std::min<size_t>(options.max_regions, kMaxHintRegions);
   const auto guidance = guideSurvey(camera, map, image_lines, options);
   if (!guidance)

@@ -1353,7 +1353,10 @@ void printSurveySummary(const ic::Survey& survey, size_t frames_without_pose, do
 void reportRefusal(const ic::CommandLine& cli, const ic::Survey& survey, const std::string& name,
                    const std::vector<ic::Segment3d>& map, const ic::Error& error)
 {
-  const auto guidance = ic::guideSurvey(survey.camera(name), map, survey.options().cameras.image_lines);
+  ic::SurveyGuidanceOptions options;
+  options.xtion = ic::xtionViewOf(survey.keyframes(), survey.options().floor.floor_height_m);
+  options.visited = ic::visitedPositions(survey.keyframes());
+  const auto guidance = ic::guideSurvey(survey.camera(name), map, survey.options().cameras.image_lines, options);
   if (!guidance)
   {
     std::printf("%s: FAILED: %s (no survey guidance: %s)\n", name.c_str(), error.describe().c_str(),

@@ -357,3 +357,151 @@ TEST_F(SurveyGuidanceTest, TheStoreKeepsTheHintBesideTheOverlayUntilACalibration
   EXPECT_FALSE(fs::exists(store.surveyHintPath("cam")));
   fs::remove_all(dir);
 }
+
+namespace
+{
+// The share of the edges whose middle the Xtion has in view (horizontal field widened by the operator's sweep) and
+// within `reach_m` from the region's standpoint, looking along its look direction.
+double shareInXtionView(const std::vector<SeenEdge>& edges, const ic::UnmappedRegion& region,
+                        const ic::XtionView& xtion, double sweep_deg, double reach_m)
+{
+  size_t seen = 0;
+  for (const SeenEdge& e : edges)
+  {
+    const Eigen::Vector2d v = e.middle.head<2>() - region.robot_position;
+    const double rise = e.middle.z() - xtion.height_m;
+    const double bearing = std::acos(std::clamp(v.normalized().dot(region.look_direction), -1.0, 1.0)) * 180.0 / M_PI;
+    const double elevation = std::atan2(rise, v.norm()) * 180.0 / M_PI - xtion.pitch_deg;
+    if (std::hypot(v.norm(), rise) <= reach_m && bearing <= xtion.horizontal_half_fov_deg + sweep_deg &&
+        std::abs(elevation) <= xtion.vertical_half_fov_deg)
+      ++seen;
+  }
+  return edges.empty() ? 0.0 : static_cast<double>(seen) / edges.size();
+}
+
+struct HalfSurvey
+{
+  std::vector<ic::Segment3d> kept;
+  std::vector<SeenEdge> dropped;
+};
+
+// The survey mapped the building except the left half of this camera's view.
+HalfSurvey leftHalfUnmapped(const sim::World& world, const RenderedCamera& r)
+{
+  HalfSurvey h;
+  h.kept = outOfView(world, r.camera->camera, r.camera->width, r.camera->height);
+  for (const auto& e : r.edges)
+    if (e.image_middle.x() < 0.5 * r.camera->width)
+      h.dropped.push_back(e);
+    else
+      h.kept.push_back(e.segment);
+  return h;
+}
+}  // namespace
+
+// With the Xtion's view known, the standpoint is chosen so that the Xtion sees what the region shows: from it, at
+// least as many of the dropped edges are in the Xtion's view as from the fixed 2 m standoff on every camera, and
+// more over the three (the region is half the view: no one standpoint has all of it in view).
+TEST_F(SurveyGuidanceTest, TheStandpointBringsTheMissingStructureIntoTheXtionsView)
+{
+  const ic::XtionView level{1.0, 0.0, 22.5, 29.0};
+  double sum_before = 0.0, sum_after = 0.0;
+  for (const RenderedCamera& r : *cameras_)
+  {
+    const HalfSurvey h = leftHalfUnmapped(*world_, r);
+    ic::SurveyGuidanceOptions plain, aware;
+    aware.xtion = level;
+    const auto before = ic::computeSurveyGuidance(r.camera->camera, r.camera->width, r.camera->height, r.lines, h.kept,
+                                                  plain.tolerance_px, plain);
+    const auto after = ic::computeSurveyGuidance(r.camera->camera, r.camera->width, r.camera->height, r.lines, h.kept,
+                                                 aware.tolerance_px, aware);
+    ASSERT_FALSE(before.regions.empty() || after.regions.empty()) << r.camera->name;
+    const double share_before = shareInXtionView(h.dropped, before.regions.front(), level, aware.look_sweep_deg, 4.0);
+    const double share_after = shareInXtionView(h.dropped, after.regions.front(), level, aware.look_sweep_deg, 4.0);
+    const auto& region = after.regions.front();
+    std::printf(
+        "%s: dropped edges in the Xtion's view %.0f %% at 2 m, %.0f %% at (%.2f, %.2f) (predicted %.0f %%, "
+        "heights %.2f-%.2f m, %.0f %% at heights in reach)\n",
+        r.camera->name.c_str(), 100.0 * share_before, 100.0 * share_after, region.robot_position.x(),
+        region.robot_position.y(), 100.0 * region.xtion_share, region.structure_min_height_m,
+        region.structure_max_height_m, 100.0 * region.xtionHeightShare());
+    EXPECT_GE(share_after, share_before - 0.02) << r.camera->name;
+    sum_before += share_before;
+    sum_after += share_after;
+    // The main region stands within the level Xtion's heights; without the view known nothing is said of it.
+    EXPECT_GE(region.xtionHeightShare(), 0.9) << r.camera->name;
+    EXPECT_NEAR(level.highestInReach(4.0), 1.0 + 4.0 * std::sin(20.5 * M_PI / 180.0), 1e-12);
+    EXPECT_FALSE(region.outOfXtionReach(aware.min_xtion_share)) << r.camera->name;
+    EXPECT_EQ(before.sentence().find("mount the Xtion"), std::string::npos);
+  }
+  EXPECT_GE(sum_after, sum_before + 0.3);  // 10 points per camera on average
+}
+
+// An Xtion low and tilted down sees no wall above knee height within its depth's reach: a region whose structure
+// stands mostly higher says so, and what to do about it.
+TEST_F(SurveyGuidanceTest, AnXtionThatCannotSeeTheStructureSaysSo)
+{
+  const ic::XtionView low{0.3, -20.0, 22.5, 29.0};  // nothing above 0.33 m within 4 m
+  size_t told = 0;
+  for (const RenderedCamera& r : *cameras_)
+  {
+    const HalfSurvey h = leftHalfUnmapped(*world_, r);
+    ic::SurveyGuidanceOptions options;
+    options.xtion = low;
+    const auto g = ic::computeSurveyGuidance(r.camera->camera, r.camera->width, r.camera->height, r.lines, h.kept,
+                                             options.tolerance_px, options);
+    ASSERT_FALSE(g.regions.empty()) << r.camera->name;
+    const size_t high =
+        std::count_if(h.dropped.begin(), h.dropped.end(), [](const SeenEdge& e) { return e.middle.z() > 0.6; });
+    const auto& region = g.regions.front();
+    std::printf(
+        "%s: %zu of %zu dropped edges above 0.6 m; region heights %.2f-%.2f m, %.0f %% at heights in reach: "
+        "%s\n",
+        r.camera->name.c_str(), high, h.dropped.size(), region.structure_min_height_m, region.structure_max_height_m,
+        100.0 * region.xtionHeightShare(), g.sentence().c_str());
+    // One "mount the Xtion" per region out of its reach.
+    size_t out_of_reach = 0, says = 0;
+    for (const auto& rg : g.regions)
+      out_of_reach += rg.outOfXtionReach(options.min_xtion_share) ? 1 : 0;
+    const std::string sentence = g.sentence();
+    for (size_t at = sentence.find("mount the Xtion higher or tilted up for this camera"); at != std::string::npos;
+         at = sentence.find("mount the Xtion higher or tilted up for this camera", at + 1))
+      ++says;
+    EXPECT_EQ(says, out_of_reach) << r.camera->name;
+    if (out_of_reach > 0)  // the advice whole, not cut off
+      EXPECT_NE(sentence.find("for this camera, or calibrate it from CAD lines)"), std::string::npos) << sentence;
+    if (region.outOfXtionReach(options.min_xtion_share))
+      ++told;
+  }
+  EXPECT_GE(told, 1u);  // cam_desk's left half: mostly its far wall
+}
+
+// The Xtion's view from keyframes: their median height above the floor and pitch, the field of view from the image.
+TEST(XtionViewTest, FromKeyframes)
+{
+  EXPECT_FALSE(ic::xtionViewOf({}, 0.0));
+  std::vector<ic::Keyframe> keyframes;
+  for (int k = 0; k < 5; ++k)
+  {
+    ic::Keyframe kf;
+    kf.focal_px = 525.0;
+    kf.image_width = 640;
+    kf.image_height = 480;
+    // Optical frame: z forward, y down; the robot faces +x at yaw k * 30 deg, the camera pitched 12 deg down.
+    const double yaw = k * M_PI / 6.0, pitch = -12.0 * M_PI / 180.0;
+    const Eigen::Matrix3d base =
+        (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(-pitch, Eigen::Vector3d::UnitY()))
+            .toRotationMatrix();
+    Eigen::Matrix3d optical;
+    optical << 0, 0, 1, -1, 0, 0, 0, -1, 0;  // optical axes in the base frame: x right = -y, y down = -z, z = x
+    kf.T_map_camera.linear() = base * optical;
+    kf.T_map_camera.translation() = Eigen::Vector3d(k, 2.0, 0.1 + (k == 4 ? 0.5 : 0.8));
+    keyframes.push_back(kf);
+  }
+  const auto view = ic::xtionViewOf(keyframes, 0.1);
+  ASSERT_TRUE(view);
+  EXPECT_NEAR(view->height_m, 0.8, 1e-9);
+  EXPECT_NEAR(view->pitch_deg, -12.0, 1e-9);
+  EXPECT_NEAR(view->vertical_half_fov_deg, std::atan(240.0 / 525.0) * 180.0 / M_PI, 1e-9);
+  EXPECT_NEAR(view->horizontal_half_fov_deg, std::atan(320.0 / 525.0) * 180.0 / M_PI, 1e-9);
+}

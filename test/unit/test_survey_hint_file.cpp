@@ -39,6 +39,9 @@ ic::SurveyGuidance twoRegions()
   top.robot_position = Eigen::Vector2d(-2.0, 5.5);
   top.look_direction = Eigen::Vector2d(0.0, 1.0);
   top.floor_polygon = {{-3.0, 7.0}, {-1.0, 7.0}, {-2.0, 8.0}};
+  top.xtion_share = 0.125;  // the Xtion's view known for this one
+  top.structure_min_height_m = 1.1;
+  top.structure_max_height_m = 2.87;
   g.regions = {left, top};
   return g;
 }
@@ -66,7 +69,11 @@ TEST(SurveyHintFile, RoundTripKeepsEveryRegionToTheMillimetre)
     ASSERT_EQ(got.floor_polygon.size(), want.floor_polygon.size());
     for (size_t i = 0; i < want.floor_polygon.size(); ++i)
       EXPECT_LT((got.floor_polygon[i] - want.floor_polygon[i]).norm(), 1e-3);
+    EXPECT_NEAR(got.xtion_share, want.xtion_share, 0.006);  // two decimals; -1 (not in the file) kept
+    EXPECT_NEAR(got.structure_height_m.x(), k ? 1.1 : 0.0, 0.006);
+    EXPECT_NEAR(got.structure_height_m.y(), k ? 2.87 : 0.0, 0.006);
   }
+  EXPECT_EQ(text.find("xtion_share"), text.rfind("xtion_share"));  // only the region that has it
   // Plain YAML: yaml-cpp's own reader sees the same numbers.
   const YAML::Node doc = YAML::Load(text);
   EXPECT_EQ(doc["frame"].as<std::string>(), "map");
@@ -94,6 +101,10 @@ TEST(SurveyHintFile, BrokenFilesAreRefusedWithTheirPlace)
   ASSERT_FALSE(zero);
   EXPECT_NE(zero.error().message().find("regions[1].look_direction"), std::string::npos) << zero.error().message();
   EXPECT_FALSE(without("standpoint: [16.712, 0.446]", "standpoint: [16.712]"));
+  const auto share = without("xtion_share: 0.12", "xtion_share: 1.5");
+  ASSERT_FALSE(share);
+  EXPECT_NE(share.error().message().find("regions[1].xtion_share"), std::string::npos) << share.error().message();
+  EXPECT_FALSE(without("structure_height_m: [1.10, 2.87]", "structure_height: [1.10, 2.87]"));
   EXPECT_FALSE(ic::parseSurveyHint("camera: cam_a\n", "hint.yaml"));
   EXPECT_FALSE(ic::parseSurveyHint("regions: [[", "hint.yaml"));
   EXPECT_FALSE(ic::readSurveyHint("/nonexistent/cam_a_survey_hint.yaml"));

@@ -66,6 +66,8 @@ struct Keyframe
   double stamp = 0.0;
   Eigen::Isometry3d T_map_camera = Eigen::Isometry3d::Identity();  // as tf gave it
   double focal_px = 0.0;                                           // of the RGB image (for the 2D residuals in px)
+  int image_width = 0;                                             // of the RGB image, px (its field of view)
+  int image_height = 0;
   // The camera in the odometry frame (odom -> camera), when odometry is available: consecutive keyframes that both
   // have it are tied by their relative motion.
   bool has_odometry = false;

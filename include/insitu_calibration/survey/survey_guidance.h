@@ -15,9 +15,22 @@
 // camera's foot, or at the foot when the centroid is nearer), moved inside the map lines' extent by
 // robot_clearance_m, looking towards the centroid, so that the Xtion (depth up to about 5 m) sees those surfaces
 // within 1 to 4 m.
+//
+// With the Xtion's view known (XtionView, from the survey's keyframes) the standpoint is chosen for the region's
+// structure instead: each ray's point is also given a height (where it meets the floor, or its height where it
+// leaves the map's extent: a wall), and the standpoint is the one from which the Xtion, at its mount's height and
+// pitch, has most of those points in its view within xtion_reach_m: standoffs from min_standoff_m to
+// max_standoff_m, from the camera's side or, where the robot has been, from any side (of the nearly best, the
+// closest to the fixed standpoint). A low Xtion tilted down sees a wall's upper part only from afar, and from
+// nowhere within its depth's reach when the wall is high: when most of a region's points are at such heights
+// (xtionHeightShare() below min_xtion_share) the sentence says how high the Xtion sees and what to do if the
+// region's lines are higher (mount it higher or tilted up, or CAD lines) or lower (tilted down). The points are
+// where the rays meet the floor or the map's extent: furniture in front of them is not known, so the heights are
+// the structure's upper bound (a ray meets a desk before the floor below it) and the sentence says "if".
 #ifndef INSITU_CALIBRATION_SURVEY_SURVEY_GUIDANCE_H
 #define INSITU_CALIBRATION_SURVEY_SURVEY_GUIDANCE_H
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -28,10 +41,32 @@
 #include "insitu_calibration/error.h"
 #include "insitu_calibration/geometry/segment.h"
 #include "insitu_calibration/lines/image_lines.h"
+#include "insitu_calibration/map/line_map_adjustment.h"
 
 namespace insitu_calibration
 {
 class FixedCamera;
+
+// What the survey's Xtion sees: its optical centre's height above the floor, its optical axis' pitch (above the
+// horizontal; negative: tilted down) and its half fields of view.
+struct XtionView
+{
+  double height_m = 0.0;
+  double pitch_deg = 0.0;
+  double vertical_half_fov_deg = 0.0;
+  double horizontal_half_fov_deg = 0.0;
+  // The highest and lowest heights above the floor it has in view within `reach_m` of its optical centre, 2 deg
+  // inside its field of view.
+  double highestInReach(double reach_m) const;
+  double lowestInReach(double reach_m) const;
+};
+
+// The Xtion's view from the survey's keyframes (the medians of their height and pitch; the field of view from the
+// image size and focal length), the floor at z = floor_height_m; nullopt without keyframes.
+std::optional<XtionView> xtionViewOf(const std::vector<Keyframe>& keyframes, double floor_height_m);
+
+// Where the robot has been: the keyframes' Xtion positions (x, y), thinned to one per 0.25 m of the path.
+std::vector<Eigen::Vector2d> visitedPositions(const std::vector<Keyframe>& keyframes);
 
 struct SurveyGuidanceOptions
 {
@@ -51,6 +86,21 @@ struct SurveyGuidanceOptions
   double robot_standoff_m = 2.0;
   double robot_clearance_m = 0.4;  // the robot stands at least this far inside the map lines' extent
   size_t max_regions = 6;          // the largest regions (by unexplained image lines) are kept
+  // The Xtion's view, when known: the standoff is chosen so that it sees the region's structure (above).
+  std::optional<XtionView> xtion;
+  double xtion_reach_m = 4.0;  // its depth lines are precise enough for the map within about this range
+  double min_standoff_m = 1.0;
+  double max_standoff_m = 6.0;
+  // Where the robot has been (visitedPositions): a standpoint off the line from the camera's foot must lie within
+  // visited_radius_m of one, so that it is free floor on this side of the walls. Empty: anywhere in the map's
+  // extent.
+  std::vector<Eigen::Vector2d> visited;
+  double visited_radius_m = 1.0;
+  // The operator turns the robot about this much either side of the look direction (the simulator's visit does).
+  double look_sweep_deg = 30.0;
+  // Below this share of the region's points at heights the Xtion can see (from anywhere), the region is out of its
+  // reach.
+  double min_xtion_share = 0.5;
 };
 
 enum class GuidanceCell
@@ -68,6 +118,18 @@ struct UnmappedRegion
   std::vector<Eigen::Vector2d> floor_polygon;  // map frame, z = 0, counter-clockwise
   Eigen::Vector2d robot_position = Eigen::Vector2d::Zero();   // map frame
   Eigen::Vector2d look_direction = Eigen::Vector2d::UnitX();  // unit, map frame
+  // The height range (m above the floor) of what the region shows (its rays' points).
+  double structure_min_height_m = 0.0;
+  double structure_max_height_m = 0.0;
+  // With the Xtion's view known: the share of those points it sees from the standpoint (-1: not computed), and
+  // the shares that are higher and lower than anything it has in view within its reach, wherever it stands.
+  double xtion_share = -1.0;
+  double xtion_above_share = 0.0;
+  double xtion_below_share = 0.0;
+  double xtion_reach_m = 0.0;  // the reach and view the shares were computed for
+  XtionView xtion;
+  double xtionHeightShare() const { return 1.0 - xtion_above_share - xtion_below_share; }
+  bool outOfXtionReach(double min_share) const { return xtion_share >= 0.0 && xtionHeightShare() < min_share; }
 };
 
 struct SurveyGuidance
@@ -82,8 +144,10 @@ struct SurveyGuidance
   size_t count(GuidanceCell kind) const;  // cells of a kind
   // "survey the left part of the view (or: the whole view): 12 image lines there have no map line; drive the robot to
   // about (2.1, 3.4) in the map and look towards (0.71, -0.71)", one clause per region joined by "; also ", or empty
-  // without regions.
+  // without regions. A region out of the Xtion's reach (SurveyGuidanceOptions::min_xtion_share) adds what to do
+  // about the mount.
   std::string sentence() const;
+  double min_xtion_share = 0.5;
 };
 
 // The guidance from the image lines (distorted px), the map lines and a camera (distortion included).

@@ -12,6 +12,9 @@
 //       standpoint: [16.7, 0.4]   # where the robot should stand, x, y
 //       look_direction: [-0.97, -0.23]  # unit vector: where its Xtion should look
 //       floor_polygon: [[x, y], ...]    # the floor the region shows (convex, counter-clockwise)
+//       structure_height_m: [0.0, 2.6]  # optional (the Xtion's view known): how high what the region shows is
+//       xtion_share: 0.82              # optional: the share of it in the Xtion's view from the standpoint (under
+//                                      # 0.5: out of its reach; mount it higher or tilted, or use CAD lines)
 #ifndef INSITU_CALIBRATION_SURVEY_SURVEY_HINT_FILE_H
 #define INSITU_CALIBRATION_SURVEY_SURVEY_HINT_FILE_H
 
@@ -32,6 +35,8 @@ struct SurveyHintRegion
   Eigen::Vector2d standpoint = Eigen::Vector2d::Zero();
   Eigen::Vector2d look_direction = Eigen::Vector2d::UnitX();
   std::vector<Eigen::Vector2d> floor_polygon;
+  double xtion_share = -1.0;  // -1: not in the file
+  Eigen::Vector2d structure_height_m = Eigen::Vector2d::Zero();
 };
 
 struct SurveyHint

@@ -18,6 +18,8 @@ Keyframe toKeyframe(const RgbdFrame& frame, const std::vector<Line3d>& lines, st
   kf.stamp = frame.stamp;
   kf.T_map_camera = frame.T_map_camera;
   kf.focal_px = frame.camera.intrinsics.fx;
+  kf.image_width = frame.camera.width;
+  kf.image_height = frame.camera.height;
   const Eigen::Isometry3d camera_from_map = frame.T_map_camera.inverse();
   for (const auto& l : lines)
   {

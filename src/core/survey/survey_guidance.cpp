@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "insitu_calibration/matching/line_matcher.h"
+#include "insitu_calibration/robust_statistics.h"
 #include "insitu_calibration/survey/fixed_camera.h"
 
 namespace insitu_calibration
@@ -169,14 +170,20 @@ FloorBox mapExtent(const std::vector<Segment3d>& map_lines, double margin_m)
 }
 
 // Where a world ray from `centre` meets the floor z = 0, stopped at max_range_m (horizontally) and at the map's
-// extent when the camera is inside it.
-Eigen::Vector2d floorPoint(const Eigen::Vector3d& centre, const Eigen::Vector3d& direction, const FloorBox& box,
+// extent when the camera is inside it; z is the ray's height there (0 on the floor; at most the camera's: a ray
+// that rises meets the ceiling above the camera's height at the latest).
+Eigen::Vector3d floorPoint(const Eigen::Vector3d& centre, const Eigen::Vector3d& direction, const FloorBox& box,
                            double max_range_m)
 {
   const Eigen::Vector2d horizontal = direction.head<2>();
   const double h = horizontal.norm();
   if (h < 1e-9)
-    return centre.head<2>();
+    return {centre.x(), centre.y(), 0.0};
+  const auto at = [&](double reach) -> Eigen::Vector3d {
+    const Eigen::Vector2d p = centre.head<2>() + std::max(0.0, reach) * horizontal / h;
+    const double z = std::clamp(centre.z() + direction.z() / h * std::max(0.0, reach), 0.0, std::max(0.0, centre.z()));
+    return {p.x(), p.y(), z};
+  };
   const Eigen::Vector2d u = horizontal / h;
   double reach = max_range_m;
   if (direction.z() < 0.0 && centre.z() > 0.0)
@@ -188,7 +195,7 @@ Eigen::Vector2d floorPoint(const Eigen::Vector3d& centre, const Eigen::Vector3d&
     if (std::abs(u[i]) < 1e-12)
     {
       if (centre[i] < box.min[i] || centre[i] > box.max[i])
-        return centre.head<2>() + reach * u;
+        return at(reach);
       continue;
     }
     const double t0 = (box.min[i] - centre[i]) / u[i], t1 = (box.max[i] - centre[i]) / u[i];
@@ -197,7 +204,7 @@ Eigen::Vector2d floorPoint(const Eigen::Vector3d& centre, const Eigen::Vector3d&
   }
   if (leave >= enter)
     reach = std::min(reach, leave);
-  return centre.head<2>() + std::max(0.0, reach) * u;
+  return at(reach);
 }
 
 // The polygon's area centroid (its vertices' mean when degenerate).
@@ -219,44 +226,167 @@ Eigen::Vector2d centroidOf(const std::vector<Eigen::Vector2d>& polygon)
   return c / (3.0 * area);
 }
 
-// The floor polygon of a region, and where the robot should stand and look.
-void placeOnFloor(const CameraModel& camera, const SurveyGuidance& g, const FloorBox& box,
-                  const SurveyGuidanceOptions& options, UnmappedRegion* region)
+// The region's rays' points (floorPoint; a 3 x 3 grid of pixels per cell).
+std::vector<Eigen::Vector3d> regionPoints(const CameraModel& camera, const SurveyGuidance& g, const FloorBox& box,
+                                          const SurveyGuidanceOptions& options, const UnmappedRegion& region)
 {
   const Eigen::Vector3d centre = camera.pose().center();
   const Eigen::Matrix3d world_from_camera = camera.pose().rotation.transpose();
-  std::vector<cv::Point2f> points;
-  for (int c : region->cells)
+  std::vector<Eigen::Vector3d> points;
+  for (int c : region.cells)
   {
     const cv::Rect r = g.cellRect(c);
     for (int i = 0; i <= 2; ++i)
       for (int j = 0; j <= 2; ++j)
         if (const auto ray = camera.backProject({r.x + 0.5 * i * (r.width - 1), r.y + 0.5 * j * (r.height - 1)}))
-        {
-          const Eigen::Vector2d p = floorPoint(centre, world_from_camera * *ray, box, options.max_range_m);
-          points.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
-        }
+          points.push_back(floorPoint(centre, world_from_camera * *ray, box, options.max_range_m));
   }
+  return points;
+}
+
+// The share of the points the Xtion has in its view from `stand` looking at `target` (its sweep included), within
+// its reach.
+double xtionShare(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector2d& stand,
+                  const Eigen::Vector2d& target, const XtionView& xtion, const SurveyGuidanceOptions& options)
+{
+  const Eigen::Vector2d look = target - stand;
+  if (look.norm() < 1e-6 || points.empty())
+    return 0.0;
+  const double deg = 180.0 / M_PI, margin_deg = 2.0;
+  const double max_bearing = xtion.horizontal_half_fov_deg + options.look_sweep_deg;
+  size_t seen = 0;
+  for (const Eigen::Vector3d& p : points)
+  {
+    const Eigen::Vector2d v = p.head<2>() - stand;
+    const double r = v.norm(), rise = p.z() - xtion.height_m;
+    if (r < 0.3 || std::hypot(r, rise) > options.xtion_reach_m)
+      continue;
+    const double bearing = std::acos(std::clamp(v.dot(look) / (r * look.norm()), -1.0, 1.0)) * deg;
+    const double elevation = std::atan2(rise, r) * deg - xtion.pitch_deg;
+    if (bearing <= max_bearing && std::abs(elevation) <= xtion.vertical_half_fov_deg - margin_deg)
+      ++seen;
+  }
+  return static_cast<double>(seen) / points.size();
+}
+
+// The standpoint `standoff` before the target on the line from the camera's foot (at the foot when the target is
+// nearer), inside the map's extent (a camera hangs on a wall; a far region's standpoint may lie beyond it).
+Eigen::Vector2d standpointAt(const Eigen::Vector2d& foot, const Eigen::Vector2d& target, const Eigen::Vector2d& toward,
+                             double standoff, const FloorBox& box, const SurveyGuidanceOptions& options)
+{
+  const Eigen::Vector2d stand = (target - foot).norm() > standoff ? Eigen::Vector2d(target - standoff * toward) : foot;
+  return box.clamp(stand, options.map_margin_m + options.robot_clearance_m);
+}
+
+// The shares of the points higher and lower than anything the Xtion has in view within its reach.
+void measureXtionHeights(const std::vector<Eigen::Vector3d>& points, const SurveyGuidanceOptions& options,
+                         UnmappedRegion* region)
+{
+  const XtionView& xtion = *options.xtion;
+  const double top = xtion.highestInReach(options.xtion_reach_m);
+  const double bottom = xtion.lowestInReach(options.xtion_reach_m);
+  size_t above = 0, below = 0;
+  for (const Eigen::Vector3d& p : points)
+  {
+    above += p.z() > top ? 1 : 0;
+    below += p.z() < bottom ? 1 : 0;
+  }
+  const double n = std::max<size_t>(1, points.size());
+  region->xtion_above_share = above / n;
+  region->xtion_below_share = below / n;
+  region->xtion_reach_m = options.xtion_reach_m;
+  region->xtion = xtion;
+}
+
+// Whether the robot has been within visited_radius_m of a point (any point, when where it has been is not known).
+bool nearVisited(const Eigen::Vector2d& p, const SurveyGuidanceOptions& options)
+{
+  if (options.visited.empty())
+    return true;
+  for (const Eigen::Vector2d& v : options.visited)
+    if ((v - p).squaredNorm() <= options.visited_radius_m * options.visited_radius_m)
+      return true;
+  return false;
+}
+
+// The standpoint from which the Xtion sees most of the region's points: standoffs from min_standoff_m to
+// max_standoff_m in twelve directions around the target (a region under the camera is seen best looking back
+// towards the camera's wall; off the line from the camera's foot only where the robot has been, so that it is free
+// floor and on the same side of the walls). Of those within 0.05 of the best share, the one closest to the fixed
+// standpoint (robot_standoff_m on the line from the camera's foot; a radian of direction counts as a metre of
+// standoff).
+Eigen::Vector2d chooseStandpoint(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector2d& foot,
+                                 const Eigen::Vector2d& target, const Eigen::Vector2d& toward, const FloorBox& box,
+                                 const SurveyGuidanceOptions& options, UnmappedRegion* region)
+{
+  struct Candidate
+  {
+    Eigen::Vector2d stand;
+    double share, cost;
+  };
+  std::vector<Candidate> candidates;
+  const double inset = options.map_margin_m + options.robot_clearance_m;
+  const double back = std::atan2(-toward.y(), -toward.x());
+  for (int k = 0; k < 12; ++k)
+  {
+    const double turn = k <= 6 ? k * M_PI / 6.0 : (k - 12) * M_PI / 6.0;  // 0, +-30, ..., 180 deg from `back`
+    const Eigen::Vector2d away(std::cos(back + turn), std::sin(back + turn));
+    for (double d = options.min_standoff_m; d <= options.max_standoff_m + 1e-9; d += 0.25)
+    {
+      const Eigen::Vector2d stand =
+          k == 0 ? standpointAt(foot, target, toward, d, box, options) : box.clamp(target + d * away, inset);
+      if (k != 0 && !nearVisited(stand, options))
+        continue;
+      candidates.push_back({stand, xtionShare(points, stand, target, *options.xtion, options),
+                            std::abs(d - options.robot_standoff_m) + std::abs(turn)});
+    }
+  }
+  double best = 0.0;
+  for (const Candidate& c : candidates)
+    best = std::max(best, c.share);
+  const Candidate* chosen = nullptr;
+  for (const Candidate& c : candidates)
+    if (c.share >= best - 0.05 && (!chosen || c.cost < chosen->cost))
+      chosen = &c;
+  region->xtion_share = chosen->share;
+  return chosen->stand;
+}
+
+// The floor polygon of a region, and where the robot should stand and look.
+void placeOnFloor(const CameraModel& camera, const SurveyGuidance& g, const FloorBox& box,
+                  const SurveyGuidanceOptions& options, UnmappedRegion* region)
+{
+  const std::vector<Eigen::Vector3d> points = regionPoints(camera, g, box, options, *region);
   if (points.empty())
     return;
+  std::vector<cv::Point2f> flat;
+  region->structure_min_height_m = std::numeric_limits<double>::infinity();
+  region->structure_max_height_m = 0.0;
+  for (const Eigen::Vector3d& p : points)
+  {
+    flat.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
+    region->structure_min_height_m = std::min(region->structure_min_height_m, p.z());
+    region->structure_max_height_m = std::max(region->structure_max_height_m, p.z());
+  }
   std::vector<cv::Point2f> hull;
-  cv::convexHull(points, hull, false);
+  cv::convexHull(flat, hull, false);
   for (const auto& p : hull)
     region->floor_polygon.emplace_back(p.x, p.y);
   const Eigen::Vector2d target = centroidOf(region->floor_polygon);
-  Eigen::Vector2d d = target - centre.head<2>();
+  const Eigen::Vector2d foot = camera.pose().center().head<2>();
+  Eigen::Vector2d d = target - foot;
   if (d.norm() < 1e-6)
-    d = (world_from_camera * Eigen::Vector3d::UnitZ()).head<2>();
-  const double distance = d.norm();
-  region->look_direction = distance > 1e-9 ? Eigen::Vector2d(d / distance) : Eigen::Vector2d::UnitX();
-  const Eigen::Vector2d stand = distance > options.robot_standoff_m
-                                    ? Eigen::Vector2d(target - options.robot_standoff_m * region->look_direction)
-                                    : Eigen::Vector2d(centre.head<2>());
-  // Inside the map's extent (a camera hangs on a wall; a far region's standpoint may lie beyond it).
-  region->robot_position = box.clamp(stand, options.map_margin_m + options.robot_clearance_m);
+    d = (camera.pose().rotation.transpose() * Eigen::Vector3d::UnitZ()).head<2>();
+  const Eigen::Vector2d toward = d.norm() > 1e-9 ? Eigen::Vector2d(d.normalized()) : Eigen::Vector2d::UnitX();
+  if (options.xtion)
+  {
+    measureXtionHeights(points, options, region);
+    region->robot_position = chooseStandpoint(points, foot, target, toward, box, options, region);
+  }
+  else
+    region->robot_position = standpointAt(foot, target, toward, options.robot_standoff_m, box, options);
   const Eigen::Vector2d look = target - region->robot_position;
-  if (look.norm() > 1e-6)
-    region->look_direction = look.normalized();
+  region->look_direction = look.norm() > 1e-6 ? Eigen::Vector2d(look.normalized()) : toward;
 }
 
 void classifyCells(const CellSamples& s, const cv::Mat& map_presence, const SurveyGuidanceOptions& options,
@@ -294,6 +424,19 @@ std::vector<size_t> unexplainedLinesPerCell(const CellSamples& s, const SurveyGu
 }
 }  // namespace
 
+double XtionView::highestInReach(double reach_m) const
+{
+  // Along the upper edge of the view the height changes by sin(elevation) per metre of range.
+  const double edge = (pitch_deg + vertical_half_fov_deg - 2.0) * M_PI / 180.0;
+  return height_m + reach_m * std::max(0.0, std::sin(edge));
+}
+
+double XtionView::lowestInReach(double reach_m) const
+{
+  const double edge = (pitch_deg - vertical_half_fov_deg + 2.0) * M_PI / 180.0;
+  return height_m - reach_m * std::max(0.0, -std::sin(edge));
+}
+
 cv::Rect SurveyGuidance::cellRect(int cell) const
 {
   const int row = cell / columns, col = cell % columns;
@@ -307,12 +450,38 @@ size_t SurveyGuidance::count(GuidanceCell kind) const
   return static_cast<size_t>(std::count(cells.begin(), cells.end(), kind));
 }
 
+namespace
+{
+// What to do about a region mostly higher or lower than the Xtion sees within its reach (its heights are an upper
+// bound: the rays' points on the floor or the map's extent, furniture unknown, hence "if").
+std::string xtionAdvice(const UnmappedRegion& r)
+{
+  char buffer[512];
+  const bool above = r.xtion_above_share >= r.xtion_below_share;
+  if (above)
+    std::snprintf(buffer, sizeof(buffer),
+                  " (but what it shows reaches %.1f m high, and the Xtion, %.2f m high and pitched %+.0f deg, has "
+                  "nothing above %.1f m in view within its depth's reach (%.0f m): if the region's lines are higher, "
+                  "mount the Xtion higher or tilted up for this camera, or calibrate it from CAD lines)",
+                  r.structure_max_height_m, r.xtion.height_m, r.xtion.pitch_deg,
+                  r.xtion.highestInReach(r.xtion_reach_m), r.xtion_reach_m);
+  else
+    std::snprintf(buffer, sizeof(buffer),
+                  " (but what it shows reaches down to %.1f m, and the Xtion, %.2f m high and pitched %+.0f deg, has "
+                  "nothing below %.1f m in view within its depth's reach (%.0f m): if the region's lines are lower, "
+                  "mount the Xtion lower or tilted down for this camera, or calibrate it from CAD lines)",
+                  r.structure_min_height_m, r.xtion.height_m, r.xtion.pitch_deg, r.xtion.lowestInReach(r.xtion_reach_m),
+                  r.xtion_reach_m);
+  return buffer;
+}
+}  // namespace
+
 std::string SurveyGuidance::sentence() const
 {
   std::string out;
   for (const auto& r : regions)
   {
-    char buffer[256];
+    char buffer[512];
     std::snprintf(buffer, sizeof(buffer),
                   "survey the %s view: %zu image line%s there ha%s no map line; drive the robot to about "
                   "(%.1f, %.1f) in the map and look towards (%.2f, %.2f)",
@@ -320,8 +489,37 @@ std::string SurveyGuidance::sentence() const
                   r.image_lines == 1 ? "" : "s", r.image_lines == 1 ? "s" : "ve", r.robot_position.x(),
                   r.robot_position.y(), r.look_direction.x(), r.look_direction.y());
     out += (out.empty() ? "" : "; also ") + std::string(buffer);
+    if (r.outOfXtionReach(min_xtion_share))
+      out += xtionAdvice(r);
   }
   return out;
+}
+
+std::vector<Eigen::Vector2d> visitedPositions(const std::vector<Keyframe>& keyframes)
+{
+  std::vector<Eigen::Vector2d> out;
+  for (const Keyframe& k : keyframes)
+    if (out.empty() || (out.back() - k.T_map_camera.translation().head<2>()).norm() > 0.25)
+      out.push_back(k.T_map_camera.translation().head<2>());
+  return out;
+}
+
+std::optional<XtionView> xtionViewOf(const std::vector<Keyframe>& keyframes, double floor_height_m)
+{
+  std::vector<double> heights, pitches, vertical, horizontal;
+  for (const Keyframe& k : keyframes)
+  {
+    if (k.focal_px <= 0.0 || k.image_width <= 0 || k.image_height <= 0)
+      continue;
+    const Eigen::Vector3d axis = k.T_map_camera.linear().col(2);
+    heights.push_back(k.T_map_camera.translation().z() - floor_height_m);
+    pitches.push_back(std::asin(std::clamp(axis.z(), -1.0, 1.0)) * 180.0 / M_PI);
+    vertical.push_back(std::atan(0.5 * k.image_height / k.focal_px) * 180.0 / M_PI);
+    horizontal.push_back(std::atan(0.5 * k.image_width / k.focal_px) * 180.0 / M_PI);
+  }
+  if (heights.empty())
+    return std::nullopt;
+  return XtionView{middleValue(heights), middleValue(pitches), middleValue(vertical), middleValue(horizontal)};
 }
 
 SurveyGuidance computeSurveyGuidance(const CameraModel& camera, int width, int height,
@@ -334,6 +532,7 @@ SurveyGuidance computeSurveyGuidance(const CameraModel& camera, int width, int h
   g.height = height;
   g.columns = std::max(1, options.columns);
   g.rows = std::max(1, options.rows);
+  g.min_xtion_share = options.min_xtion_share;
   g.cells.assign(static_cast<size_t>(g.columns * g.rows), GuidanceCell::kEmpty);
   if (width <= 0 || height <= 0)
     return g;
@@ -454,10 +653,11 @@ cv::Mat drawSurveyHint(const cv::Mat& image, const SurveyGuidance& g)
     const cv::Rect first = g.cellRect(region.cells.front());
     cv::putText(canvas, std::to_string(k + 1), {first.x + first.width / 3, first.y + 2 * first.height / 3},
                 cv::FONT_HERSHEY_SIMPLEX, 2.0 * scale, cv::Scalar(255, 255, 255), 2 * thickness, cv::LINE_AA);
-    char buffer[160];
-    std::snprintf(buffer, sizeof(buffer), "%zu: %s, %zu lines: robot to (%.1f, %.1f), look (%.2f, %.2f)", k + 1,
+    char buffer[200];
+    std::snprintf(buffer, sizeof(buffer), "%zu: %s, %zu lines: robot to (%.1f, %.1f), look (%.2f, %.2f)%s", k + 1,
                   region.where.c_str(), region.image_lines, region.robot_position.x(), region.robot_position.y(),
-                  region.look_direction.x(), region.look_direction.y());
+                  region.look_direction.x(), region.look_direction.y(),
+                  region.outOfXtionReach(g.min_xtion_share) ? "; out of the Xtion's view: mount it differently" : "");
     legend.emplace_back(buffer);
   }
   const int band = line_height * static_cast<int>(legend.size()) + line_height / 2;

@@ -66,6 +66,17 @@ Expected<SurveyHintRegion> readRegion(const yaml_util::YamlNode& node, const std
       return p.error();
     region.floor_polygon.push_back(*p);
   }
+  if (const YamlNode share = child(node, "xtion_share"))
+  {
+    const auto value = toDouble(share, where + ".xtion_share");
+    const auto heights = toVector<2>(child(node, "structure_height_m"), where + ".structure_height_m");
+    if (!value || !heights)
+      return !value ? value.error() : heights.error();
+    if (*value < 0.0 || *value > 1.0)
+      return Error(ErrorCode::kInvalidInput, where + ".xtion_share: not a share between 0 and 1");
+    region.xtion_share = *value;
+    region.structure_height_m = *heights;
+  }
   return region;
 }
 }  // namespace
@@ -77,7 +88,8 @@ SurveyHint surveyHintOf(const std::string& camera, const SurveyGuidance& guidanc
   hint.image_width = guidance.width;
   hint.image_height = guidance.height;
   for (const UnmappedRegion& r : guidance.regions)
-    hint.regions.push_back({r.where, r.image_lines, r.robot_position, r.look_direction, r.floor_polygon});
+    hint.regions.push_back({r.where, r.image_lines, r.robot_position, r.look_direction, r.floor_polygon, r.xtion_share,
+                            Eigen::Vector2d(r.structure_min_height_m, r.structure_max_height_m)});
   return hint;
 }
 
@@ -97,6 +109,13 @@ std::string surveyHintYaml(const SurveyHint& hint)
     for (size_t k = 0; k < r.floor_polygon.size(); ++k)
       out << (k ? ", " : "") << pair(r.floor_polygon[k], "[%.3f, %.3f]");
     out << "]\n";
+    if (r.xtion_share >= 0.0)
+    {
+      char share[32];
+      std::snprintf(share, sizeof(share), "%.2f", r.xtion_share);
+      out << "    structure_height_m: " << pair(r.structure_height_m, "[%.2f, %.2f]") << "\n    xtion_share: " << share
+          << "\n";
+    }
   }
   return out.str();
 }
