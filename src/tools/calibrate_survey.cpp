@@ -152,7 +152,8 @@ Options:
                         ambiguity test's alternatives ended ("truth-alternative" lines)
   --coverage-diagnosis WORLD
                         with --truth-dir: per image line the map lacks, why (the simulator's WORLD file rendered
-                        at each keyframe: never in the Xtion's view, in view without depth, with depth but no 3D
+                        at each keyframe: never in the Xtion's view (-mount: at a height the mount has nowhere in
+                        view within the depth range), in view without depth, with depth but no 3D
                         line, 3D lines too uncertain for the map, in the map but not used or off): "truth-missing"
                         lines, the share of the image lines' length per cause; and the final check measured on the
                         TRUE camera, with why its samples find no image edge (WORLD rendered from it: hidden from it
@@ -551,15 +552,21 @@ void printUncertainObservations(const ic::Survey& survey, const ic::Segment3d& p
       information > 0.0 ? 1000.0 / std::sqrt(information) : NAN);
 }
 
-// Why the map lacks an edge a fixed camera shows (issue 11's diagnosis): never in the Xtion's view, in view without
+// Why the map lacks an edge a fixed camera shows (issue 11's diagnosis): never in the Xtion's view (at a height the
+// mount has nowhere in view within the depth range, or one a route could have brought into view), in view without
 // depth (beyond its range, or grazing), or with depth and lost on the way to the map: no keyframe made a 3D line of
 // it, its keyframes' lines were all too uncertain for the map (LineMapOptions::max_sigma_m), or the map holds it
 // but leaves it out (support, spread) or holds it more than 1 cm off.
 std::string missingCause(const ic::simulation::EdgeSightings& sight, const ic::Survey& survey,
-                         const ic::Segment3d& part, double max_range_m)
+                         const ic::Segment3d& part, double max_range_m, const std::optional<ic::XtionView>& xtion)
 {
   if (sight.in_view == 0)
-    return "never-in-view";
+  {
+    const double z = 0.5 * (part.a.z() + part.b.z()) - survey.options().floor.floor_height_m;
+    const bool out_of_mount =
+        xtion && (z > xtion->highestInReach(max_range_m) || z < xtion->lowestInReach(max_range_m));
+    return out_of_mount ? "never-in-view-mount" : "never-in-view";
+  }
   if (sight.with_depth == 0)
     return sight.nearest_range_m > max_range_m ? "no-depth-range" : "no-depth-grazing";
   const double length = part.length();
@@ -605,10 +612,11 @@ void diagnoseMissingEdges(const ic::simulation::World& world, const ic::Survey& 
   for (const auto& kf : survey.keyframes())
     poses.push_back(kf.T_map_camera);
   const auto sightings = ic::simulation::sightSegments(world, parts, poses);
+  const auto xtion = ic::xtionViewOf(survey.keyframes(), survey.options().floor.floor_height_m);
   std::map<std::string, double> by_cause;
   for (size_t i = 0; i < parts.size(); ++i)
   {
-    const std::string cause = missingCause(sightings[i], survey, parts[i], world.xtion.depth.max_range_m);
+    const std::string cause = missingCause(sightings[i], survey, parts[i], world.xtion.depth.max_range_m, xtion);
     by_cause[cause] += lines[i]->length_px;
     const auto& a = parts[i].a;
     const auto& b = parts[i].b;
