@@ -459,21 +459,50 @@ TEST_F(SurveyGuidanceTest, AnXtionThatCannotSeeTheStructureSaysSo)
         "%s\n",
         r.camera->name.c_str(), high, h.dropped.size(), region.structure_min_height_m, region.structure_max_height_m,
         100.0 * region.xtionHeightShare(), g.sentence().c_str());
-    // One "mount the Xtion" per region out of its reach.
+    // One piece of advice per region out of its reach, whole (not cut off).
     size_t out_of_reach = 0, says = 0;
     for (const auto& rg : g.regions)
       out_of_reach += rg.outOfXtionReach(options.min_xtion_share) ? 1 : 0;
     const std::string sentence = g.sentence();
-    for (size_t at = sentence.find("mount the Xtion higher or tilted up for this camera"); at != std::string::npos;
-         at = sentence.find("mount the Xtion higher or tilted up for this camera", at + 1))
+    const std::string advice = " for this camera, or calibrate it from CAD lines)";
+    for (size_t at = sentence.find(advice); at != std::string::npos; at = sentence.find(advice, at + 1))
       ++says;
     EXPECT_EQ(says, out_of_reach) << r.camera->name;
-    if (out_of_reach > 0)  // the advice whole, not cut off
-      EXPECT_NE(sentence.find("for this camera, or calibrate it from CAD lines)"), std::string::npos) << sentence;
+    // A region above the Xtion is told the pitch that has the floor up to the camera's height in view.
+    if (region.outOfXtionReach(options.min_xtion_share))
+    {
+      EXPECT_NEAR(region.camera_height_m, r.camera->camera.pose().center().z(), 1e-9);
+      const auto pitch = low.pitchToSee(0.0, region.camera_height_m, 4.0);
+      ASSERT_TRUE(pitch) << r.camera->name;
+      char told[64];
+      std::snprintf(told, sizeof(told), "pitch the Xtion to about %+.0f deg", std::round(*pitch));
+      EXPECT_NE(sentence.find(told), std::string::npos) << sentence;
+    }
     if (region.outOfXtionReach(options.min_xtion_share))
       ++told;
   }
   EXPECT_GE(told, 1u);  // cam_desk's left half: mostly its far wall
+}
+
+// The pitch that brings a band of heights into the Xtion's view within reach: an Xtion 0.38 m high needs about
+// +14 deg to have the floor and 2.6 m both in view within 4 m; 5 m is beyond any pitch at 4 m.
+TEST(XtionViewTest, PitchToSeeABandOfHeights)
+{
+  const ic::XtionView low{0.38, -13.7, 22.8, 29.0};
+  EXPECT_LT(low.highestInReach(4.0), 1.0);
+  const auto pitch = low.pitchToSee(0.0, 2.6, 4.0);
+  ASSERT_TRUE(pitch);
+  EXPECT_NEAR(*pitch, 14.1, 0.2);
+  ic::XtionView pitched = low;
+  pitched.pitch_deg = *pitch;
+  EXPECT_GE(pitched.highestInReach(4.0), 2.6);
+  EXPECT_LE(pitched.lowestInReach(4.0), 0.0);
+  EXPECT_FALSE(low.pitchToSee(0.0, 5.0, 4.0));    // 4.6 m above it: out of reach at any pitch
+  EXPECT_FALSE(low.pitchToSee(0.0, 3.9, 4.0));    // within reach, but not with the floor in the same view
+  const auto up = low.pitchToSee(1.0, 3.9, 4.0);  // without the floor it can be done
+  ASSERT_TRUE(up);
+  pitched.pitch_deg = *up;
+  EXPECT_GE(pitched.highestInReach(4.0), 3.9);
 }
 
 // The Xtion's view from keyframes: their median height above the floor and pitch, the field of view from the image.

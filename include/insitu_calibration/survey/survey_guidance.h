@@ -23,10 +23,11 @@
 // max_standoff_m, from the camera's side or, where the robot has been, from any side (of the nearly best, the
 // closest to the fixed standpoint). A low Xtion tilted down sees a wall's upper part only from afar, and from
 // nowhere within its depth's reach when the wall is high: when most of a region's points are at such heights
-// (xtionHeightShare() below min_xtion_share) the sentence says how high the Xtion sees and what to do if the
-// region's lines are higher (mount it higher or tilted up, or CAD lines) or lower (tilted down). The points are
-// where the rays meet the floor or the map's extent: furniture in front of them is not known, so the heights are
-// the structure's upper bound (a ray meets a desk before the floor below it) and the sentence says "if".
+// (xtionHeightShare() below min_xtion_share) the sentence says how high the Xtion sees and what to do: the pitch
+// that brings the region's heights (up to the camera's own, for a region above the Xtion) into its view within
+// reach (XtionView::pitchToSee), else a higher (lower) mount, or CAD lines. The points are where the rays meet the
+// floor or the map's extent: furniture in front of them is not known, so the heights are lower bounds (a ray that
+// descends meets a desk above the floor it would reach), and for a region below the Xtion the sentence says "if".
 #ifndef INSITU_CALIBRATION_SURVEY_SURVEY_GUIDANCE_H
 #define INSITU_CALIBRATION_SURVEY_SURVEY_GUIDANCE_H
 
@@ -59,6 +60,9 @@ struct XtionView
   // inside its field of view.
   double highestInReach(double reach_m) const;
   double lowestInReach(double reach_m) const;
+  // The pitch (deg) at which it would have every height from low_m to high_m in view within reach_m (the middle of
+  // the pitches that do), nullopt when no pitch does at its height.
+  std::optional<double> pitchToSee(double low_m, double high_m, double reach_m) const;
 };
 
 // The Xtion's view from the survey's keyframes (the medians of their height and pitch; the field of view from the
@@ -96,6 +100,9 @@ struct SurveyGuidanceOptions
   // extent.
   std::vector<Eigen::Vector2d> visited;
   double visited_radius_m = 1.0;
+  // The camera's height (map z) when known apart from the camera the guidance projects through (guideSurvey: the
+  // installer's prior, as a refused result may be wrong); else that camera's.
+  std::optional<double> camera_height_m;
   // The operator turns the robot about this much either side of the look direction (the simulator's visit does).
   double look_sweep_deg = 30.0;
   // Below this share of the region's points at heights the Xtion can see (from anywhere), the region is out of its
@@ -118,9 +125,11 @@ struct UnmappedRegion
   std::vector<Eigen::Vector2d> floor_polygon;  // map frame, z = 0, counter-clockwise
   Eigen::Vector2d robot_position = Eigen::Vector2d::Zero();   // map frame
   Eigen::Vector2d look_direction = Eigen::Vector2d::UnitX();  // unit, map frame
-  // The height range (m above the floor) of what the region shows (its rays' points).
+  // The height range (m above the floor) of what the region shows (its rays' points: lower bounds, as a ray meets
+  // furniture or a wall's upper part before the floor or the map's edge), and the camera's own height.
   double structure_min_height_m = 0.0;
   double structure_max_height_m = 0.0;
+  double camera_height_m = 0.0;
   // With the Xtion's view known: the share of those points it sees from the standpoint (-1: not computed), and
   // the shares that are higher and lower than anything it has in view within its reach, wherever it stands.
   double xtion_share = -1.0;

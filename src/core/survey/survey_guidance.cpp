@@ -374,6 +374,7 @@ void placeOnFloor(const CameraModel& camera, const SurveyGuidance& g, const Floo
     region->floor_polygon.emplace_back(p.x, p.y);
   const Eigen::Vector2d target = centroidOf(region->floor_polygon);
   const Eigen::Vector2d foot = camera.pose().center().head<2>();
+  region->camera_height_m = options.camera_height_m.value_or(camera.pose().center().z());
   Eigen::Vector2d d = target - foot;
   if (d.norm() < 1e-6)
     d = (camera.pose().rotation.transpose() * Eigen::Vector3d::UnitZ()).head<2>();
@@ -437,6 +438,20 @@ double XtionView::lowestInReach(double reach_m) const
   return height_m - reach_m * std::max(0.0, -std::sin(edge));
 }
 
+std::optional<double> XtionView::pitchToSee(double low_m, double high_m, double reach_m) const
+{
+  const double deg = 180.0 / M_PI, half = vertical_half_fov_deg - 2.0;
+  if (reach_m <= 0.0 || high_m - height_m > reach_m || height_m - low_m > reach_m || low_m > high_m)
+    return std::nullopt;
+  // The upper edge must rise to high_m and the lower one fall to low_m at the reach (highestInReach,
+  // lowestInReach); a height above the Xtion's comes into view from nearer whatever the lower edge does.
+  const double lowest_pitch = high_m > height_m ? std::asin((high_m - height_m) / reach_m) * deg - half : -90.0 + half;
+  const double highest_pitch = low_m < height_m ? half - std::asin((height_m - low_m) / reach_m) * deg : 90.0 - half;
+  if (lowest_pitch > highest_pitch)
+    return std::nullopt;
+  return 0.5 * (lowest_pitch + highest_pitch);
+}
+
 cv::Rect SurveyGuidance::cellRect(int cell) const
 {
   const int row = cell / columns, col = cell % columns;
@@ -456,23 +471,40 @@ namespace
 // bound: the rays' points on the floor or the map's extent, furniture unknown, hence "if").
 std::string xtionAdvice(const UnmappedRegion& r)
 {
-  char buffer[512];
   const bool above = r.xtion_above_share >= r.xtion_below_share;
+  char what[320], remedy[200];
   if (above)
-    std::snprintf(buffer, sizeof(buffer),
-                  " (but what it shows reaches %.1f m high, and the Xtion, %.2f m high and pitched %+.0f deg, has "
-                  "nothing above %.1f m in view within its depth's reach (%.0f m): if the region's lines are higher, "
-                  "mount the Xtion higher or tilted up for this camera, or calibrate it from CAD lines)",
-                  r.structure_max_height_m, r.xtion.height_m, r.xtion.pitch_deg,
-                  r.xtion.highestInReach(r.xtion_reach_m), r.xtion_reach_m);
+    std::snprintf(
+        what, sizeof(what),
+        " (but what it shows reaches at least %.1f m high (the camera hangs at %.1f m), and the Xtion, %.2f m "
+        "high and pitched %+.0f deg, has nothing above %.1f m in view within its depth's reach (%.0f m): ",
+        r.structure_max_height_m, r.camera_height_m, r.xtion.height_m, r.xtion.pitch_deg,
+        r.xtion.highestInReach(r.xtion_reach_m), r.xtion_reach_m);
   else
-    std::snprintf(buffer, sizeof(buffer),
+    std::snprintf(what, sizeof(what),
                   " (but what it shows reaches down to %.1f m, and the Xtion, %.2f m high and pitched %+.0f deg, has "
-                  "nothing below %.1f m in view within its depth's reach (%.0f m): if the region's lines are lower, "
-                  "mount the Xtion lower or tilted down for this camera, or calibrate it from CAD lines)",
+                  "nothing below %.1f m in view within its depth's reach (%.0f m): if the region's lines are that low "
+                  "(not on furniture above the floor), ",
                   r.structure_min_height_m, r.xtion.height_m, r.xtion.pitch_deg, r.xtion.lowestInReach(r.xtion_reach_m),
                   r.xtion_reach_m);
-  return buffer;
+  // The band to bring into view: the region's heights, for a region above the Xtion up to the camera's own height
+  // (the heights are lower bounds: a ray meets furniture or a wall's upper part before the floor or the map's edge).
+  const double low = r.structure_min_height_m;
+  const double high = above ? std::max(r.structure_max_height_m, r.camera_height_m) : r.structure_max_height_m;
+  std::optional<double> pitch = r.xtion.pitchToSee(low, high, r.xtion_reach_m);
+  if (!pitch)
+    pitch = r.xtion.pitchToSee(low, r.structure_max_height_m, r.xtion_reach_m);
+  if (pitch)
+  {
+    XtionView pitched = r.xtion;
+    pitched.pitch_deg = std::round(*pitch) + 0.0;  // + 0.0: no "-0"
+    std::snprintf(remedy, sizeof(remedy), "pitch the Xtion to about %+.0f deg (it then has %.1f-%.1f m in view)",
+                  pitched.pitch_deg, std::max(0.0, pitched.lowestInReach(r.xtion_reach_m)),
+                  pitched.highestInReach(r.xtion_reach_m));
+  }
+  else
+    std::snprintf(remedy, sizeof(remedy), "mount the Xtion %s", above ? "higher" : "lower");
+  return std::string(what) + remedy + " for this camera, or calibrate it from CAD lines)";
 }
 }  // namespace
 
@@ -586,8 +618,11 @@ Expected<SurveyGuidance> guideSurvey(const FixedCamera& camera, const std::vecto
   std::vector<std::vector<Eigen::Vector2d>> polylines;
   for (const auto& l : *lines)
     polylines.push_back(l.points);
+  SurveyGuidanceOptions with_height = options;
+  if (config.prior && !with_height.camera_height_m)
+    with_height.camera_height_m = config.prior->position.z();
   return computeSurveyGuidance(*model, config.image_width, config.image_height, polylines, map_lines, tolerance_px,
-                               options);
+                               with_height);
 }
 
 std::vector<Eigen::Vector3d> floorTriangles(const UnmappedRegion& region, double height_m)
