@@ -485,7 +485,8 @@ TEST_F(SurveyGuidanceTest, AnXtionThatCannotSeeTheStructureSaysSo)
 }
 
 // The pitch that brings a band of heights into the Xtion's view within reach: an Xtion 0.38 m high needs about
-// +14 deg to have the floor and 2.6 m both in view within 4 m; 5 m is beyond any pitch at 4 m.
+// +14 deg to have the floor and 2.6 m both in view within 4 m (the only pitches that do: their middle); one 1.23 m
+// high pitched +12 deg sees the floor within 4 m from about 0 deg down; 5 m is beyond any pitch at 4 m.
 TEST(XtionViewTest, PitchToSeeABandOfHeights)
 {
   const ic::XtionView low{0.38, -13.7, 22.8, 29.0};
@@ -497,9 +498,18 @@ TEST(XtionViewTest, PitchToSeeABandOfHeights)
   pitched.pitch_deg = *pitch;
   EXPECT_GE(pitched.highestInReach(4.0), 2.6);
   EXPECT_LE(pitched.lowestInReach(4.0), 0.0);
-  EXPECT_FALSE(low.pitchToSee(0.0, 5.0, 4.0));    // 4.6 m above it: out of reach at any pitch
-  EXPECT_FALSE(low.pitchToSee(0.0, 3.9, 4.0));    // within reach, but not with the floor in the same view
-  const auto up = low.pitchToSee(1.0, 3.9, 4.0);  // without the floor it can be done
+  // The floor alone: the least change from its pitch that does it, 3 deg to spare.
+  const ic::XtionView high{1.23, 12.0, 22.8, 29.0};
+  const auto floor = high.pitchToSee(0.0, 0.0, 4.0);
+  ASSERT_TRUE(floor);
+  EXPECT_NEAR(*floor, 20.8 - std::asin(1.23 / 4.0) * 180.0 / M_PI - 3.0, 1e-9);
+  ic::XtionView lowered = high;
+  lowered.pitch_deg = *floor;
+  EXPECT_LE(lowered.lowestInReach(4.0), 0.0);
+  EXPECT_NEAR(*high.pitchToSee(1.0, 1.5, 4.0), 12.0, 1e-12);  // in view already: unchanged
+  EXPECT_FALSE(low.pitchToSee(0.0, 5.0, 4.0));                // 4.6 m above it: out of reach at any pitch
+  EXPECT_FALSE(low.pitchToSee(0.0, 3.9, 4.0));                // within reach, but not with the floor in the same view
+  const auto up = low.pitchToSee(1.0, 3.9, 4.0);              // without the floor it can be done
   ASSERT_TRUE(up);
   pitched.pitch_deg = *up;
   EXPECT_GE(pitched.highestInReach(4.0), 3.9);

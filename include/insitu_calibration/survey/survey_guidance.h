@@ -60,8 +60,9 @@ struct XtionView
   // inside its field of view.
   double highestInReach(double reach_m) const;
   double lowestInReach(double reach_m) const;
-  // The pitch (deg) at which it would have every height from low_m to high_m in view within reach_m (the middle of
-  // the pitches that do), nullopt when no pitch does at its height.
+  // The pitch (deg) at which it would have every height from low_m to high_m in view within reach_m: of the pitches
+  // that do, the nearest to its own, 3 deg inside them (their middle when they span less than 6 deg); nullopt when
+  // no pitch does at its height.
   std::optional<double> pitchToSee(double low_m, double high_m, double reach_m) const;
 };
 

@@ -449,7 +449,9 @@ std::optional<double> XtionView::pitchToSee(double low_m, double high_m, double 
   const double highest_pitch = low_m < height_m ? half - std::asin((height_m - low_m) / reach_m) * deg : 90.0 - half;
   if (lowest_pitch > highest_pitch)
     return std::nullopt;
-  return 0.5 * (lowest_pitch + highest_pitch);
+  // The least change of pitch that does it, kept up to 3 deg inside the pitches that do (a mount is not set finer).
+  const double margin = std::min(3.0, 0.5 * (highest_pitch - lowest_pitch));
+  return std::clamp(pitch_deg, lowest_pitch + margin, highest_pitch - margin);
 }
 
 cv::Rect SurveyGuidance::cellRect(int cell) const
@@ -469,10 +471,35 @@ namespace
 {
 // What to do about a region mostly higher or lower than the Xtion sees within its reach (its heights are an upper
 // bound: the rays' points on the floor or the map's extent, furniture unknown, hence "if").
+// What brings a region out of the Xtion's reach into its view: the pitch that has the region's heights in view
+// within its reach (for a region above the Xtion up to the camera's own height; the heights are lower bounds: a ray
+// meets furniture or a wall's upper part before the floor or the map's edge), else a higher (lower) mount.
+std::string xtionRemedy(const UnmappedRegion& r, bool with_band)
+{
+  const bool above = r.xtion_above_share >= r.xtion_below_share;
+  const double low = r.structure_min_height_m;
+  const double high = above ? std::max(r.structure_max_height_m, r.camera_height_m) : r.structure_max_height_m;
+  std::optional<double> pitch = r.xtion.pitchToSee(low, high, r.xtion_reach_m);
+  if (!pitch)
+    pitch = r.xtion.pitchToSee(low, r.structure_max_height_m, r.xtion_reach_m);
+  if (!pitch)
+    return std::string("mount the Xtion ") + (above ? "higher" : "lower");
+  XtionView pitched = r.xtion;
+  pitched.pitch_deg = std::round(*pitch) + 0.0;  // + 0.0: no "-0"
+  char text[128];
+  std::snprintf(text, sizeof(text), "pitch the Xtion to about %+.0f deg", pitched.pitch_deg);
+  if (!with_band)
+    return text;
+  char band[64];
+  std::snprintf(band, sizeof(band), " (it then has %.1f-%.1f m in view)",
+                std::max(0.0, pitched.lowestInReach(r.xtion_reach_m)), pitched.highestInReach(r.xtion_reach_m));
+  return std::string(text) + band;
+}
+
 std::string xtionAdvice(const UnmappedRegion& r)
 {
   const bool above = r.xtion_above_share >= r.xtion_below_share;
-  char what[320], remedy[200];
+  char what[320];
   if (above)
     std::snprintf(
         what, sizeof(what),
@@ -487,24 +514,7 @@ std::string xtionAdvice(const UnmappedRegion& r)
                   "(not on furniture above the floor), ",
                   r.structure_min_height_m, r.xtion.height_m, r.xtion.pitch_deg, r.xtion.lowestInReach(r.xtion_reach_m),
                   r.xtion_reach_m);
-  // The band to bring into view: the region's heights, for a region above the Xtion up to the camera's own height
-  // (the heights are lower bounds: a ray meets furniture or a wall's upper part before the floor or the map's edge).
-  const double low = r.structure_min_height_m;
-  const double high = above ? std::max(r.structure_max_height_m, r.camera_height_m) : r.structure_max_height_m;
-  std::optional<double> pitch = r.xtion.pitchToSee(low, high, r.xtion_reach_m);
-  if (!pitch)
-    pitch = r.xtion.pitchToSee(low, r.structure_max_height_m, r.xtion_reach_m);
-  if (pitch)
-  {
-    XtionView pitched = r.xtion;
-    pitched.pitch_deg = std::round(*pitch) + 0.0;  // + 0.0: no "-0"
-    std::snprintf(remedy, sizeof(remedy), "pitch the Xtion to about %+.0f deg (it then has %.1f-%.1f m in view)",
-                  pitched.pitch_deg, std::max(0.0, pitched.lowestInReach(r.xtion_reach_m)),
-                  pitched.highestInReach(r.xtion_reach_m));
-  }
-  else
-    std::snprintf(remedy, sizeof(remedy), "mount the Xtion %s", above ? "higher" : "lower");
-  return std::string(what) + remedy + " for this camera, or calibrate it from CAD lines)";
+  return std::string(what) + xtionRemedy(r, true) + " for this camera, or calibrate it from CAD lines)";
 }
 }  // namespace
 
@@ -692,7 +702,9 @@ cv::Mat drawSurveyHint(const cv::Mat& image, const SurveyGuidance& g)
     std::snprintf(buffer, sizeof(buffer), "%zu: %s, %zu lines: robot to (%.1f, %.1f), look (%.2f, %.2f)%s", k + 1,
                   region.where.c_str(), region.image_lines, region.robot_position.x(), region.robot_position.y(),
                   region.look_direction.x(), region.look_direction.y(),
-                  region.outOfXtionReach(g.min_xtion_share) ? "; out of the Xtion's view: mount it differently" : "");
+                  region.outOfXtionReach(g.min_xtion_share)
+                      ? ("; out of the Xtion's view: " + xtionRemedy(region, false)).c_str()
+                      : "");
     legend.emplace_back(buffer);
   }
   const int band = line_height * static_cast<int>(legend.size()) + line_height / 2;
