@@ -157,7 +157,7 @@ struct SurveyGuidance
   // without regions. A region out of the Xtion's reach (SurveyGuidanceOptions::min_xtion_share) adds what to do
   // about the mount.
   std::string sentence() const;
-  double min_xtion_share = 0.5;
+  double min_xtion_share = 0.5;  // SurveyGuidanceOptions::min_xtion_share, for sentence() and the hint picture
 };
 
 // The guidance from the image lines (distorted px), the map lines and a camera (distortion included).
