@@ -102,6 +102,11 @@ def summary(path):
     print("  refusals by reason:")
     for reason, k in sorted(reasons.items(), key=lambda x: -x[1]):
         print("    %3d  %s" % (k, reason))
+    # The survey hint's clause for a region the Xtion has nowhere in view within its depth's reach (survey_guidance.h).
+    mount = sum(1 for r in rows if r[6] == "refused" and "within its depth's reach" in r[10])
+    if mount:
+        print("  refusals whose hint says a region is out of the Xtion's reach (pitch or mount it differently): %d"
+              % mount)
     accepted = [r for r in rows if r[7]]
     if accepted:
         print("  errors of the accepted results (median / 90th percentile / max):")
