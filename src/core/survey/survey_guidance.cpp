@@ -16,6 +16,10 @@ namespace insitu_calibration
 {
 namespace
 {
+// A height counts as in the Xtion's view this far inside its vertical field of view (a line at the image border is
+// hardly extracted).
+constexpr double kXtionFovMarginDeg = 2.0;
+
 // The projected map lines drawn `half_width_px` wide: a non-zero pixel is within that distance of a map line.
 cv::Mat projectedMapMask(const CameraModel& camera, int width, int height, const std::vector<Segment3d>& map_lines,
                          double half_width_px)
@@ -252,7 +256,7 @@ double xtionShare(const std::vector<Eigen::Vector3d>& points, const Eigen::Vecto
   const Eigen::Vector2d look = target - stand;
   if (look.norm() < 1e-6 || points.empty())
     return 0.0;
-  const double deg = 180.0 / M_PI, margin_deg = 2.0;
+  const double deg = 180.0 / M_PI;
   const double max_bearing = xtion.horizontal_half_fov_deg + options.look_sweep_deg;
   size_t seen = 0;
   for (const Eigen::Vector3d& p : points)
@@ -263,7 +267,7 @@ double xtionShare(const std::vector<Eigen::Vector3d>& points, const Eigen::Vecto
       continue;
     const double bearing = std::acos(std::clamp(v.dot(look) / (r * look.norm()), -1.0, 1.0)) * deg;
     const double elevation = std::atan2(rise, r) * deg - xtion.pitch_deg;
-    if (bearing <= max_bearing && std::abs(elevation) <= xtion.vertical_half_fov_deg - margin_deg)
+    if (bearing <= max_bearing && std::abs(elevation) <= xtion.vertical_half_fov_deg - kXtionFovMarginDeg)
       ++seen;
   }
   return static_cast<double>(seen) / points.size();
@@ -428,19 +432,19 @@ std::vector<size_t> unexplainedLinesPerCell(const CellSamples& s, const SurveyGu
 double XtionView::highestInReach(double reach_m) const
 {
   // Along the upper edge of the view the height changes by sin(elevation) per metre of range.
-  const double edge = (pitch_deg + vertical_half_fov_deg - 2.0) * M_PI / 180.0;
+  const double edge = (pitch_deg + vertical_half_fov_deg - kXtionFovMarginDeg) * M_PI / 180.0;
   return height_m + reach_m * std::max(0.0, std::sin(edge));
 }
 
 double XtionView::lowestInReach(double reach_m) const
 {
-  const double edge = (pitch_deg - vertical_half_fov_deg + 2.0) * M_PI / 180.0;
+  const double edge = (pitch_deg - vertical_half_fov_deg + kXtionFovMarginDeg) * M_PI / 180.0;
   return height_m - reach_m * std::max(0.0, -std::sin(edge));
 }
 
 std::optional<double> XtionView::pitchToSee(double low_m, double high_m, double reach_m) const
 {
-  const double deg = 180.0 / M_PI, half = vertical_half_fov_deg - 2.0;
+  const double deg = 180.0 / M_PI, half = vertical_half_fov_deg - kXtionFovMarginDeg;
   if (reach_m <= 0.0 || high_m - height_m > reach_m || height_m - low_m > reach_m || low_m > high_m)
     return std::nullopt;
   // The upper edge must rise to high_m and the lower one fall to low_m at the reach (highestInReach,
