@@ -148,12 +148,20 @@ def passes(first_path, second_path, drives_path, route_s):
     newly_wrong = [k for k, r in second.items() if r[6] == "WRONG" and first.get(k, [""] * 7)[6] != "WRONG"]
     if newly_wrong:
         print("  accepted WRONG after following the hints: " + ", ".join("seed %s %s" % k for k in newly_wrong))
+    # What an operator ends with who keeps each camera the first survey calibrated (accepted, whatever its error)
+    # and calibrates only the refused ones from the second survey.
+    kept = {key: (r if r[6] != "refused" or key not in second else second[key]) for key, r in first.items()}
+    count = lambda *c: sum(1 for r in kept.values() if r[6] in c)
+    print("first survey's accepted cameras kept, the refused ones from the second survey: %d of %d good, %d within "
+          "0.5 %% / 0.3 deg / 3 cm, %d off, %d WRONG, %d refused" % (
+              count("good"), len(kept), count("good", "fair"), count("off"), count("WRONG"), count("refused")))
     drives = [line.split() for line in open(drives_path) if line.strip()]
     if drives:
         extra = [float(d[4]) for d in drives]
+        tilt = lambda d: (", Xtion at %s deg" % d[5]) if len(d) > 5 else ""
         print("surveys extended: %d buildings, the %s s route + visits (extra drive median / max: %.0f / %.0f s; "
               "simulated): %s" % (len(drives), route_s, percentile(extra, 50), max(extra), ", ".join(
-                  "seed %s %s s (%s visits)" % (d[0], d[3], d[2]) for d in drives)))
+                  "seed %s %s s (%s visits%s)" % (d[0], d[3], d[2], tilt(d)) for d in drives)))
 
 
 if __name__ == "__main__":

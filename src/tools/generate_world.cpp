@@ -1,4 +1,5 @@
 // generate_world: a procedural building for the simulator (a world file) and its installer's camera priors.
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <sstream>
@@ -44,6 +45,10 @@ Options:
                            then three 0.3 m legs turned +30, -30 and 0 deg from its look direction, so the Xtion
                            sweeps where the hint says and ends looking there. The building, cameras and the route
                            before the visits are unchanged (give the same --seed and options as the first time)
+  --xtion-tilt DEG         the Xtion tilted DEG above the horizontal instead of the drawn tilt (the building, its
+                           cameras and route and the mount's height unchanged); "advised": the middle of the pitches
+                           the --visit-hints files advise for regions out of the Xtion's reach (their
+                           xtion_pitch_deg), the drawn tilt if none does
   --appearance A           realistic (default): sensor blur, vignetting, exposure and white balance differing per
                            camera, JPEG on the fixed cameras, Xtion RGB noise, flying pixels, low-frequency depth
                            error and RGB-to-depth misregistration (docs/simulator.md, "appearance"); plain: none of
@@ -58,20 +63,48 @@ Example:
   generate_world --seed 101 --out /tmp/w2.yaml --max-route-s 40 --visit-hints /tmp/out/cam_a_survey_hint.yaml
 )";
 
-// Every region of every hint file, as a visit.
-insitu_calibration::Expected<std::vector<sim::Visit>> readVisits(const std::string& list)
+// The hint files of a comma-separated list.
+insitu_calibration::Expected<std::vector<insitu_calibration::SurveyHint>> readHints(const std::string& list)
 {
-  std::vector<sim::Visit> visits;
+  std::vector<insitu_calibration::SurveyHint> hints;
   std::stringstream files(list);
   for (std::string path; std::getline(files, path, ',');)
   {
-    const auto hint = insitu_calibration::readSurveyHint(path);
+    auto hint = insitu_calibration::readSurveyHint(path);
     if (!hint)
       return hint.error();
-    for (const auto& region : hint->regions)
-      visits.push_back({region.standpoint, region.look_direction});
+    hints.push_back(std::move(*hint));
   }
+  return hints;
+}
+
+// Every region of every hint, as a visit.
+std::vector<sim::Visit> visitsOf(const std::vector<insitu_calibration::SurveyHint>& hints)
+{
+  std::vector<sim::Visit> visits;
+  for (const auto& hint : hints)
+    for (const auto& region : hint.regions)
+      visits.push_back({region.standpoint, region.look_direction});
   return visits;
+}
+
+// --xtion-tilt: a number of degrees, or "advised" (the hints' pitch; nothing to change without one).
+std::string parseXtionTilt(const std::string& text, const std::vector<insitu_calibration::SurveyHint>& hints,
+                           sim::WorldGeneratorOptions* options)
+{
+  if (text == "advised")
+  {
+    if (hints.empty())
+      return "--xtion-tilt advised needs --visit-hints";
+    options->xtion_tilt_deg = insitu_calibration::advisedXtionPitchDeg(hints);
+    return "";
+  }
+  double tilt = 0.0;
+  char extra = 0;
+  if (std::sscanf(text.c_str(), "%lf%c", &tilt, &extra) != 1 || std::abs(tilt) > 60.0)
+    return "--xtion-tilt must be degrees between -60 and 60 or 'advised' (got '" + text + "')";
+  options->xtion_tilt_deg = tilt;
+  return "";
 }
 
 bool parsePriorError(const std::string& text, sim::PriorError* error)
@@ -116,14 +149,18 @@ std::string parseOptions(insitu_calibration::CommandLine& cli, sim::WorldGenerat
   if (problem.empty() &&
       (options->max_route_s < 0.0 || options->look_around_spacing_m < 0.0 || options->view_leg_m < 0.0))
     problem = "--max-route-s, --look-around-spacing and --view-leg must be 0 or positive";
+  std::vector<insitu_calibration::SurveyHint> hints;
   if (problem.empty() && cli.has("visit-hints"))
   {
-    const auto visits = readVisits(cli.value("visit-hints"));
-    if (visits)
-      options->visits = *visits;
+    const auto read = readHints(cli.value("visit-hints"));
+    if (read)
+      hints = *read;
     else
-      problem = "--visit-hints: " + visits.error().message();
+      problem = "--visit-hints: " + read.error().message();
+    options->visits = visitsOf(hints);
   }
+  if (problem.empty() && cli.has("xtion-tilt"))
+    problem = parseXtionTilt(cli.value("xtion-tilt"), hints, options);
   return problem;
 }
 
@@ -137,6 +174,8 @@ void printSummary(const sim::WorldGeneratorOptions& options, const sim::Generate
     std::printf("  visits: %zu of %zu driven after the route's %.1f s (%.1f s more)\n",
                 options.visits.size() - world.visits_skipped, options.visits.size(), world.route_before_visits_s,
                 world.route_duration_s - world.route_before_visits_s);
+  std::printf("  xtion %.2f m high, tilted %+.1f deg (%s)\n", world.world.xtion.mount_height_m,
+              world.world.xtion.tilt_deg, options.xtion_tilt_deg ? "given" : "drawn");
   for (const auto& c : world.world.fixed_cameras)
   {
     const auto& k = c.camera.intrinsics();
@@ -151,7 +190,7 @@ int main(int argc, char** argv)
 {
   insitu_calibration::CommandLine cli(argc, argv,
                                       {"seed", "kind", "out", "cameras-out", "prior-error", "max-route-s",
-                                       "look-around-spacing", "view-leg", "appearance", "visit-hints"},
+                                       "look-around-spacing", "view-leg", "appearance", "visit-hints", "xtion-tilt"},
                                       {});
   if (cli.help())
   {

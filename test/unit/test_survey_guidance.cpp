@@ -22,6 +22,7 @@
 #include "insitu_calibration/simulation/world.h"
 #include "insitu_calibration/survey/fixed_camera.h"
 #include "insitu_calibration/survey/survey_guidance.h"
+#include "insitu_calibration/survey/survey_hint_file.h"
 #include "insitu_calibration/test_support/edges_in_view.h"
 
 namespace ic = insitu_calibration;
@@ -477,7 +478,15 @@ TEST_F(SurveyGuidanceTest, AnXtionThatCannotSeeTheStructureSaysSo)
       char told[64];
       std::snprintf(told, sizeof(told), "pitch the Xtion to about %+.0f deg", std::round(*pitch));
       EXPECT_NE(sentence.find(told), std::string::npos) << sentence;
+      // The hint file carries the same pitch, for a program to act on (generate_world --xtion-tilt advised).
+      const ic::SurveyHint hint = ic::surveyHintOf(r.camera->name, g);
+      ASSERT_TRUE(hint.regions.front().xtion_pitch_deg) << r.camera->name;
+      EXPECT_EQ(*hint.regions.front().xtion_pitch_deg, std::round(*pitch));
     }
+    const ic::SurveyHint hint = ic::surveyHintOf(r.camera->name, g);
+    for (size_t k = 0; k < g.regions.size(); ++k)  // only regions out of reach carry a pitch
+      EXPECT_TRUE(g.regions[k].outOfXtionReach(options.min_xtion_share) || !hint.regions[k].xtion_pitch_deg)
+          << r.camera->name;
     if (region.outOfXtionReach(options.min_xtion_share))
       ++told;
   }

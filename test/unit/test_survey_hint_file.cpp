@@ -86,6 +86,36 @@ TEST(SurveyHintFile, RoundTripKeepsEveryRegionToTheMillimetre)
   EXPECT_TRUE(none->regions.empty());
 }
 
+// The mount advice's pitch: written only for the regions that carry one, read back, and one pitch for a survey
+// that follows several hints (the middle one).
+TEST(SurveyHintFile, ThePitchOfTheMountAdviceIsKeptAndOnePitchChosen)
+{
+  ic::SurveyHint hint = ic::surveyHintOf("cam_a", twoRegions());
+  hint.regions[1].xtion_pitch_deg = 8.0;
+  const std::string text = ic::surveyHintYaml(hint);
+  EXPECT_EQ(text.find("xtion_pitch_deg"), text.rfind("xtion_pitch_deg"));
+  const auto read = ic::parseSurveyHint(text);
+  ASSERT_TRUE(read) << read.error().describe();
+  EXPECT_FALSE(read->regions[0].xtion_pitch_deg);
+  ASSERT_TRUE(read->regions[1].xtion_pitch_deg);
+  EXPECT_EQ(*read->regions[1].xtion_pitch_deg, 8.0);
+  std::string broken = text;
+  broken.replace(broken.find("xtion_pitch_deg: 8"), 18, "xtion_pitch_deg: 120");
+  const auto refused = ic::parseSurveyHint(broken, "hint.yaml");
+  ASSERT_FALSE(refused);
+  EXPECT_NE(refused.error().message().find("regions[1].xtion_pitch_deg"), std::string::npos)
+      << refused.error().message();
+
+  EXPECT_FALSE(ic::advisedXtionPitchDeg({}));
+  EXPECT_FALSE(ic::advisedXtionPitchDeg({ic::surveyHintOf("cam_a", twoRegions())}));  // no region carries one
+  ic::SurveyHint other = hint;
+  other.regions[0].xtion_pitch_deg = -5.0;
+  other.regions[1].xtion_pitch_deg = 14.0;
+  ASSERT_TRUE(ic::advisedXtionPitchDeg({hint, other}));
+  EXPECT_EQ(*ic::advisedXtionPitchDeg({hint, other}), 8.0);  // of -5, 8, 14
+  EXPECT_EQ(*ic::advisedXtionPitchDeg({hint}), 8.0);
+}
+
 TEST(SurveyHintFile, BrokenFilesAreRefusedWithTheirPlace)
 {
   const std::string good = ic::surveyHintYaml(ic::surveyHintOf("cam_a", twoRegions()));

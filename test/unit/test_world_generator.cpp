@@ -458,3 +458,26 @@ TEST(WorldGenerator, VisitsExtendTheRouteAndKeepEverythingElse)
   ASSERT_EQ(visiting->world.fixed_cameras.size(), plain->world.fixed_cameras.size());
   EXPECT_EQ(visiting->world.surfaces.size(), plain->world.surfaces.size());
 }
+
+// A given Xtion tilt (generate_world --xtion-tilt, the mount advice followed) changes that line of the world file and
+// nothing else: the same building, cameras, route and mount height.
+TEST(WorldGenerator, AGivenXtionTiltChangesOnlyTheTilt)
+{
+  sim::WorldGeneratorOptions options;
+  options.seed = 5;
+  options.max_route_s = 35.0;
+  const auto drawn = sim::generateWorld(options);
+  ASSERT_TRUE(drawn);
+  options.xtion_tilt_deg = 7.5;
+  const auto given = sim::generateWorld(options);
+  ASSERT_TRUE(given) << given.error().describe();
+  EXPECT_EQ(given->world.xtion.tilt_deg, 7.5);
+  EXPECT_NE(drawn->world.xtion.tilt_deg, 7.5);
+  EXPECT_EQ(given->world.xtion.mount_height_m, drawn->world.xtion.mount_height_m);
+  EXPECT_EQ(given->cameras_yaml, drawn->cameras_yaml);
+  std::string expected = drawn->world_yaml;
+  const size_t at = expected.find("  tilt_deg: ");
+  ASSERT_NE(at, std::string::npos);
+  expected.replace(at, expected.find('\n', at) - at, "  tilt_deg: 7.5");
+  EXPECT_EQ(given->world_yaml, expected);
+}

@@ -70,6 +70,9 @@ struct WorldGeneratorOptions
   // (route_planner.h, appendVisits), e.g. from refused cameras' survey hints (generate_world --visit-hints). The
   // building, its cameras and the route before the visits are the same as without them.
   std::vector<Visit> visits;
+  // The Xtion's tilt (deg above the horizontal) instead of the drawn one, e.g. as refused cameras' survey hints
+  // advise (generate_world --xtion-tilt); everything else, the mount's height included, is drawn as without it.
+  std::optional<double> xtion_tilt_deg;
 };
 
 struct GeneratedWorld

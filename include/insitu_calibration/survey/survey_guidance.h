@@ -140,6 +140,10 @@ struct UnmappedRegion
   XtionView xtion;
   double xtionHeightShare() const { return 1.0 - xtion_above_share - xtion_below_share; }
   bool outOfXtionReach(double min_share) const { return xtion_share >= 0.0 && xtionHeightShare() < min_share; }
+  // The pitch (deg, whole degrees) at which the Xtion has the region's heights in view within its reach: for a
+  // region above it up to the camera's own height if a pitch does that, else up to the region's highest point.
+  // None when no pitch does it at the Xtion's height (a higher or lower mount is needed) or the view is unknown.
+  std::optional<double> pitchToSeeDeg() const;
 };
 
 struct SurveyGuidance

@@ -15,9 +15,12 @@
 //       structure_height_m: [0.0, 2.6]  # optional (the Xtion's view known): how high what the region shows is
 //       xtion_share: 0.82              # optional: the share of it in the Xtion's view from the standpoint (under
 //                                      # 0.5: out of its reach; mount it higher or tilted, or use CAD lines)
+//       xtion_pitch_deg: 8              # optional, for a region out of its reach: the Xtion's pitch that brings it
+//                                      # into view (UnmappedRegion::pitchToSeeDeg; above the horizontal, deg)
 #ifndef INSITU_CALIBRATION_SURVEY_SURVEY_HINT_FILE_H
 #define INSITU_CALIBRATION_SURVEY_SURVEY_HINT_FILE_H
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -37,6 +40,7 @@ struct SurveyHintRegion
   std::vector<Eigen::Vector2d> floor_polygon;
   double xtion_share = -1.0;  // -1: not in the file
   Eigen::Vector2d structure_height_m = Eigen::Vector2d::Zero();
+  std::optional<double> xtion_pitch_deg;  // the mount advice's pitch (a region out of the Xtion's reach)
 };
 
 struct SurveyHint
@@ -59,6 +63,10 @@ Expected<SurveyHint> parseSurveyHint(const std::string& yaml_text, const std::st
 
 // The file at a path (readFile's limits apply).
 Expected<SurveyHint> readSurveyHint(const std::string& path);
+
+// The one pitch for a survey that follows the mount advice of several hints (an operator re-mounts the Xtion once per
+// survey): the middle of their regions' pitches (middleValue: one of them); none when no region carries one.
+std::optional<double> advisedXtionPitchDeg(const std::vector<SurveyHint>& hints);
 
 }  // namespace insitu_calibration
 

@@ -471,25 +471,34 @@ size_t SurveyGuidance::count(GuidanceCell kind) const
   return static_cast<size_t>(std::count(cells.begin(), cells.end(), kind));
 }
 
+// The heights are lower bounds (a ray meets furniture or a wall's upper part before the floor or the map's edge), so
+// a region above the Xtion is wanted in view up to the camera's own height, where its lines may well be.
+std::optional<double> UnmappedRegion::pitchToSeeDeg() const
+{
+  if (xtion_share < 0.0)
+    return std::nullopt;
+  const bool above = xtion_above_share >= xtion_below_share;
+  const double low = structure_min_height_m;
+  const double high = above ? std::max(structure_max_height_m, camera_height_m) : structure_max_height_m;
+  std::optional<double> pitch = xtion.pitchToSee(low, high, xtion_reach_m);
+  if (!pitch)
+    pitch = xtion.pitchToSee(low, structure_max_height_m, xtion_reach_m);
+  if (!pitch)
+    return std::nullopt;
+  return std::round(*pitch) + 0.0;  // + 0.0: no "-0"
+}
+
 namespace
 {
-// What to do about a region mostly higher or lower than the Xtion sees within its reach (its heights are an upper
-// bound: the rays' points on the floor or the map's extent, furniture unknown, hence "if").
 // What brings a region out of the Xtion's reach into its view: the pitch that has the region's heights in view
-// within its reach (for a region above the Xtion up to the camera's own height; the heights are lower bounds: a ray
-// meets furniture or a wall's upper part before the floor or the map's edge), else a higher (lower) mount.
+// within its reach (UnmappedRegion::pitchToSeeDeg), else a higher (lower) mount.
 std::string xtionRemedy(const UnmappedRegion& r, bool with_band)
 {
-  const bool above = r.xtion_above_share >= r.xtion_below_share;
-  const double low = r.structure_min_height_m;
-  const double high = above ? std::max(r.structure_max_height_m, r.camera_height_m) : r.structure_max_height_m;
-  std::optional<double> pitch = r.xtion.pitchToSee(low, high, r.xtion_reach_m);
+  const std::optional<double> pitch = r.pitchToSeeDeg();
   if (!pitch)
-    pitch = r.xtion.pitchToSee(low, r.structure_max_height_m, r.xtion_reach_m);
-  if (!pitch)
-    return std::string("mount the Xtion ") + (above ? "higher" : "lower");
+    return std::string("mount the Xtion ") + (r.xtion_above_share >= r.xtion_below_share ? "higher" : "lower");
   XtionView pitched = r.xtion;
-  pitched.pitch_deg = std::round(*pitch) + 0.0;  // + 0.0: no "-0"
+  pitched.pitch_deg = *pitch;
   char text[128];
   std::snprintf(text, sizeof(text), "pitch the Xtion to about %+.0f deg", pitched.pitch_deg);
   if (!with_band)
@@ -500,6 +509,8 @@ std::string xtionRemedy(const UnmappedRegion& r, bool with_band)
   return std::string(text) + band;
 }
 
+// What to do about a region mostly higher or lower than the Xtion sees within its reach (a region below: its heights
+// are lower bounds, furniture unknown, hence "if").
 std::string xtionAdvice(const UnmappedRegion& r)
 {
   const bool above = r.xtion_above_share >= r.xtion_below_share;

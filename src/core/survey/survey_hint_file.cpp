@@ -1,10 +1,12 @@
 #include "insitu_calibration/survey/survey_hint_file.h"
 
+#include <cmath>
 #include <cstdio>
 #include <sstream>
 
 #include "../io/yaml_util.h"
 #include "insitu_calibration/io/atomic_file.h"
+#include "insitu_calibration/robust_statistics.h"
 
 namespace insitu_calibration
 {
@@ -77,6 +79,15 @@ Expected<SurveyHintRegion> readRegion(const yaml_util::YamlNode& node, const std
     region.xtion_share = *value;
     region.structure_height_m = *heights;
   }
+  if (const YamlNode pitch = child(node, "xtion_pitch_deg"))
+  {
+    const auto value = toDouble(pitch, where + ".xtion_pitch_deg");
+    if (!value)
+      return value.error();
+    if (std::abs(*value) > 90.0)
+      return Error(ErrorCode::kInvalidInput, where + ".xtion_pitch_deg: not a pitch between -90 and 90 deg");
+    region.xtion_pitch_deg = *value;
+  }
   return region;
 }
 }  // namespace
@@ -88,8 +99,13 @@ SurveyHint surveyHintOf(const std::string& camera, const SurveyGuidance& guidanc
   hint.image_width = guidance.width;
   hint.image_height = guidance.height;
   for (const UnmappedRegion& r : guidance.regions)
+  {
+    // Out of the Xtion's reach: the pitch its sentence advises.
+    const std::optional<double> pitch =
+        r.outOfXtionReach(guidance.min_xtion_share) ? r.pitchToSeeDeg() : std::optional<double>();
     hint.regions.push_back({r.where, r.image_lines, r.robot_position, r.look_direction, r.floor_polygon, r.xtion_share,
-                            Eigen::Vector2d(r.structure_min_height_m, r.structure_max_height_m)});
+                            Eigen::Vector2d(r.structure_min_height_m, r.structure_max_height_m), pitch});
+  }
   return hint;
 }
 
@@ -115,6 +131,12 @@ std::string surveyHintYaml(const SurveyHint& hint)
       std::snprintf(share, sizeof(share), "%.2f", r.xtion_share);
       out << "    structure_height_m: " << pair(r.structure_height_m, "[%.2f, %.2f]") << "\n    xtion_share: " << share
           << "\n";
+    }
+    if (r.xtion_pitch_deg)
+    {
+      char pitch[32];
+      std::snprintf(pitch, sizeof(pitch), "%.0f", *r.xtion_pitch_deg);
+      out << "    xtion_pitch_deg: " << pitch << "\n";
     }
   }
   return out.str();
@@ -163,6 +185,18 @@ Expected<SurveyHint> readSurveyHint(const std::string& path)
   if (!text)
     return text.error();
   return parseSurveyHint(*text, path);
+}
+
+std::optional<double> advisedXtionPitchDeg(const std::vector<SurveyHint>& hints)
+{
+  std::vector<double> pitches;
+  for (const SurveyHint& hint : hints)
+    for (const SurveyHintRegion& region : hint.regions)
+      if (region.xtion_pitch_deg)
+        pitches.push_back(*region.xtion_pitch_deg);
+  if (pitches.empty())
+    return std::nullopt;
+  return middleValue(pitches);
 }
 
 }  // namespace insitu_calibration
