@@ -39,7 +39,7 @@ namespace ic = insitu_calibration;
 
 namespace
 {
-const char* kUsage = R"(Usage: calibrate_survey BAG --cameras CAMERAS.yaml --out-dir DIR [options]
+const char* kUsage = R"(Usage: calibrate_survey BAG [BAG ...] --cameras CAMERAS.yaml --out-dir DIR [options]
 
 Runs the calibration node's pipeline offline on a survey bag (no ROS master needed): keyframes of the Xtion
 (/camera/rgb/image_raw, /camera/depth_registered/image_raw, /camera/rgb/camera_info, posed with /tf and /tf_static
@@ -52,6 +52,8 @@ DIR/<camera>_survey_hint.yaml (the same for programs: per region a standpoint an
 the floor polygon; generate_world --visit-hints reads it), and its message says where to drive the robot (README
 "When a camera is refused"). An accepted camera's line gives its 1 sigma from the matched lines (what the checks
 use), the next the sigma saved in the map frame and its parts (README, "Offline: calibrate_survey").
+Several bags are recordings of one survey (e.g. the first drive, then the hints' visits with the Xtion re-tilted as
+they advise), read in order into one map: neither odometry nor the localiser's chain ties one recording to the next.
 
 Options:
   --cameras FILE        fixed-camera configuration (config/cameras.yaml format)
@@ -142,7 +144,8 @@ Options:
                         the ambiguity test also redoes the matching from the accepted camera moved by SHARE of the
                         scene's depth towards the faces and corners of a cube around it (params
                         ambiguity/neighbourhood_share; default 0.05; 0: only the map's repetitions are tried)
-  --truth-dir DIR       the simulator's truth folder (<bag>_truth): also report, per camera, how many matches pair
+  --truth-dir DIR       the simulator's truth folder (<bag>_truth; with several bags, that of any of them, as the
+                        building and cameras are the same, but without the localiser's truth): also report, per camera, how many matches pair
                         the wrong edges and how far the matched map lines are from the true edges, the localiser's
                         limit (its error averaged over the keyframes, at the camera: "truth-limit" lines) and the
                         cameras' poses relative to each other against the truth ("truth-relative" lines),
@@ -458,9 +461,12 @@ void reportMapLinesAgainstTruth(const std::vector<ic::simulation::TrueEdge>& edg
 }
 
 // Per calibrated camera the localiser's limit at it, and per pair of calibrated cameras their relative pose's error.
-void reportMapAgainstTruth(const std::string& truth_dir, const ic::Survey& survey)
+// one_recording: the truth's localiser errors (by stamp) are the one bag's; with several bags they are not used.
+void reportMapAgainstTruth(const std::string& truth_dir, const ic::Survey& survey, bool one_recording)
 {
-  const auto errors = ic::simulation::loadLocalizationErrors(truth_dir + "/localization.yaml");
+  std::optional<std::vector<ic::simulation::LocalizationSample>> errors;
+  if (auto loaded = ic::simulation::loadLocalizationErrors(truth_dir + "/localization.yaml"); loaded && one_recording)
+    errors = std::move(*loaded);
   std::vector<double> stamps;
   std::vector<Eigen::Vector3d> pivots;
   for (const auto& kf : survey.keyframes())
@@ -1128,21 +1134,23 @@ std::string registrationMode(const ic::CommandLine& cli, bool parameters_give_re
   return parameters_give_registration ? "given" : "auto";
 }
 
-// --depth-registration auto | estimate: the offset from the bag's RGB-D frames (a first pass), printed; auto puts it
-// in the options (left at 0,0 when refused). False when the bag cannot be read.
-bool estimateDepthRegistration(const std::string& bag, const ic::SurveyBagOptions& bag_options,
+// --depth-registration auto | estimate: the offset from the bags' RGB-D frames (a first pass; one Xtion), printed;
+// auto puts it in the options (left at 0,0 when refused). False when a bag cannot be read.
+bool estimateDepthRegistration(const std::vector<std::string>& bags, const ic::SurveyBagOptions& bag_options,
                                bool cli_sets_registration_sigma, ic::SurveyOptions* options)
 {
   const ic::RgbdLineExtractor extractor(options->rgbd);
   ic::DepthRegistrationEstimator estimator;
   size_t failed = 0;
-  const auto read = ic::readSurveyRgbdFrames(
-      bag, bag_options, [&](const ic::RgbdFrame& frame) { failed += estimator.addFrame(frame, extractor) ? 0 : 1; });
-  if (!read)
-  {
-    std::cerr << "calibrate_survey: " << read.error().message() << "\n";
-    return false;
-  }
+  for (const std::string& bag : bags)
+    if (const auto read = ic::readSurveyRgbdFrames(
+            bag, bag_options,
+            [&](const ic::RgbdFrame& frame) { failed += estimator.addFrame(frame, extractor) ? 0 : 1; });
+        !read)
+    {
+      std::cerr << "calibrate_survey: " << read.error().message() << "\n";
+      return false;
+    }
   const auto e = estimator.estimate();
   if (!e)
   {
@@ -1472,7 +1480,7 @@ int calibrateCameras(const ic::CommandLine& cli, ic::Survey& survey)
     if (survey.options().map.max_fusion_sigma_m > 0.0)
       reportSourceAgainstTruth(
           truth_dir, survey, [](const ic::MapLine& l) { return l.fused; }, "fused");
-    reportMapAgainstTruth(cli.value("truth-dir"), survey);
+    reportMapAgainstTruth(cli.value("truth-dir"), survey, cli.positional().size() == 1);
     if (const auto edges = ic::simulation::loadTrueEdges(cli.value("truth-dir") + "/edges.yaml"))
     {
       std::vector<ic::Segment3d> segments;
@@ -1543,7 +1551,7 @@ int main(int argc, char** argv)
     std::cout << kUsage;
     return 0;
   }
-  if (!cli.error().empty() || cli.positional().size() != 1 || !cli.has("cameras") || !cli.has("out-dir"))
+  if (!cli.error().empty() || cli.positional().empty() || !cli.has("cameras") || !cli.has("out-dir"))
   {
     std::cerr << "calibrate_survey: "
               << (cli.error().empty() ? "BAG, --cameras and --out-dir are required" : cli.error()) << "\n\n"
@@ -1561,20 +1569,26 @@ int main(int argc, char** argv)
   bag_options.odom_frame = cli.flag("no-odometry") ? "" : cli.value("odom-frame", "odom");
   if (const std::string mode = registrationMode(cli, registration_given); mode == "auto" || mode == "estimate")
   {
-    if (!estimateDepthRegistration(cli.positional()[0], bag_options, cli.has("depth-registration-sigma"), &options))
+    if (!estimateDepthRegistration(cli.positional(), bag_options, cli.has("depth-registration-sigma"), &options))
       return 2;
     if (mode == "estimate")
       return 0;
   }
   ic::Survey survey(cameras, options);
   const auto start = std::chrono::steady_clock::now();
-  const auto read = ic::readSurveyBag(cli.positional()[0], bag_options, &survey);
-  if (!read)
+  size_t frames_without_pose = 0;
+  for (const std::string& bag : cli.positional())  // several: recordings of one survey, in order
   {
-    std::cerr << "calibrate_survey: " << read.error().message() << "\n";
-    return 2;
+    survey.startRecording();
+    const auto read = ic::readSurveyBag(bag, bag_options, &survey);
+    if (!read)
+    {
+      std::cerr << "calibrate_survey: " << read.error().message() << "\n";
+      return 2;
+    }
+    frames_without_pose += read->frames_without_pose;
   }
   if (!cli.flag("quiet"))
-    printSurveySummary(survey, read->frames_without_pose, seconds(start));
+    printSurveySummary(survey, frames_without_pose, seconds(start));
   return calibrateCameras(cli, survey);
 }

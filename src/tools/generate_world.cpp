@@ -45,6 +45,8 @@ Options:
                            then three 0.3 m legs turned +30, -30 and 0 deg from its look direction, so the Xtion
                            sweeps where the hint says and ends looking there. The building, cameras and the route
                            before the visits are unchanged (give the same --seed and options as the first time)
+  --visits-only            with --visit-hints: the route is only the drive to the visits, from where the route
+                           ends (a second recording, after the first drive; calibrate_survey FIRST.bag SECOND.bag)
   --xtion-tilt DEG         the Xtion tilted DEG above the horizontal instead of the drawn tilt (the building, its
                            cameras and route and the mount's height unchanged); "advised": the middle of the pitches
                            the --visit-hints files advise for regions out of the Xtion's reach (their
@@ -159,6 +161,9 @@ std::string parseOptions(insitu_calibration::CommandLine& cli, sim::WorldGenerat
       problem = "--visit-hints: " + read.error().message();
     options->visits = visitsOf(hints);
   }
+  options->visits_only = cli.flag("visits-only");
+  if (problem.empty() && options->visits_only && hints.empty())
+    problem = "--visits-only needs --visit-hints";
   if (problem.empty() && cli.has("xtion-tilt"))
     problem = parseXtionTilt(cli.value("xtion-tilt"), hints, options);
   return problem;
@@ -191,7 +196,7 @@ int main(int argc, char** argv)
   insitu_calibration::CommandLine cli(argc, argv,
                                       {"seed", "kind", "out", "cameras-out", "prior-error", "max-route-s",
                                        "look-around-spacing", "view-leg", "appearance", "visit-hints", "xtion-tilt"},
-                                      {});
+                                      {"visits-only"});
   if (cli.help())
   {
     std::cout << kUsage;

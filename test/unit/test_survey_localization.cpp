@@ -60,8 +60,10 @@ std::vector<ic::FixedCameraConfig> defaultCameras()
 
 // Feeds the whole survey: RGB-D frames posed as the erring localiser says, with odometry (exact: odom = map
 // without drift), and the fixed cameras' images.
+// odom_from_map: where the odometry frame's origin is (another recording may start it elsewhere).
 void feedSurvey(const sim::SurveySimulator& simulator, ic::Survey* survey, std::vector<double>* stamps,
-                std::vector<Eigen::Vector3d>* pivots)
+                std::vector<Eigen::Vector3d>* pivots,
+                const Eigen::Isometry3d& odom_from_map = Eigen::Isometry3d::Identity())
 {
   const Eigen::Isometry3d base_from_optical = sim::baseFromRgbOptical(simulator.world().xtion);
   for (const sim::SurveyEvent& event : simulator.events())
@@ -79,7 +81,7 @@ void feedSurvey(const sim::SurveySimulator& simulator, ic::Survey* survey, std::
       frame.camera.intrinsics = view.intrinsics;
       frame.T_map_camera = simulator.localizedMapFromBase(x.stamp_ns) * base_from_optical;
       frame.stamp = stamp;
-      const auto used = survey->addRgbdFrame(frame, x.map_from_optical);
+      const auto used = survey->addRgbdFrame(frame, odom_from_map * x.map_from_optical);
       if (used && *used)
       {
         stamps->push_back(stamp);
@@ -260,4 +262,42 @@ TEST(SurveyLocalization, AdjustmentComputedApartIsInstalledUnlessReset)
   stale.generation = before_reset;
   EXPECT_FALSE(survey.installAdjustment(std::move(stale)));
   EXPECT_TRUE(survey.latestMapSegments().empty());
+}
+
+// A survey in two recordings (calibrate_survey with two bags): the same 6 s drive recorded twice, the second time with
+// its odometry starting 3 m and 60 deg elsewhere. The second recording's first keyframe is not tied to the first
+// recording's last by odometry, so both recordings' keyframes get the same corrections; tied, the two odometry
+// origins' difference would bend them.
+TEST(SurveyLocalization, ASecondRecordingIsNotTiedToTheFirstByOdometry)
+{
+  auto simulator = localizedSimulator(6.0);
+  ASSERT_TRUE(simulator) << simulator.error().describe();
+  const Eigen::Isometry3d elsewhere(Eigen::Translation3d(3.0, -1.0, 0.0) *
+                                    Eigen::AngleAxisd(M_PI / 3.0, Eigen::Vector3d::UnitZ()));
+  auto correctionsOfTwoRecordings = [&](bool start_recording) {
+    ic::Survey survey(defaultCameras());
+    std::vector<double> stamps;
+    std::vector<Eigen::Vector3d> pivots;
+    survey.startRecording();  // before anything: not a second recording
+    feedSurvey(*simulator, &survey, &stamps, &pivots);
+    const size_t first = survey.keyframes().size();
+    if (start_recording)
+      survey.startRecording();
+    feedSurvey(*simulator, &survey, &stamps, &pivots, elsewhere);
+    EXPECT_EQ(survey.keyframes().size(), 2 * first);  // the second recording's first frame is a keyframe again
+    for (size_t k = 0; k < survey.keyframes().size(); ++k)
+      EXPECT_EQ(survey.keyframes()[k].starts_recording, start_recording && k == first) << k;
+    // Two recordings of 6 s: one independent sample of the localiser's error each (correlation time 5 s).
+    EXPECT_NEAR(survey.mapPlacement().sigma_m, survey.options().localization_sigma_m / std::sqrt(2.0), 1e-12);
+    const auto corrections = survey.poseCorrections();
+    double largest = 0.0;  // of the differences between the recordings' corrections of the same frame
+    for (size_t k = 0; k < first; ++k)
+      largest = std::max({largest, std::abs(corrections[k].x - corrections[first + k].x),
+                          std::abs(corrections[k].y - corrections[first + k].y)});
+    std::printf("%zu + %zu keyframes, %s: the recordings' corrections differ by up to %.3f mm\n", first, first,
+                start_recording ? "two recordings" : "tied by odometry", 1e3 * largest);
+    return largest;
+  };
+  EXPECT_LT(correctionsOfTwoRecordings(true), 1e-4);
+  EXPECT_GT(correctionsOfTwoRecordings(false), 1e-3);  // the test can fail: tied, the odometry bends them
 }

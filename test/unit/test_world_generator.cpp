@@ -457,6 +457,21 @@ TEST(WorldGenerator, VisitsExtendTheRouteAndKeepEverythingElse)
   EXPECT_EQ(visiting->cameras_yaml, plain->cameras_yaml);
   ASSERT_EQ(visiting->world.fixed_cameras.size(), plain->world.fixed_cameras.size());
   EXPECT_EQ(visiting->world.surfaces.size(), plain->world.surfaces.size());
+  // Visits only (a second recording): the same drive to the visits, from where the route ends.
+  options.visits_only = true;
+  const auto second = sim::generateWorld(options);
+  ASSERT_TRUE(second) << second.error().describe();
+  const auto& c = second->world.route.waypoints;
+  ASSERT_EQ(c.size(), b.size() - a.size() + 1);
+  for (size_t k = 0; k < c.size(); ++k)
+    EXPECT_LT((c[k] - b[a.size() - 1 + k]).norm(), 1e-9) << k;
+  EXPECT_EQ(second->route_before_visits_s, 0.0);
+  // The same drive, but for the turn at the route's end (the second recording starts facing its first leg): at
+  // most half a turn at 40 deg/s.
+  const double visits_s = visiting->route_duration_s - visiting->route_before_visits_s;
+  EXPECT_LE(second->route_duration_s, visits_s + 0.1);
+  EXPECT_GE(second->route_duration_s, visits_s - 180.0 / 40.0 - 0.1);
+  EXPECT_EQ(second->cameras_yaml, plain->cameras_yaml);
 }
 
 // A given Xtion tilt (generate_world --xtion-tilt, the mount advice followed) changes that line of the world file and

@@ -72,6 +72,10 @@ struct Keyframe
   // have it are tied by their relative motion.
   bool has_odometry = false;
   Eigen::Isometry3d T_odom_camera = Eigen::Isometry3d::Identity();
+  // The first keyframe of a recording after another (Survey::startRecording, calibrate_survey with several bags):
+  // neither odometry nor the localiser's chain ties it to the keyframe before (another drive, perhaps another
+  // odometry origin and another localisation run).
+  bool starts_recording = false;
   std::vector<KeyframeLine> lines;
   std::vector<FloorObservation> floor;      // not adjusted: placed on the floor under the corrected pose
   std::vector<FloorObservation> rgb;        // every RGB segment without a depth line, when lines are triangulated

@@ -70,6 +70,9 @@ struct WorldGeneratorOptions
   // (route_planner.h, appendVisits), e.g. from refused cameras' survey hints (generate_world --visit-hints). The
   // building, its cameras and the route before the visits are the same as without them.
   std::vector<Visit> visits;
+  // With visits: the route is only the drive to them from where the route ends (a second recording of the survey,
+  // after the first drive: generate_world --visits-only).
+  bool visits_only = false;
   // The Xtion's tilt (deg above the horizontal) instead of the drawn one, e.g. as refused cameras' survey hints
   // advise (generate_world --xtion-tilt); everything else, the mount's height included, is drawn as without it.
   std::optional<double> xtion_tilt_deg;
@@ -82,7 +85,7 @@ struct GeneratedWorld
   std::string cameras_yaml;  // the installer's priors (config/cameras.yaml format)
   World world;               // world_yaml as parseWorld reads it
   double route_duration_s = 0.0;
-  double route_before_visits_s = 0.0;  // the drive without the visits
+  double route_before_visits_s = 0.0;  // the drive without the visits (0 with visits_only)
   size_t visits_skipped = 0;           // visits with no free standpoint or look (appendVisits)
 };
 

@@ -156,6 +156,10 @@ public:
   FixedCamera& camera(const std::string& name) { return *cameras_.at(name); }
   const FixedCamera& camera(const std::string& name) const { return *cameras_.at(name); }
 
+  // The frames that follow come from another recording of the same building (calibrate_survey with several bags):
+  // the next keyframe is not tied to the last one by odometry or the localiser's chain (Keyframe::starts_recording),
+  // and is kept wherever it is. The map, the keyframes and the cameras' images so far stay.
+  void startRecording();
   // Forgets one camera's images and calibration.
   void resetCamera(const std::string& name) { cameras_.at(name)->reset(); }
   // Forgets everything: the map, the keyframes and every camera.
@@ -216,6 +220,7 @@ private:
   mutable uint64_t unadjusted_generation_ = UINT64_MAX;
   uint64_t keyframe_generation_ = 0;  // counts keyframes added and resets
   uint64_t reset_generation_ = 0;     // keyframe_generation_ at the last reset()
+  bool recording_started_ = false;    // startRecording() came after the last keyframe
   mutable SurveyStats stats_;
 };
 

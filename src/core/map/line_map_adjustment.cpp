@@ -113,7 +113,8 @@ struct MarkovPosePrior
 
 // The localiser's prior on every keyframe's correction: independent per keyframe (localization_correlation_s 0), or
 // the Gauss-Markov chain over the keyframes in the order they came (as odometry ties them). A keyframe whose stamp is
-// not after its predecessor's (a bag played again, a clock reset) starts a new chain.
+// not after its predecessor's (a bag played again, a clock reset) or that starts another recording starts a new
+// chain.
 void addLocalizationPriors(const std::vector<Keyframe>& keyframes, const LineMapAdjustmentOptions& options,
                            std::vector<Eigen::Vector3d>* pose, ceres::Problem* problem)
 {
@@ -122,7 +123,7 @@ void addLocalizationPriors(const std::vector<Keyframe>& keyframes, const LineMap
   for (size_t k = 0; k < keyframes.size(); ++k)
   {
     const double dt = k > 0 ? keyframes[k].stamp - keyframes[k - 1].stamp : 0.0;
-    if (!(options.localization_correlation_s > 0.0 && dt > 0.0))
+    if (!(options.localization_correlation_s > 0.0 && dt > 0.0) || keyframes[k].starts_recording)
     {
       problem->AddResidualBlock(new ceres::AutoDiffCostFunction<PosePrior, 3, 3>(new PosePrior{inverse_m, inverse_rad}),
                                 nullptr, (*pose)[k].data());
@@ -184,7 +185,7 @@ void addOdometry(const std::vector<Keyframe>& keyframes, const LineMapAdjustment
   for (size_t k = 1; k < keyframes.size(); ++k)
   {
     const Keyframe &a = keyframes[k - 1], &b = keyframes[k];
-    if (!a.has_odometry || !b.has_odometry)
+    if (!a.has_odometry || !b.has_odometry || b.starts_recording)
       continue;
     const Eigen::Isometry3d motion = a.T_odom_camera.inverse() * b.T_odom_camera;
     const double turn_deg = Eigen::AngleAxisd(motion.linear()).angle() * 180.0 / M_PI;

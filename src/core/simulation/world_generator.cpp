@@ -364,6 +364,13 @@ Expected<GeneratedWorld> generateWorld(const WorldGeneratorOptions& options)
     if (!extended)
       return Error(extended.error().code(), std::string("generate_world: ") + extended.error().message());
     driven = std::move(*extended);
+    if (options.visits_only)
+    {
+      if (driven.size() == route->size())
+        return Error(ErrorCode::kInvalidInput, "generate_world: no visit could be driven (visits only)");
+      driven.erase(driven.begin(), driven.begin() + static_cast<std::ptrdiff_t>(route->size() - 1));
+      out.route_before_visits_s = 0.0;
+    }
   }
   out.world_yaml = worldYaml(options, out.kind, layout, driven, cameras, rng);
   std::ostringstream prior_text;

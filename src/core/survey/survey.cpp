@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "insitu_calibration/cpu_time.h"
 #include "insitu_calibration/refine/refinement.h"
@@ -183,6 +184,7 @@ Expected<bool> Survey::addRgbdFrame(const RgbdFrame& frame, const std::optional<
   if (options_.triangulated.enabled)
     for (const auto& u : unlifted)
       keyframe_data_.back().rgb.push_back({frame.camera.normalize(u.segment.a), frame.camera.normalize(u.segment.b)});
+  keyframe_data_.back().starts_recording = std::exchange(recording_started_, false);
   keyframe_data_.back().has_odometry = T_odom_camera.has_value();
   if (T_odom_camera)
     keyframe_data_.back().T_odom_camera = *T_odom_camera;
@@ -417,9 +419,21 @@ MapPlacementUncertainty Survey::mapPlacement() const
   if (!adjusting())
     return out;
   // The mean of a stationary error with exponential correlation tau over a time T >> tau has the variance
-  // sigma^2 * 2 tau / T; no fewer than one independent sample.
-  const double span = keyframe_data_.back().stamp - keyframe_data_.front().stamp;
-  const double factor = std::min(1.0, std::sqrt(2.0 * options_.localization_correlation_s / std::max(1e-9, span)));
+  // sigma^2 * 2 tau / T: T / (2 tau) independent samples, no fewer than one. Recordings (a keyframe that starts one,
+  // or a clock that went back) are independent of each other, as the adjustment's chains are: their samples add up.
+  const double tau = std::max(1e-9, options_.localization_correlation_s);
+  double samples = 0.0, start = keyframe_data_.front().stamp;
+  for (size_t k = 1; k <= keyframe_data_.size(); ++k)
+  {
+    const bool ends = k == keyframe_data_.size() || keyframe_data_[k].starts_recording ||
+                      !(keyframe_data_[k].stamp > keyframe_data_[k - 1].stamp);
+    if (!ends)
+      continue;
+    samples += std::max(1.0, (keyframe_data_[k - 1].stamp - start) / (2.0 * tau));
+    if (k < keyframe_data_.size())
+      start = keyframe_data_[k].stamp;
+  }
+  const double factor = 1.0 / std::sqrt(samples);
   out.sigma_m = options_.localization_sigma_m * factor;
   out.sigma_deg = options_.localization_sigma_deg * factor;
   return out;
@@ -660,8 +674,15 @@ void Survey::setCameraOptions(const FixedCameraOptions& options)
     camera->setOptions(options_.cameras);
 }
 
+void Survey::startRecording()
+{
+  keyframes_.reset();
+  recording_started_ = !keyframe_data_.empty();
+}
+
 void Survey::reset()
 {
+  recording_started_ = false;
   map_.clear();
   keyframes_.reset();
   keyframe_data_.clear();
