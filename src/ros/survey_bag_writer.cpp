@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cstring>
 #include <filesystem>
+#include <memory>
 
 #include <boost/make_shared.hpp>
 #include <geometry_msgs/TransformStamped.h>
@@ -220,23 +221,26 @@ Expected<SurveyBagSummary> writeSurveyBag(const sim::SurveySimulator& survey, co
   const std::string active = path + ".active";
   SurveyBagSummary summary;
   double write_s = 0.0;
+  // A bag whose write failed (a full disk) is not destroyed: rosbag::Bag's destructor closes it, which writes
+  // again and throws, and a destructor that throws ends the program. Its handle is left open instead.
+  auto bag = std::make_unique<rosbag::Bag>();
   try
   {
-    rosbag::Bag bag;
-    bag.open(active, rosbag::bagmode::Write);
-    bag.setCompression(rosbag::compression::LZ4);
-    SurveyEventWriter writer(survey, bag, &summary, &write_s);
+    bag->open(active, rosbag::bagmode::Write);
+    bag->setCompression(rosbag::compression::LZ4);
+    SurveyEventWriter writer(survey, *bag, &summary, &write_s);
     for (const sim::SurveyEvent& e : survey.events())
       writer.write(e, progress);
     const auto t0 = Clock::now();
-    bag.close();
+    bag->close();
     write_s += std::chrono::duration<double>(Clock::now() - t0).count();
   }
   catch (const std::exception& e)  // rosbag's, and cv::Exception or bad_alloc from a frame: no .active is left
   {
+    bag.release();  // NOLINT(bugprone-unused-return-value): deliberately not destroyed (above)
     std::error_code ignored;
     std::filesystem::remove(active, ignored);
-    return Error(ErrorCode::kIoError, "cannot write " + path + ": " + e.what());
+    return Error(ErrorCode::kIoError, "cannot write " + path + ": " + e.what() + " (is the disk full?)");
   }
   std::error_code ec;
   std::filesystem::rename(active, path, ec);

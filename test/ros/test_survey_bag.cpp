@@ -345,5 +345,15 @@ TEST(SimulateSurveyTool, AnswersHelpAndRefusesBadInput)
   EXPECT_FALSE(fs::exists("/tmp/x.bag"));
   EXPECT_EQ(run(kTool + " --world " + kWorld + " --out /nonexistent_dir/x.bag --seed 1 --duration 1", &out), 1);
   EXPECT_NE(out.find("cannot write"), std::string::npos) << out;
+  // A disk that fills while the bag is written (a 1 MB file size limit, its signal ignored so that writes fail):
+  // a clear error, no crash, nothing left behind (rosbag's destructor used to throw and abort the program).
+  const fs::path full = tempDir() / "full.bag";
+  EXPECT_EQ(run("bash -c \"ulimit -f 1024; trap '' XFSZ; exec " + kTool + " --world " + kWorld + " --out " +
+                    full.string() + " --seed 1 --duration 2 --quiet\"",
+                &out),
+            1);
+  EXPECT_NE(out.find("cannot write " + full.string()), std::string::npos) << out;
+  EXPECT_FALSE(fs::exists(full));
+  EXPECT_FALSE(fs::exists(full.string() + ".active"));
   fs::remove_all(tempDir());
 }
