@@ -48,10 +48,9 @@ Options:
   --visits-only            with --visit-hints: the route is only the drive to the visits, from where the route
                            ends (a second recording, after the first drive; calibrate_survey FIRST.bag SECOND.bag)
   --xtion-tilt DEG         the Xtion tilted DEG above the horizontal instead of the drawn tilt (the building, its
-                           cameras and route and the mount's height unchanged); "advised": the pitch the
-                           --visit-hints files' regions vote for, each with its unexplained image lines (their
-                           xtion_pitch_deg: the survey's own in the Xtion's reach, the advised one out of it; the
-                           weighted median), the drawn tilt when the survey's own wins or none has a pitch
+                           cameras and route and the mount's height unchanged); "advised": the middle of the pitches
+                           the --visit-hints files advise for regions out of the Xtion's reach (their
+                           xtion_pitch_deg), the drawn tilt if none does
   --appearance A           realistic (default): sensor blur, vignetting, exposure and white balance differing per
                            camera, JPEG on the fixed cameras, Xtion RGB noise, flying pixels, low-frequency depth
                            error and RGB-to-depth misregistration (docs/simulator.md, "appearance"); plain: none of

@@ -484,15 +484,9 @@ TEST_F(SurveyGuidanceTest, AnXtionThatCannotSeeTheStructureSaysSo)
       EXPECT_EQ(*hint.regions.front().xtion_pitch_deg, std::round(*pitch));
     }
     const ic::SurveyHint hint = ic::surveyHintOf(r.camera->name, g);
-    // Regions in reach carry the survey's own pitch.
-    ASSERT_TRUE(hint.xtion_pitch_deg);
-    EXPECT_EQ(*hint.xtion_pitch_deg, -20.0);
-    for (size_t k = 0; k < g.regions.size(); ++k)
-      if (!g.regions[k].outOfXtionReach(options.min_xtion_share))
-      {
-        ASSERT_TRUE(hint.regions[k].xtion_pitch_deg) << r.camera->name;
-        EXPECT_EQ(*hint.regions[k].xtion_pitch_deg, -20.0) << r.camera->name;
-      }
+    for (size_t k = 0; k < g.regions.size(); ++k)  // only regions out of reach carry a pitch
+      EXPECT_TRUE(g.regions[k].outOfXtionReach(options.min_xtion_share) || !hint.regions[k].xtion_pitch_deg)
+          << r.camera->name;
     if (region.outOfXtionReach(options.min_xtion_share))
       ++told;
   }

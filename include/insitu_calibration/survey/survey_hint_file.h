@@ -6,8 +6,7 @@
 //   frame: map
 //   image_width: 1280
 //   image_height: 720
-//   xtion_pitch_deg: -14          # optional (the Xtion's view known): the survey's Xtion pitch, deg above the
-//   horizontal regions:                      # largest first (by unexplained image lines)
+//   regions:                      # largest first (by unexplained image lines)
 //     - where: left               # the part of the camera's view
 //       image_lines: 29           # image lines there that no map line explains
 //       standpoint: [16.7, 0.4]   # where the robot should stand, x, y
@@ -16,9 +15,8 @@
 //       structure_height_m: [0.0, 2.6]  # optional (the Xtion's view known): how high what the region shows is
 //       xtion_share: 0.82              # optional: the share of it in the Xtion's view from the standpoint (under
 //                                      # 0.5: out of its reach; mount it higher or tilted, or use CAD lines)
-//       xtion_pitch_deg: 8              # optional: the pitch to survey the region with: the survey's own for a region
-//                                      # in the Xtion's reach, for one out of it the pitch the advice gives
-//                                      # (UnmappedRegion::pitchToSeeDeg); absent when a higher or lower mount is needed
+//       xtion_pitch_deg: 8              # optional, for a region out of its reach: the Xtion's pitch that brings it
+//                                      # into view (UnmappedRegion::pitchToSeeDeg; above the horizontal, deg)
 #ifndef INSITU_CALIBRATION_SURVEY_SURVEY_HINT_FILE_H
 #define INSITU_CALIBRATION_SURVEY_SURVEY_HINT_FILE_H
 
@@ -42,7 +40,7 @@ struct SurveyHintRegion
   std::vector<Eigen::Vector2d> floor_polygon;
   double xtion_share = -1.0;  // -1: not in the file
   Eigen::Vector2d structure_height_m = Eigen::Vector2d::Zero();
-  std::optional<double> xtion_pitch_deg;  // the pitch to survey it with (the survey's own, or the mount advice's)
+  std::optional<double> xtion_pitch_deg;  // the mount advice's pitch (a region out of the Xtion's reach)
 };
 
 struct SurveyHint
@@ -50,7 +48,6 @@ struct SurveyHint
   std::string camera;
   int image_width = 0;
   int image_height = 0;
-  std::optional<double> xtion_pitch_deg;  // the survey's Xtion pitch (whole degrees), when its view is known
   std::vector<SurveyHintRegion> regions;  // largest first
 };
 
@@ -68,8 +65,7 @@ Expected<SurveyHint> parseSurveyHint(const std::string& yaml_text, const std::st
 Expected<SurveyHint> readSurveyHint(const std::string& path);
 
 // The one pitch for a survey that follows the mount advice of several hints (an operator re-mounts the Xtion once per
-// survey): their regions' pitches weighted by their unexplained image lines, the weighted median (regions in reach
-// vote for the survey's own pitch). None when no region carries a pitch or the vote keeps the survey's pitch.
+// survey): the middle of their regions' pitches (middleValue: one of them); none when no region carries one.
 std::optional<double> advisedXtionPitchDeg(const std::vector<SurveyHint>& hints);
 
 }  // namespace insitu_calibration

@@ -1,39 +1,17 @@
 #include "insitu_calibration/survey/survey_hint_file.h"
 
-#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
 
 #include "../io/yaml_util.h"
 #include "insitu_calibration/io/atomic_file.h"
+#include "insitu_calibration/robust_statistics.h"
 
 namespace insitu_calibration
 {
 namespace
 {
-// A pitch as the file holds it: whole degrees.
-std::string degrees(double pitch_deg)
-{
-  char text[32];
-  std::snprintf(text, sizeof(text), "%.0f", pitch_deg);
-  return text;
-}
-
-// An optional pitch (deg, within +-90), the field `label` names in errors.
-Status readPitch(const yaml_util::YamlNode& value, const std::string& label, std::optional<double>* pitch)
-{
-  if (!value)
-    return Success{};
-  const auto number = yaml_util::toDouble(value, label);
-  if (!number)
-    return number.error();
-  if (std::abs(*number) > 90.0)
-    return Error(ErrorCode::kInvalidInput, label + ": not a pitch between -90 and 90 deg");
-  *pitch = *number;
-  return Success{};
-}
-
 constexpr size_t kMaxRegions = 64;
 constexpr size_t kMaxPolygonPoints = 10000;
 
@@ -101,10 +79,15 @@ Expected<SurveyHintRegion> readRegion(const yaml_util::YamlNode& node, const std
     region.xtion_share = *value;
     region.structure_height_m = *heights;
   }
-  if (const Status pitch =
-          readPitch(child(node, "xtion_pitch_deg"), where + ".xtion_pitch_deg", &region.xtion_pitch_deg);
-      !pitch)
-    return pitch.error();
+  if (const YamlNode pitch = child(node, "xtion_pitch_deg"))
+  {
+    const auto value = toDouble(pitch, where + ".xtion_pitch_deg");
+    if (!value)
+      return value.error();
+    if (std::abs(*value) > 90.0)
+      return Error(ErrorCode::kInvalidInput, where + ".xtion_pitch_deg: not a pitch between -90 and 90 deg");
+    region.xtion_pitch_deg = *value;
+  }
   return region;
 }
 }  // namespace
@@ -117,13 +100,9 @@ SurveyHint surveyHintOf(const std::string& camera, const SurveyGuidance& guidanc
   hint.image_height = guidance.height;
   for (const UnmappedRegion& r : guidance.regions)
   {
-    // The pitch to survey it with: the survey's own in the Xtion's reach, else the one its sentence advises.
-    std::optional<double> pitch;
-    if (r.xtion_share >= 0.0)
-    {
-      hint.xtion_pitch_deg = std::round(r.xtion.pitch_deg) + 0.0;  // + 0.0: no "-0"
-      pitch = r.outOfXtionReach(guidance.min_xtion_share) ? r.pitchToSeeDeg() : hint.xtion_pitch_deg;
-    }
+    // Out of the Xtion's reach: the pitch its sentence advises.
+    const std::optional<double> pitch =
+        r.outOfXtionReach(guidance.min_xtion_share) ? r.pitchToSeeDeg() : std::optional<double>();
     hint.regions.push_back({r.where, r.image_lines, r.robot_position, r.look_direction, r.floor_polygon, r.xtion_share,
                             Eigen::Vector2d(r.structure_min_height_m, r.structure_max_height_m), pitch});
   }
@@ -137,10 +116,7 @@ std::string surveyHintYaml(const SurveyHint& hint)
       << " can be calibrated (calibrate_survey): per region of its view without map lines, where the robot should "
          "stand and look. Map frame, metres.\n";
   out << "camera: " << quoted(hint.camera) << "\nframe: map\nimage_width: " << hint.image_width
-      << "\nimage_height: " << hint.image_height << "\n";
-  if (hint.xtion_pitch_deg)
-    out << "xtion_pitch_deg: " << degrees(*hint.xtion_pitch_deg) << "\n";
-  out << "regions:" << (hint.regions.empty() ? " []\n" : "\n");
+      << "\nimage_height: " << hint.image_height << "\nregions:" << (hint.regions.empty() ? " []\n" : "\n");
   for (const SurveyHintRegion& r : hint.regions)
   {
     out << "  - where: " << quoted(r.where) << "\n    image_lines: " << r.image_lines
@@ -157,7 +133,11 @@ std::string surveyHintYaml(const SurveyHint& hint)
           << "\n";
     }
     if (r.xtion_pitch_deg)
-      out << "    xtion_pitch_deg: " << degrees(*r.xtion_pitch_deg) << "\n";
+    {
+      char pitch[32];
+      std::snprintf(pitch, sizeof(pitch), "%.0f", *r.xtion_pitch_deg);
+      out << "    xtion_pitch_deg: " << pitch << "\n";
+    }
   }
   return out.str();
 }
@@ -183,10 +163,6 @@ Expected<SurveyHint> parseSurveyHint(const std::string& yaml_text, const std::st
           return n.error();
         *value = *n;
       }
-    if (const Status pitch =
-            readPitch(child(doc, "xtion_pitch_deg"), source + ": xtion_pitch_deg", &hint.xtion_pitch_deg);
-        !pitch)
-      return pitch.error();
     const YamlNode regions = child(doc, "regions");
     if (!regions || !regions.IsSequence())
       return Error(ErrorCode::kParseError, source + ": expected a list `regions:`");
@@ -213,26 +189,14 @@ Expected<SurveyHint> readSurveyHint(const std::string& path)
 
 std::optional<double> advisedXtionPitchDeg(const std::vector<SurveyHint>& hints)
 {
-  std::vector<std::pair<double, double>> votes;  // pitch, image lines
-  double total = 0.0;
+  std::vector<double> pitches;
   for (const SurveyHint& hint : hints)
     for (const SurveyHintRegion& region : hint.regions)
       if (region.xtion_pitch_deg)
-      {
-        votes.emplace_back(*region.xtion_pitch_deg, static_cast<double>(std::max<size_t>(1, region.image_lines)));
-        total += votes.back().second;
-      }
-  if (votes.empty())
+        pitches.push_back(*region.xtion_pitch_deg);
+  if (pitches.empty())
     return std::nullopt;
-  std::sort(votes.begin(), votes.end());
-  double sum = 0.0;
-  auto median = votes.begin();
-  while ((sum += median->second) < 0.5 * total)
-    ++median;
-  for (const SurveyHint& hint : hints)
-    if (hint.xtion_pitch_deg && *hint.xtion_pitch_deg == median->first)
-      return std::nullopt;  // the survey's own pitch won
-  return median->first;
+  return middleValue(pitches);
 }
 
 }  // namespace insitu_calibration
