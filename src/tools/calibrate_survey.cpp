@@ -145,14 +145,15 @@ Options:
                         scene's depth towards the faces and corners of a cube around it (params
                         ambiguity/neighbourhood_share; default 0.05; 0: only the map's repetitions are tried)
   --truth-dir DIR       the simulator's truth folder (<bag>_truth; with several bags, that of any of them, as the
-                        building and cameras are the same, but without the localiser's truth): also report, per camera, how many matches pair
-                        the wrong edges and how far the matched map lines are from the true edges, the localiser's
-                        limit (its error averaged over the keyframes, at the camera: "truth-limit" lines) and the
-                        cameras' poses relative to each other against the truth ("truth-relative" lines),
-                        the map's coverage of each camera's image lines ("truth-coverage" lines) and how much of an
-                        accepted camera's error its lines' true offsets explain, all, wrong matches and right ones
-                        (linearised through the refinement: "truth-line-shift" lines), and where each of the
-                        ambiguity test's alternatives ended ("truth-alternative" lines)
+                        building and cameras are the same, but without the localiser's truth lines): also report,
+                        per camera, how many matches pair the wrong edges and how far the matched map lines are
+                        from the true edges, the localiser's limit (its error averaged over the keyframes, at the
+                        camera: "truth-limit" lines) and the cameras' poses relative to each other against the
+                        truth ("truth-relative" lines), the map's coverage of each camera's image lines
+                        ("truth-coverage" lines) and how much of an accepted camera's error its lines' true offsets
+                        explain, all, wrong matches and right ones (linearised through the refinement:
+                        "truth-line-shift" lines), and where each of the ambiguity test's alternatives ended
+                        ("truth-alternative" lines)
   --coverage-diagnosis WORLD
                         with --truth-dir: per image line the map lacks, why (the simulator's WORLD file rendered
                         at each keyframe: never in the Xtion's view (-mount: at a height the mount has nowhere in
