@@ -144,8 +144,10 @@ Options:
                         the ambiguity test also redoes the matching from the accepted camera moved by SHARE of the
                         scene's depth towards the faces and corners of a cube around it (params
                         ambiguity/neighbourhood_share; default 0.05; 0: only the map's repetitions are tried)
-  --truth-dir DIR       the simulator's truth folder (<bag>_truth; with several bags, that of any of them, as the
-                        building and cameras are the same, but without the localiser's truth lines): also report,
+  --truth-dir DIR[,DIR ...]
+                        the simulator's truth folder (<bag>_truth); with several bags, one per bag in their order,
+                        or one of them (the building and cameras are the same; then without the localiser's lines
+                        "truth-limit" and "truth-keyframes", which need each recording's own errors): also report,
                         per camera, how many matches pair the wrong edges and how far the matched map lines are
                         from the true edges, the localiser's limit (its error averaged over the keyframes, at the
                         camera: "truth-limit" lines) and the cameras' poses relative to each other against the
@@ -255,6 +257,52 @@ void reportAlternativesAgainstTruth(const ic::CameraModel& truth, const ic::View
   }
 }
 
+// --truth-dir's folders: one, or one per bag (each recording's own localiser errors).
+std::vector<std::string> truthDirs(const ic::CommandLine& cli)
+{
+  std::vector<std::string> dirs;
+  std::stringstream list(cli.value("truth-dir"));
+  for (std::string dir; std::getline(list, dir, ',');)
+    if (!dir.empty())
+      dirs.push_back(dir);
+  return dirs;
+}
+
+// The building's and cameras' truth: the first folder (every recording's is the same).
+std::string truthDir(const ic::CommandLine& cli)
+{
+  const auto dirs = truthDirs(cli);
+  return dirs.empty() ? std::string() : dirs.front();
+}
+
+// Each keyframe's localiser error from its own recording's localization.yaml (the folders in the bags' order);
+// nothing when the folders do not match the recordings one to one or a file is missing.
+std::optional<std::vector<ic::simulation::Pose2d>> keyframeLocalizationErrors(const std::vector<std::string>& dirs,
+                                                                              const ic::Survey& survey)
+{
+  std::vector<std::vector<ic::simulation::LocalizationSample>> recordings;
+  for (const auto& dir : dirs)
+  {
+    auto loaded = ic::simulation::loadLocalizationErrors(dir + "/localization.yaml");
+    if (!loaded || loaded->empty())
+      return std::nullopt;
+    recordings.push_back(std::move(*loaded));
+  }
+  std::vector<ic::simulation::Pose2d> errors;
+  size_t recording = 0;
+  for (const auto& kf : survey.keyframes())
+  {
+    if (kf.starts_recording && !errors.empty())
+      ++recording;
+    if (recording >= recordings.size())
+      return std::nullopt;
+    errors.push_back(ic::simulation::nearestLocalizationSample(recordings[recording], kf.stamp).error);
+  }
+  if (recording + 1 != recordings.size())
+    return std::nullopt;
+  return errors;
+}
+
 // Diagnostics against the simulator's truth: the true edge of each matched image line (under the true camera) and
 // of each matched map line; a match is wrong when they differ.
 void reportAgainstTruth(const std::string& truth_dir, const std::string& name, const ic::FixedCameraResult& result,
@@ -327,20 +375,15 @@ void reportRefusedAgainstTruth(const std::string& truth_dir, const std::string& 
 
 // The keyframes' pose errors (x, y, yaw) before and after the map adjustment: RMS and mean (the survey's
 // placement error), from the localiser's error of the truth and the adjustment's corrections.
-void reportKeyframesAgainstTruth(const std::vector<ic::simulation::LocalizationSample>& errors,
-                                 const ic::Survey& survey)
+void reportKeyframesAgainstTruth(const std::vector<ic::simulation::Pose2d>& errors, const ic::Survey& survey)
 {
   const auto corrections = survey.poseCorrections();
   Eigen::Vector3d sum_before = Eigen::Vector3d::Zero(), sum_after = sum_before, sq_before = sum_before,
                   sq_after = sum_before;
   size_t n = 0;
-  for (size_t k = 0; k < survey.keyframes().size(); ++k)
+  for (size_t k = 0; k < survey.keyframes().size() && k < errors.size(); ++k)
   {
-    const double stamp = survey.keyframes()[k].stamp;
-    const auto it = std::min_element(errors.begin(), errors.end(), [&](const auto& a, const auto& b) {
-      return std::abs(a.stamp - stamp) < std::abs(b.stamp - stamp);
-    });
-    const Eigen::Vector3d before(it->error.x, it->error.y, it->error.yaw);
+    const Eigen::Vector3d before(errors[k].x, errors[k].y, errors[k].yaw);
     const Eigen::Vector3d after = before + Eigen::Vector3d(corrections[k].x, corrections[k].y, corrections[k].yaw);
     sum_before += before;
     sum_after += after;
@@ -462,19 +505,14 @@ void reportMapLinesAgainstTruth(const std::vector<ic::simulation::TrueEdge>& edg
 }
 
 // Per calibrated camera the localiser's limit at it, and per pair of calibrated cameras their relative pose's error.
-// one_recording: the truth's localiser errors (by stamp) are the one bag's; with several bags they are not used.
-void reportMapAgainstTruth(const std::string& truth_dir, const ic::Survey& survey, bool one_recording)
+// The limit needs each keyframe's localiser error (keyframeLocalizationErrors).
+void reportMapAgainstTruth(const std::vector<std::string>& truth_dirs, const ic::Survey& survey)
 {
-  std::optional<std::vector<ic::simulation::LocalizationSample>> errors;
-  if (auto loaded = ic::simulation::loadLocalizationErrors(truth_dir + "/localization.yaml"); loaded && one_recording)
-    errors = std::move(*loaded);
-  std::vector<double> stamps;
+  const std::string& truth_dir = truth_dirs.front();
+  const auto errors = keyframeLocalizationErrors(truth_dirs, survey);
   std::vector<Eigen::Vector3d> pivots;
   for (const auto& kf : survey.keyframes())
-  {
-    stamps.push_back(kf.stamp);
     pivots.push_back(kf.T_map_camera.translation());
-  }
   if (errors)
     reportKeyframesAgainstTruth(*errors, survey);
   std::vector<std::pair<std::string, ic::CameraPose>> found, truths;
@@ -488,7 +526,7 @@ void reportMapAgainstTruth(const std::string& truth_dir, const ic::Survey& surve
     truths.push_back({name, truth->camera.pose()});
     if (errors)
     {
-      const auto limit = ic::simulation::placementLimit(*errors, stamps, pivots, truth->camera.pose().center());
+      const auto limit = ic::simulation::placementLimit(*errors, pivots, truth->camera.pose().center());
       std::printf("truth-limit %s %.2f mm %.4f deg\n", name.c_str(), 1000.0 * limit.position_m,
                   limit.rotation_rad * 180.0 / M_PI);
     }
@@ -1297,7 +1335,7 @@ bool loadCameras(const ic::CommandLine& cli, std::vector<ic::FixedCameraConfig>*
     (*camera_of_topic)[entry.camera.image_topic] = entry.camera.name;
     if (prior_offsets.empty() || !entry.camera.prior)
       continue;
-    const auto prior = priorFromTruth(cli.value("truth-dir"), entry.camera.name, *entry.camera.prior, prior_offsets,
+    const auto prior = priorFromTruth(truthDir(cli), entry.camera.name, *entry.camera.prior, prior_offsets,
                                       numbers(cli.value("prior-sigmas")), rng);
     if (!prior)
     {
@@ -1429,7 +1467,7 @@ bool calibrateAndSave(const ic::CommandLine& cli, ic::Survey& survey, const std:
     if (camera.lastRefused())
       writeReport(cli, survey, name, map, *camera.lastRefused(), result.error().describe());
     if (cli.has("truth-dir") && camera.lastRefused())
-      reportRefusedAgainstTruth(cli.value("truth-dir"), name, *camera.lastRefused());
+      reportRefusedAgainstTruth(truthDir(cli), name, *camera.lastRefused());
     return false;
   }
   const ic::CalibrationStore store(cli.value("out-dir"));
@@ -1451,7 +1489,7 @@ bool calibrateAndSave(const ic::CommandLine& cli, ic::Survey& survey, const std:
   {
     ic::RefinementOptions refinement = survey.options().cameras.matcher.calibration.refinement;
     refinement.estimate_distortion = result->calibration.distortion_estimated;
-    reportAgainstTruth(cli.value("truth-dir"), name, *result, refinement);
+    reportAgainstTruth(truthDir(cli), name, *result, refinement);
   }
   return true;
 }
@@ -1469,9 +1507,9 @@ int calibrateCameras(const ic::CommandLine& cli, ic::Survey& survey)
   {
     for (const auto& name : survey.cameraNames())
       if (selected(name))
-        reportCoverageAgainstTruth(cli.value("truth-dir"), survey, name, map, cli.value("coverage-diagnosis"));
+        reportCoverageAgainstTruth(truthDir(cli), survey, name, map, cli.value("coverage-diagnosis"));
     auto of = [](ic::MapLineSource source) { return [source](const ic::MapLine& l) { return l.source == source; }; };
-    const std::string truth_dir = cli.value("truth-dir");
+    const std::string truth_dir = truthDir(cli);
     if (survey.options().triangulated.enabled)
       reportSourceAgainstTruth(truth_dir, survey, of(ic::MapLineSource::kTriangulated), "triangulated");
     if (survey.options().ceiling.enabled)
@@ -1481,8 +1519,8 @@ int calibrateCameras(const ic::CommandLine& cli, ic::Survey& survey)
     if (survey.options().map.max_fusion_sigma_m > 0.0)
       reportSourceAgainstTruth(
           truth_dir, survey, [](const ic::MapLine& l) { return l.fused; }, "fused");
-    reportMapAgainstTruth(cli.value("truth-dir"), survey, cli.positional().size() == 1);
-    if (const auto edges = ic::simulation::loadTrueEdges(cli.value("truth-dir") + "/edges.yaml"))
+    reportMapAgainstTruth(truthDirs(cli), survey);
+    if (const auto edges = ic::simulation::loadTrueEdges(truthDir(cli) + "/edges.yaml"))
     {
       std::vector<ic::Segment3d> segments;
       for (const auto& e : *edges)
@@ -1496,7 +1534,7 @@ int calibrateCameras(const ic::CommandLine& cli, ic::Survey& survey)
       if (selected(name))
       {
         std::printf("%s:\n", name.c_str());
-        oracleCalibration(cli.value("truth-dir"), name, survey.camera(name), map, survey.options().cameras,
+        oracleCalibration(truthDir(cli), name, survey.camera(name), map, survey.options().cameras,
                           survey.usedMapLines(), cli.flag("oracle-details"));
       }
   return status;
@@ -1557,6 +1595,12 @@ int main(int argc, char** argv)
     std::cerr << "calibrate_survey: "
               << (cli.error().empty() ? "BAG, --cameras and --out-dir are required" : cli.error()) << "\n\n"
               << kUsage;
+    return 2;
+  }
+  if (const size_t dirs = truthDirs(cli).size(); dirs > 1 && dirs != cli.positional().size())
+  {
+    std::cerr << "calibrate_survey: --truth-dir gives " << dirs << " folders for " << cli.positional().size()
+              << " bags: give one per bag, in their order, or one\n";
     return 2;
   }
   ic::SurveyOptions options;

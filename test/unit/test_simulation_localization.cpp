@@ -82,3 +82,26 @@ TEST(Localization, PlacementLimitIsTheAveragedError)
   EXPECT_NEAR(turned.rotation_rad, 0.01, 1e-12);
   EXPECT_NEAR(turned.position_m, 2.0 * 2.0 * std::sin(0.005), 1e-9);  // the chord of a 0.01 rad turn at 2 m
 }
+
+// Two recordings whose clocks overlap: each keyframe's error is its own recording's, the limit their average.
+TEST(Localization, PlacementLimitOverRecordingsAveragesEveryKeyframesOwnError)
+{
+  const std::vector<sim::LocalizationSample> first = {{1.0, {0.02, 0.0, 0.0}}, {2.0, {0.04, 0.0, 0.0}}};
+  const std::vector<sim::LocalizationSample> second = {{1.0, {-0.02, 0.01, 0.0}}, {2.0, {0.0, 0.01, 0.0}}};
+  EXPECT_DOUBLE_EQ(sim::nearestLocalizationSample(first, 1.4).error.x, 0.02);
+  EXPECT_DOUBLE_EQ(sim::nearestLocalizationSample(first, 1.6).error.x, 0.04);
+  EXPECT_DOUBLE_EQ(sim::nearestLocalizationSample(first, 9.0).error.x, 0.04);
+  EXPECT_DOUBLE_EQ(sim::nearestLocalizationSample(second, -3.0).error.x, -0.02);
+  const std::vector<sim::Pose2d> keyframes = {
+      sim::nearestLocalizationSample(first, 1.0).error, sim::nearestLocalizationSample(first, 2.0).error,
+      sim::nearestLocalizationSample(second, 1.0).error, sim::nearestLocalizationSample(second, 2.0).error};
+  const std::vector<Eigen::Vector3d> pivots(4, Eigen::Vector3d::Zero());
+  const auto limit = sim::placementLimit(keyframes, pivots, Eigen::Vector3d(3.0, 1.0, 2.0));
+  EXPECT_NEAR(limit.position_m, std::hypot(0.01, 0.005), 1e-12);  // mean x (0.02 + 0.04 - 0.02 + 0) / 4, mean y
+  // One recording alone, by stamps, is the same as by its keyframes' errors.
+  const auto by_stamps = sim::placementLimit(first, {1.0, 2.0}, {pivots[0], pivots[1]}, Eigen::Vector3d::Zero());
+  const auto by_keyframes =
+      sim::placementLimit({keyframes[0], keyframes[1]}, {pivots[0], pivots[1]}, Eigen::Vector3d::Zero());
+  EXPECT_DOUBLE_EQ(by_stamps.position_m, by_keyframes.position_m);
+  EXPECT_NEAR(by_stamps.position_m, 0.03, 1e-12);
+}

@@ -182,6 +182,12 @@ struct PlacementLimit
 };
 PlacementLimit placementLimit(const std::vector<LocalizationSample>& errors, const std::vector<double>& stamps,
                               const std::vector<Eigen::Vector3d>& pivots, const Eigen::Vector3d& point);
+// The same from each keyframe's own localiser error (a survey in several recordings: each its own errors).
+PlacementLimit placementLimit(const std::vector<Pose2d>& keyframe_errors, const std::vector<Eigen::Vector3d>& pivots,
+                              const Eigen::Vector3d& point);
+
+// The sample nearest in time to stamp (errors sorted by stamp, not empty).
+const LocalizationSample& nearestLocalizationSample(const std::vector<LocalizationSample>& errors, double stamp);
 
 }  // namespace simulation
 }  // namespace insitu_calibration

@@ -401,29 +401,43 @@ Expected<std::vector<LocalizationSample>> loadLocalizationErrors(const std::stri
   }
 }
 
+const LocalizationSample& nearestLocalizationSample(const std::vector<LocalizationSample>& errors, double stamp)
+{
+  const auto it = std::lower_bound(errors.begin(), errors.end(), stamp,
+                                   [](const LocalizationSample& s, double t) { return s.stamp < t; });
+  if (it == errors.end() || (it != errors.begin() && std::abs((it - 1)->stamp - stamp) < it->stamp - stamp))
+    return *(it - 1);
+  return *it;
+}
+
 PlacementLimit placementLimit(const std::vector<LocalizationSample>& errors, const std::vector<double>& stamps,
                               const std::vector<Eigen::Vector3d>& pivots, const Eigen::Vector3d& point)
 {
+  if (errors.empty())
+    return {};
+  std::vector<Pose2d> keyframe_errors;
+  for (double stamp : stamps)
+    keyframe_errors.push_back(nearestLocalizationSample(errors, stamp).error);
+  return placementLimit(keyframe_errors, pivots, point);
+}
+
+PlacementLimit placementLimit(const std::vector<Pose2d>& keyframe_errors, const std::vector<Eigen::Vector3d>& pivots,
+                              const Eigen::Vector3d& point)
+{
   PlacementLimit limit;
-  if (errors.empty() || stamps.empty())
+  const size_t n = std::min(keyframe_errors.size(), pivots.size());
+  if (n == 0)
     return limit;
   Eigen::Vector2d shift = Eigen::Vector2d::Zero();
-  for (size_t k = 0; k < stamps.size() && k < pivots.size(); ++k)
+  for (size_t k = 0; k < n; ++k)
   {
-    // The sample nearest in time.
-    const auto it = std::lower_bound(errors.begin(), errors.end(), stamps[k],
-                                     [](const LocalizationSample& s, double t) { return s.stamp < t; });
-    const LocalizationSample& e =
-        (it == errors.end() || (it != errors.begin() && std::abs((it - 1)->stamp - stamps[k]) < it->stamp - stamps[k]))
-            ? *(it - 1)
-            : *it;
+    const Pose2d& e = keyframe_errors[k];
     const Eigen::Vector2d arm = (point - pivots[k]).head<2>();
-    shift += (Eigen::Rotation2Dd(e.error.yaw) * arm - arm) + Eigen::Vector2d(e.error.x, e.error.y);
-    limit.rotation_rad += e.error.yaw;
+    shift += (Eigen::Rotation2Dd(e.yaw) * arm - arm) + Eigen::Vector2d(e.x, e.y);
+    limit.rotation_rad += e.yaw;
   }
-  const double n = static_cast<double>(std::min(stamps.size(), pivots.size()));
-  limit.position_m = shift.norm() / n;
-  limit.rotation_rad = std::abs(limit.rotation_rad) / n;
+  limit.position_m = shift.norm() / static_cast<double>(n);
+  limit.rotation_rad = std::abs(limit.rotation_rad) / static_cast<double>(n);
   return limit;
 }
 
