@@ -465,7 +465,8 @@ TEST_F(SurveyGuidanceTest, AnXtionThatCannotSeeTheStructureSaysSo)
     for (const auto& rg : g.regions)
       out_of_reach += rg.outOfXtionReach(options.min_xtion_share) ? 1 : 0;
     const std::string sentence = g.sentence();
-    const std::string advice = " for this camera, or calibrate it from CAD lines)";
+    const std::string advice =
+        " for a second drive, keeping the first one's recording, or calibrate this camera from CAD lines)";
     for (size_t at = sentence.find(advice); at != std::string::npos; at = sentence.find(advice, at + 1))
       ++says;
     EXPECT_EQ(says, out_of_reach) << r.camera->name;

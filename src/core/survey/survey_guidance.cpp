@@ -529,7 +529,8 @@ std::string xtionAdvice(const UnmappedRegion& r)
                   "(not on furniture above the floor), ",
                   r.structure_min_height_m, r.xtion.height_m, r.xtion.pitch_deg, r.xtion.lowestInReach(r.xtion_reach_m),
                   r.xtion_reach_m);
-  return std::string(what) + xtionRemedy(r, true) + " for this camera, or calibrate it from CAD lines)";
+  return std::string(what) + xtionRemedy(r, true) +
+         " for a second drive, keeping the first one's recording, or calibrate this camera from CAD lines)";
 }
 }  // namespace
 
