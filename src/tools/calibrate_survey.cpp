@@ -257,21 +257,11 @@ void reportAlternativesAgainstTruth(const ic::CameraModel& truth, const ic::View
   }
 }
 
-// --truth-dir's folders: one, or one per bag (each recording's own localiser errors).
-std::vector<std::string> truthDirs(const ic::CommandLine& cli)
-{
-  std::vector<std::string> dirs;
-  std::stringstream list(cli.value("truth-dir"));
-  for (std::string dir; std::getline(list, dir, ',');)
-    if (!dir.empty())
-      dirs.push_back(dir);
-  return dirs;
-}
-
-// The building's and cameras' truth: the first folder (every recording's is the same).
+// The building's and cameras' truth: the first of --truth-dir's folders (one, or one per bag: every recording's
+// building and cameras are the same).
 std::string truthDir(const ic::CommandLine& cli)
 {
-  const auto dirs = truthDirs(cli);
+  const auto dirs = cli.items("truth-dir");
   return dirs.empty() ? std::string() : dirs.front();
 }
 
@@ -1519,7 +1509,7 @@ int calibrateCameras(const ic::CommandLine& cli, ic::Survey& survey)
     if (survey.options().map.max_fusion_sigma_m > 0.0)
       reportSourceAgainstTruth(
           truth_dir, survey, [](const ic::MapLine& l) { return l.fused; }, "fused");
-    reportMapAgainstTruth(truthDirs(cli), survey);
+    reportMapAgainstTruth(cli.items("truth-dir"), survey);
     if (const auto edges = ic::simulation::loadTrueEdges(truthDir(cli) + "/edges.yaml"))
     {
       std::vector<ic::Segment3d> segments;
@@ -1597,7 +1587,7 @@ int main(int argc, char** argv)
               << kUsage;
     return 2;
   }
-  if (const size_t dirs = truthDirs(cli).size(); dirs > 1 && dirs != cli.positional().size())
+  if (const size_t dirs = cli.items("truth-dir").size(); dirs > 1 && dirs != cli.positional().size())
   {
     std::cerr << "calibrate_survey: --truth-dir gives " << dirs << " folders for " << cli.positional().size()
               << " bags: give one per bag, in their order, or one\n";

@@ -73,6 +73,16 @@ public:
     const auto it = values_.find(name);
     return it == values_.end() ? fallback : it->second;
   }
+  // The items of a comma-separated value (e.g. several files), empty ones left out.
+  std::vector<std::string> items(const std::string& name) const
+  {
+    std::vector<std::string> out;
+    std::stringstream list(value(name));
+    for (std::string item; std::getline(list, item, ',');)
+      if (!item.empty())
+        out.push_back(item);
+    return out;
+  }
   // Numbers: sets error() when the value is not a number.
   double number(const std::string& name, double fallback)
   {

@@ -2,7 +2,6 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
-#include <sstream>
 
 #include "command_line.h"
 #include "insitu_calibration/io/atomic_file.h"
@@ -65,12 +64,12 @@ Example:
   generate_world --seed 101 --out /tmp/w2.yaml --max-route-s 40 --visit-hints /tmp/out/cam_a_survey_hint.yaml
 )";
 
-// The hint files of a comma-separated list.
-insitu_calibration::Expected<std::vector<insitu_calibration::SurveyHint>> readHints(const std::string& list)
+// The hint files, in order.
+insitu_calibration::Expected<std::vector<insitu_calibration::SurveyHint>> readHints(
+    const std::vector<std::string>& paths)
 {
   std::vector<insitu_calibration::SurveyHint> hints;
-  std::stringstream files(list);
-  for (std::string path; std::getline(files, path, ',');)
+  for (const std::string& path : paths)
   {
     auto hint = insitu_calibration::readSurveyHint(path);
     if (!hint)
@@ -154,7 +153,7 @@ std::string parseOptions(insitu_calibration::CommandLine& cli, sim::WorldGenerat
   std::vector<insitu_calibration::SurveyHint> hints;
   if (problem.empty() && cli.has("visit-hints"))
   {
-    const auto read = readHints(cli.value("visit-hints"));
+    const auto read = readHints(cli.items("visit-hints"));
     if (read)
       hints = *read;
     else
