@@ -41,7 +41,7 @@ std::string CalibrationServer::publishSurveyGuidance(const std::string& name, co
   {
     std::lock_guard<std::mutex> lock(mutex_);
     image_lines = survey_->options().cameras.image_lines;
-    options.xtion = xtionViewOf(survey_->keyframes(), survey_->options().floor.floor_height_m);
+    options.xtions = xtionViewsOf(survey_->keyframes(), survey_->options().floor.floor_height_m);
     options.visited = visitedPositions(survey_->keyframes());
   }
   options.max_regions = std::min<size_t>(options.max_regions, kMaxHintRegions);

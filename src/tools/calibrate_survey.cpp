@@ -587,19 +587,20 @@ void printUncertainObservations(const ic::Survey& survey, const ic::Segment3d& p
       information > 0.0 ? 1000.0 / std::sqrt(information) : NAN);
 }
 
-// Why the map lacks an edge a fixed camera shows (issue 11's diagnosis): never in the Xtion's view (at a height the
-// mount has nowhere in view within the depth range, or one a route could have brought into view), in view without
+// Why the map lacks an edge a fixed camera shows (issue 11's diagnosis): never in the Xtion's view (at a height no
+// mount has in view within the depth range, or one a route could have brought into view), in view without
 // depth (beyond its range, or grazing), or with depth and lost on the way to the map: no keyframe made a 3D line of
 // it, its keyframes' lines were all too uncertain for the map (LineMapOptions::max_sigma_m), or the map holds it
 // but leaves it out (support, spread) or holds it more than 1 cm off.
 std::string missingCause(const ic::simulation::EdgeSightings& sight, const ic::Survey& survey,
-                         const ic::Segment3d& part, double max_range_m, const std::optional<ic::XtionView>& xtion)
+                         const ic::Segment3d& part, double max_range_m, const std::vector<ic::XtionView>& xtions)
 {
   if (sight.in_view == 0)
   {
     const double z = 0.5 * (part.a.z() + part.b.z()) - survey.options().floor.floor_height_m;
-    const bool out_of_mount =
-        xtion && (z > xtion->highestInReach(max_range_m) || z < xtion->lowestInReach(max_range_m));
+    const bool out_of_mount = !xtions.empty() && std::none_of(xtions.begin(), xtions.end(), [&](const auto& x) {
+      return z <= x.highestInReach(max_range_m) && z >= x.lowestInReach(max_range_m);
+    });
     return out_of_mount ? "never-in-view-mount" : "never-in-view";
   }
   if (sight.with_depth == 0)
@@ -647,11 +648,11 @@ void diagnoseMissingEdges(const ic::simulation::World& world, const ic::Survey& 
   for (const auto& kf : survey.keyframes())
     poses.push_back(kf.T_map_camera);
   const auto sightings = ic::simulation::sightSegments(world, parts, poses);
-  const auto xtion = ic::xtionViewOf(survey.keyframes(), survey.options().floor.floor_height_m);
+  const auto xtions = ic::xtionViewsOf(survey.keyframes(), survey.options().floor.floor_height_m);
   std::map<std::string, double> by_cause;
   for (size_t i = 0; i < parts.size(); ++i)
   {
-    const std::string cause = missingCause(sightings[i], survey, parts[i], world.xtion.depth.max_range_m, xtion);
+    const std::string cause = missingCause(sightings[i], survey, parts[i], world.xtion.depth.max_range_m, xtions);
     by_cause[cause] += lines[i]->length_px;
     const auto& a = parts[i].a;
     const auto& b = parts[i].b;
@@ -1399,7 +1400,7 @@ void reportRefusal(const ic::CommandLine& cli, const ic::Survey& survey, const s
                    const std::vector<ic::Segment3d>& map, const ic::Error& error)
 {
   ic::SurveyGuidanceOptions options;
-  options.xtion = ic::xtionViewOf(survey.keyframes(), survey.options().floor.floor_height_m);
+  options.xtions = ic::xtionViewsOf(survey.keyframes(), survey.options().floor.floor_height_m);
   options.visited = ic::visitedPositions(survey.keyframes());
   const auto guidance = ic::guideSurvey(survey.camera(name), map, survey.options().cameras.image_lines, options);
   if (!guidance)

@@ -411,7 +411,7 @@ TEST_F(SurveyGuidanceTest, TheStandpointBringsTheMissingStructureIntoTheXtionsVi
   {
     const HalfSurvey h = leftHalfUnmapped(*world_, r);
     ic::SurveyGuidanceOptions plain, aware;
-    aware.xtion = level;
+    aware.xtions.push_back(level);
     const auto before = ic::computeSurveyGuidance(r.camera->camera, r.camera->width, r.camera->height, r.lines, h.kept,
                                                   plain.tolerance_px, plain);
     const auto after = ic::computeSurveyGuidance(r.camera->camera, r.camera->width, r.camera->height, r.lines, h.kept,
@@ -448,7 +448,7 @@ TEST_F(SurveyGuidanceTest, AnXtionThatCannotSeeTheStructureSaysSo)
   {
     const HalfSurvey h = leftHalfUnmapped(*world_, r);
     ic::SurveyGuidanceOptions options;
-    options.xtion = low;
+    options.xtions.push_back(low);
     const auto g = ic::computeSurveyGuidance(r.camera->camera, r.camera->width, r.camera->height, r.lines, h.kept,
                                              options.tolerance_px, options);
     ASSERT_FALSE(g.regions.empty()) << r.camera->name;
@@ -494,6 +494,53 @@ TEST_F(SurveyGuidanceTest, AnXtionThatCannotSeeTheStructureSaysSo)
   EXPECT_GE(told, 1u);  // cam_desk's left half: mostly its far wall
 }
 
+// A survey driven at two mounts: a region the low one misses but the pitched-up one sees is in reach (nothing to
+// advise), and a region both miss is advised from the mount that sees highest, for another drive.
+TEST_F(SurveyGuidanceTest, ARegionIsOutOfReachOnlyWhenEveryMountMissesIt)
+{
+  const ic::XtionView low{0.3, -20.0, 22.5, 29.0};     // nothing above 0.33 m within 4 m
+  const ic::XtionView up{0.3, 25.0, 22.5, 29.0};       // 0 to 3.3 m within 4 m
+  const ic::XtionView lower{0.25, -25.0, 22.5, 29.0};  // nothing above 0.25 m
+  size_t told = 0;
+  for (const RenderedCamera& r : *cameras_)
+  {
+    const HalfSurvey h = leftHalfUnmapped(*world_, r);
+    auto guide = [&](const std::vector<ic::XtionView>& xtions) {
+      ic::SurveyGuidanceOptions options;
+      options.xtions = xtions;
+      return ic::computeSurveyGuidance(r.camera->camera, r.camera->width, r.camera->height, r.lines, h.kept,
+                                       options.tolerance_px, options);
+    };
+    const auto alone = guide({low}), both = guide({low, up}), missed = guide({lower, low});
+    ASSERT_FALSE(alone.regions.empty() || both.regions.empty() || missed.regions.empty()) << r.camera->name;
+    const double min_share = ic::SurveyGuidanceOptions().min_xtion_share;
+    if (!alone.regions.front().outOfXtionReach(min_share))
+      continue;
+    ++told;
+    std::printf("%s: low mount alone: %s\nlower and low: %s\n", r.camera->name.c_str(), alone.sentence().c_str(),
+                missed.sentence().c_str());
+    EXPECT_FALSE(both.regions.front().outOfXtionReach(min_share)) << both.sentence();
+    EXPECT_GE(both.regions.front().xtionHeightShare(), 0.9) << r.camera->name;
+    EXPECT_EQ(both.sentence().find("pitch the Xtion"), std::string::npos) << both.sentence();
+    const auto& region = missed.regions.front();
+    ASSERT_TRUE(region.outOfXtionReach(min_share)) << missed.sentence();
+    EXPECT_NEAR(region.xtion.pitch_deg, low.pitch_deg, 1e-12);  // the mount that sees highest
+    const auto pitch = low.pitchToSee(0.0, region.camera_height_m, 4.0);
+    ASSERT_TRUE(pitch) << r.camera->name;
+    char advised[64];
+    std::snprintf(advised, sizeof(advised), "pitch the Xtion to about %+.0f deg", std::round(*pitch));
+    const std::string sentence = missed.sentence();
+    EXPECT_NE(sentence.find(advised), std::string::npos) << sentence;
+    EXPECT_NE(sentence.find("at the survey's 2 mounts (0.25 m high pitched -25 deg; 0.30 m high pitched -20 deg)"),
+              std::string::npos)
+        << sentence;
+    EXPECT_NE(sentence.find(" for another drive, keeping the recordings so far, or calibrate"), std::string::npos)
+        << sentence;
+    EXPECT_EQ(sentence.find("second drive"), std::string::npos) << sentence;
+  }
+  EXPECT_GE(told, 1u);
+}
+
 // The pitch that brings a band of heights into the Xtion's view within reach: an Xtion 0.38 m high needs about
 // +14 deg to have the floor and 2.6 m both in view within 4 m (the only pitches that do: their middle); one 1.23 m
 // high pitched +12 deg sees the floor within 4 m from about 0 deg down; 5 m is beyond any pitch at 4 m.
@@ -525,32 +572,51 @@ TEST(XtionViewTest, PitchToSeeABandOfHeights)
   EXPECT_GE(pitched.highestInReach(4.0), 3.9);
 }
 
-// The Xtion's view from keyframes: their median height above the floor and pitch, the field of view from the image.
-TEST(XtionViewTest, FromKeyframes)
+namespace
 {
-  EXPECT_FALSE(ic::xtionViewOf({}, 0.0));
+// A keyframe 640 x 480 at 525 px, at (x, 2, z), the robot facing yaw_deg with the camera pitched pitch_deg.
+ic::Keyframe keyframeAt(double x, double z, double yaw_deg, double pitch_deg)
+{
+  ic::Keyframe kf;
+  kf.focal_px = 525.0;
+  kf.image_width = 640;
+  kf.image_height = 480;
+  const double yaw = yaw_deg * M_PI / 180.0, pitch = pitch_deg * M_PI / 180.0;
+  const Eigen::Matrix3d base =
+      (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(-pitch, Eigen::Vector3d::UnitY()))
+          .toRotationMatrix();
+  Eigen::Matrix3d optical;
+  optical << 0, 0, 1, -1, 0, 0, 0, -1, 0;  // optical axes in the base frame: x right = -y, y down = -z, z = x
+  kf.T_map_camera.linear() = base * optical;
+  kf.T_map_camera.translation() = Eigen::Vector3d(x, 2.0, z);
+  return kf;
+}
+}  // namespace
+
+// The Xtion's views from keyframes, one per mount: per recording the median height above the floor and pitch, the
+// field of view from the image; a recording at an earlier one's mount adds none.
+TEST(XtionViewTest, FromKeyframesOnePerMount)
+{
+  EXPECT_TRUE(ic::xtionViewsOf({}, 0.0).empty());
   std::vector<ic::Keyframe> keyframes;
   for (int k = 0; k < 5; ++k)
-  {
-    ic::Keyframe kf;
-    kf.focal_px = 525.0;
-    kf.image_width = 640;
-    kf.image_height = 480;
-    // Optical frame: z forward, y down; the robot faces +x at yaw k * 30 deg, the camera pitched 12 deg down.
-    const double yaw = k * M_PI / 6.0, pitch = -12.0 * M_PI / 180.0;
-    const Eigen::Matrix3d base =
-        (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(-pitch, Eigen::Vector3d::UnitY()))
-            .toRotationMatrix();
-    Eigen::Matrix3d optical;
-    optical << 0, 0, 1, -1, 0, 0, 0, -1, 0;  // optical axes in the base frame: x right = -y, y down = -z, z = x
-    kf.T_map_camera.linear() = base * optical;
-    kf.T_map_camera.translation() = Eigen::Vector3d(k, 2.0, 0.1 + (k == 4 ? 0.5 : 0.8));
-    keyframes.push_back(kf);
-  }
-  const auto view = ic::xtionViewOf(keyframes, 0.1);
-  ASSERT_TRUE(view);
-  EXPECT_NEAR(view->height_m, 0.8, 1e-9);
-  EXPECT_NEAR(view->pitch_deg, -12.0, 1e-9);
-  EXPECT_NEAR(view->vertical_half_fov_deg, std::atan(240.0 / 525.0) * 180.0 / M_PI, 1e-9);
-  EXPECT_NEAR(view->horizontal_half_fov_deg, std::atan(320.0 / 525.0) * 180.0 / M_PI, 1e-9);
+    keyframes.push_back(keyframeAt(k, 0.1 + (k == 4 ? 0.5 : 0.8), 30.0 * k, -12.0));
+  auto views = ic::xtionViewsOf(keyframes, 0.1);
+  ASSERT_EQ(views.size(), 1u);
+  EXPECT_NEAR(views[0].height_m, 0.8, 1e-9);
+  EXPECT_NEAR(views[0].pitch_deg, -12.0, 1e-9);
+  EXPECT_NEAR(views[0].vertical_half_fov_deg, std::atan(240.0 / 525.0) * 180.0 / M_PI, 1e-9);
+  EXPECT_NEAR(views[0].horizontal_half_fov_deg, std::atan(320.0 / 525.0) * 180.0 / M_PI, 1e-9);
+  // A second recording re-pitched to +10 deg, a third at about the first's mount (1 deg, 3 cm off).
+  for (int recording = 0; recording < 2; ++recording)
+    for (int k = 0; k < 4; ++k)
+    {
+      keyframes.push_back(recording == 0 ? keyframeAt(k, 0.9, 45.0 * k, 10.0) : keyframeAt(k, 0.93, -20.0 * k, -11.0));
+      keyframes.back().starts_recording = k == 0;
+    }
+  views = ic::xtionViewsOf(keyframes, 0.1);
+  ASSERT_EQ(views.size(), 2u);
+  EXPECT_NEAR(views[0].pitch_deg, -12.0, 1e-9);
+  EXPECT_NEAR(views[1].height_m, 0.8, 1e-9);
+  EXPECT_NEAR(views[1].pitch_deg, 10.0, 1e-9);
 }

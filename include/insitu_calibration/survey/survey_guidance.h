@@ -16,14 +16,15 @@
 // robot_clearance_m, looking towards the centroid, so that the Xtion (depth up to about 5 m) sees those surfaces
 // within 1 to 4 m.
 //
-// With the Xtion's view known (XtionView, from the survey's keyframes) the standpoint is chosen for the region's
-// structure instead: each ray's point is also given a height (where it meets the floor, or its height where it
-// leaves the map's extent: a wall), and the standpoint is the one from which the Xtion, at its mount's height and
-// pitch, has most of those points in its view within xtion_reach_m: standoffs from min_standoff_m to
+// With the Xtion's views known (XtionView per mount, from the survey's keyframes) the standpoint is chosen for the
+// region's structure instead: each ray's point is also given a height (where it meets the floor, or its height where
+// it leaves the map's extent: a wall), and the standpoint is the one from which the Xtion, at one of its mounts'
+// heights and pitches, has most of those points in its view within xtion_reach_m: standoffs from min_standoff_m to
 // max_standoff_m, from the camera's side or, where the robot has been, from any side (of the nearly best, the
 // closest to the fixed standpoint). A low Xtion tilted down sees a wall's upper part only from afar, and from
-// nowhere within its depth's reach when the wall is high: when most of a region's points are at such heights
-// (xtionHeightShare() below min_xtion_share) the sentence says how high the Xtion sees and what to do: the pitch
+// nowhere within its depth's reach when the wall is high: when most of a region's points are at heights no mount
+// of the survey has in view (xtionHeightShare() below min_xtion_share) the sentence says how high (low) the Xtion
+// sees and what to do for another drive: the pitch
 // that brings the region's heights (up to the camera's own, for a region above the Xtion) into its view within
 // reach (XtionView::pitchToSee), else a higher (lower) mount, or CAD lines. The points are where the rays meet the
 // floor or the map's extent: furniture in front of them is not known, so the heights are lower bounds (a ray that
@@ -66,9 +67,11 @@ struct XtionView
   std::optional<double> pitchToSee(double low_m, double high_m, double reach_m) const;
 };
 
-// The Xtion's view from the survey's keyframes (the medians of their height and pitch; the field of view from the
-// image size and focal length), the floor at z = floor_height_m; nullopt without keyframes.
-std::optional<XtionView> xtionViewOf(const std::vector<Keyframe>& keyframes, double floor_height_m);
+// The Xtion's views in the survey's keyframes, one per mount: per recording (Keyframe::starts_recording) the medians
+// of its keyframes' height and pitch (the field of view from the image size and focal length), the floor at
+// z = floor_height_m; a recording within 5 cm and 2 deg of an earlier mount adds none (the same mount driven again).
+// Empty without keyframes.
+std::vector<XtionView> xtionViewsOf(const std::vector<Keyframe>& keyframes, double floor_height_m);
 
 // Where the robot has been: the keyframes' Xtion positions (x, y), thinned to one per 0.25 m of the path.
 std::vector<Eigen::Vector2d> visitedPositions(const std::vector<Keyframe>& keyframes);
@@ -91,8 +94,10 @@ struct SurveyGuidanceOptions
   double robot_standoff_m = 2.0;
   double robot_clearance_m = 0.4;  // the robot stands at least this far inside the map lines' extent
   size_t max_regions = 6;          // the largest regions (by unexplained image lines) are kept
-  // The Xtion's view, when known: the standoff is chosen so that it sees the region's structure (above).
-  std::optional<XtionView> xtion;
+  // The Xtion's views, one per mount the survey was driven at (xtionViewsOf), when known: the standoff is chosen so
+  // that one of them sees the region's structure (above), and a region is out of reach only when every mount misses
+  // it. Empty: not known.
+  std::vector<XtionView> xtions;
   double xtion_reach_m = 4.0;  // its depth lines are precise enough for the map within about this range
   double min_standoff_m = 1.0;
   double max_standoff_m = 6.0;
@@ -131,12 +136,16 @@ struct UnmappedRegion
   double structure_min_height_m = 0.0;
   double structure_max_height_m = 0.0;
   double camera_height_m = 0.0;
-  // With the Xtion's view known: the share of those points it sees from the standpoint (-1: not computed), and
-  // the shares that are higher and lower than anything it has in view within its reach, wherever it stands.
+  // With the Xtion's views known: the share of those points one of them sees from the standpoint (-1: not
+  // computed), and the shares that no mount has in view within its reach, wherever it stands: higher than the lowest
+  // mount's highest height (above every view, or between two), or lower than anything in view.
   double xtion_share = -1.0;
   double xtion_above_share = 0.0;
   double xtion_below_share = 0.0;
-  double xtion_reach_m = 0.0;  // the reach and view the shares were computed for
+  double xtion_reach_m = 0.0;  // the reach and views the shares were computed for
+  std::vector<XtionView> xtions;
+  // The mount a new pitch is advised from: for a region above, the one that sees highest; below, the one that sees
+  // lowest.
   XtionView xtion;
   double xtionHeightShare() const { return 1.0 - xtion_above_share - xtion_below_share; }
   bool outOfXtionReach(double min_share) const { return xtion_share >= 0.0 && xtionHeightShare() < min_share; }

@@ -248,28 +248,39 @@ std::vector<Eigen::Vector3d> regionPoints(const CameraModel& camera, const Surve
   return points;
 }
 
-// The share of the points the Xtion has in its view from `stand` looking at `target` (its sweep included), within
-// its reach.
+// Whether the Xtion at one of its mounts has a point in its view from `stand` looking along `look` (its sweep
+// included), within its reach.
+bool inXtionView(const Eigen::Vector3d& p, const Eigen::Vector2d& stand, const Eigen::Vector2d& look,
+                 const std::vector<XtionView>& xtions, const SurveyGuidanceOptions& options)
+{
+  const double deg = 180.0 / M_PI;
+  const Eigen::Vector2d v = p.head<2>() - stand;
+  const double r = v.norm();
+  if (r < 0.3)
+    return false;
+  const double bearing = std::acos(std::clamp(v.dot(look) / (r * look.norm()), -1.0, 1.0)) * deg;
+  for (const XtionView& xtion : xtions)
+  {
+    const double rise = p.z() - xtion.height_m;
+    const double elevation = std::atan2(rise, r) * deg - xtion.pitch_deg;
+    if (std::hypot(r, rise) <= options.xtion_reach_m &&
+        bearing <= xtion.horizontal_half_fov_deg + options.look_sweep_deg &&
+        std::abs(elevation) <= xtion.vertical_half_fov_deg - kXtionFovMarginDeg)
+      return true;
+  }
+  return false;
+}
+
+// The share of the points the Xtion has in its view (at one of its mounts) from `stand` looking at `target`.
 double xtionShare(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector2d& stand,
-                  const Eigen::Vector2d& target, const XtionView& xtion, const SurveyGuidanceOptions& options)
+                  const Eigen::Vector2d& target, const SurveyGuidanceOptions& options)
 {
   const Eigen::Vector2d look = target - stand;
   if (look.norm() < 1e-6 || points.empty())
     return 0.0;
-  const double deg = 180.0 / M_PI;
-  const double max_bearing = xtion.horizontal_half_fov_deg + options.look_sweep_deg;
-  size_t seen = 0;
-  for (const Eigen::Vector3d& p : points)
-  {
-    const Eigen::Vector2d v = p.head<2>() - stand;
-    const double r = v.norm(), rise = p.z() - xtion.height_m;
-    if (r < 0.3 || std::hypot(r, rise) > options.xtion_reach_m)
-      continue;
-    const double bearing = std::acos(std::clamp(v.dot(look) / (r * look.norm()), -1.0, 1.0)) * deg;
-    const double elevation = std::atan2(rise, r) * deg - xtion.pitch_deg;
-    if (bearing <= max_bearing && std::abs(elevation) <= xtion.vertical_half_fov_deg - kXtionFovMarginDeg)
-      ++seen;
-  }
+  const auto seen = std::count_if(points.begin(), points.end(), [&](const Eigen::Vector3d& p) {
+    return inXtionView(p, stand, look, options.xtions, options);
+  });
   return static_cast<double>(seen) / points.size();
 }
 
@@ -282,24 +293,33 @@ Eigen::Vector2d standpointAt(const Eigen::Vector2d& foot, const Eigen::Vector2d&
   return box.clamp(stand, options.map_margin_m + options.robot_clearance_m);
 }
 
-// The shares of the points higher and lower than anything the Xtion has in view within its reach.
+// The shares of the points at heights no mount has in view within its reach: above (higher than the lowest of the
+// mounts' highest heights: above every view, or between two) and below; and the mount a new pitch starts from.
 void measureXtionHeights(const std::vector<Eigen::Vector3d>& points, const SurveyGuidanceOptions& options,
                          UnmappedRegion* region)
 {
-  const XtionView& xtion = *options.xtion;
-  const double top = xtion.highestInReach(options.xtion_reach_m);
-  const double bottom = xtion.lowestInReach(options.xtion_reach_m);
+  const double reach = options.xtion_reach_m;
+  auto inSomeView = [&](double z) {
+    return std::any_of(options.xtions.begin(), options.xtions.end(),
+                       [&](const XtionView& x) { return z >= x.lowestInReach(reach) && z <= x.highestInReach(reach); });
+  };
+  double lowest_top = std::numeric_limits<double>::infinity();
+  for (const XtionView& x : options.xtions)
+    lowest_top = std::min(lowest_top, x.highestInReach(reach));
   size_t above = 0, below = 0;
   for (const Eigen::Vector3d& p : points)
-  {
-    above += p.z() > top ? 1 : 0;
-    below += p.z() < bottom ? 1 : 0;
-  }
+    if (!inSomeView(p.z()))
+      (p.z() > lowest_top ? above : below) += 1;
   const double n = std::max<size_t>(1, points.size());
   region->xtion_above_share = above / n;
   region->xtion_below_share = below / n;
-  region->xtion_reach_m = options.xtion_reach_m;
-  region->xtion = xtion;
+  region->xtion_reach_m = reach;
+  region->xtions = options.xtions;
+  const bool up = above >= below;
+  region->xtion =
+      *std::max_element(options.xtions.begin(), options.xtions.end(), [&](const XtionView& a, const XtionView& b) {
+        return up ? a.highestInReach(reach) < b.highestInReach(reach) : a.lowestInReach(reach) > b.lowestInReach(reach);
+      });
 }
 
 // Whether the robot has been within visited_radius_m of a point (any point, when where it has been is not known).
@@ -341,8 +361,8 @@ Eigen::Vector2d chooseStandpoint(const std::vector<Eigen::Vector3d>& points, con
           k == 0 ? standpointAt(foot, target, toward, d, box, options) : box.clamp(target + d * away, inset);
       if (k != 0 && !nearVisited(stand, options))
         continue;
-      candidates.push_back({stand, xtionShare(points, stand, target, *options.xtion, options),
-                            std::abs(d - options.robot_standoff_m) + std::abs(turn)});
+      candidates.push_back(
+          {stand, xtionShare(points, stand, target, options), std::abs(d - options.robot_standoff_m) + std::abs(turn)});
     }
   }
   double best = 0.0;
@@ -383,7 +403,7 @@ void placeOnFloor(const CameraModel& camera, const SurveyGuidance& g, const Floo
   if (d.norm() < 1e-6)
     d = (camera.pose().rotation.transpose() * Eigen::Vector3d::UnitZ()).head<2>();
   const Eigen::Vector2d toward = d.norm() > 1e-9 ? Eigen::Vector2d(d.normalized()) : Eigen::Vector2d::UnitX();
-  if (options.xtion)
+  if (!options.xtions.empty())
   {
     measureXtionHeights(points, options, region);
     region->robot_position = chooseStandpoint(points, foot, target, toward, box, options, region);
@@ -509,28 +529,48 @@ std::string xtionRemedy(const UnmappedRegion& r, bool with_band)
   return std::string(text) + band;
 }
 
-// What to do about a region mostly higher or lower than the Xtion sees within its reach (a region below: its heights
-// are lower bounds, furniture unknown, hence "if").
+// The survey's mounts: "0.60 m high and pitched +10 deg", or "at its mounts of the survey (0.60 m high pitched
+// +10 deg; 0.60 m high pitched -10 deg)".
+std::string describeMounts(const UnmappedRegion& r)
+{
+  char text[96];
+  if (r.xtions.size() <= 1)
+  {
+    std::snprintf(text, sizeof(text), "%.2f m high and pitched %+.0f deg", r.xtion.height_m, r.xtion.pitch_deg);
+    return text;
+  }
+  std::string out = "at the survey's " + std::to_string(r.xtions.size()) + " mounts (";
+  for (size_t k = 0; k < r.xtions.size(); ++k)
+  {
+    std::snprintf(text, sizeof(text), "%s%.2f m high pitched %+.0f deg", k == 0 ? "" : "; ", r.xtions[k].height_m,
+                  r.xtions[k].pitch_deg);
+    out += text;
+  }
+  return out + ")";
+}
+
+// What to do about a region mostly higher or lower than every mount of the Xtion sees within its reach (a region
+// below: its heights are lower bounds, furniture unknown, hence "if").
 std::string xtionAdvice(const UnmappedRegion& r)
 {
   const bool above = r.xtion_above_share >= r.xtion_below_share;
-  char what[320];
+  const std::string mounts = describeMounts(r);
+  char what[448];
   if (above)
-    std::snprintf(
-        what, sizeof(what),
-        " (but what it shows reaches at least %.1f m high (the camera hangs at %.1f m), and the Xtion, %.2f m "
-        "high and pitched %+.0f deg, has nothing above %.1f m in view within its depth's reach (%.0f m): ",
-        r.structure_max_height_m, r.camera_height_m, r.xtion.height_m, r.xtion.pitch_deg,
-        r.xtion.highestInReach(r.xtion_reach_m), r.xtion_reach_m);
+    std::snprintf(what, sizeof(what),
+                  " (but what it shows reaches at least %.1f m high (the camera hangs at %.1f m), and the Xtion, %s, "
+                  "has nothing above %.1f m in view within its depth's reach (%.0f m): ",
+                  r.structure_max_height_m, r.camera_height_m, mounts.c_str(), r.xtion.highestInReach(r.xtion_reach_m),
+                  r.xtion_reach_m);
   else
     std::snprintf(what, sizeof(what),
-                  " (but what it shows reaches down to %.1f m, and the Xtion, %.2f m high and pitched %+.0f deg, has "
-                  "nothing below %.1f m in view within its depth's reach (%.0f m): if the region's lines are that low "
-                  "(not on furniture above the floor), ",
-                  r.structure_min_height_m, r.xtion.height_m, r.xtion.pitch_deg, r.xtion.lowestInReach(r.xtion_reach_m),
-                  r.xtion_reach_m);
-  return std::string(what) + xtionRemedy(r, true) +
-         " for a second drive, keeping the first one's recording, or calibrate this camera from CAD lines)";
+                  " (but what it shows reaches down to %.1f m, and the Xtion, %s, has nothing below %.1f m in view "
+                  "within its depth's reach (%.0f m): if the region's lines are that low (not on furniture above the "
+                  "floor), ",
+                  r.structure_min_height_m, mounts.c_str(), r.xtion.lowestInReach(r.xtion_reach_m), r.xtion_reach_m);
+  const char* drive = r.xtions.size() > 1 ? " for another drive, keeping the recordings so far, "
+                                          : " for a second drive, keeping the first one's recording, ";
+  return std::string(what) + xtionRemedy(r, true) + drive + "or calibrate this camera from CAD lines)";
 }
 }  // namespace
 
@@ -562,22 +602,46 @@ std::vector<Eigen::Vector2d> visitedPositions(const std::vector<Keyframe>& keyfr
   return out;
 }
 
-std::optional<XtionView> xtionViewOf(const std::vector<Keyframe>& keyframes, double floor_height_m)
+namespace
+{
+// One recording's view: the medians of its keyframes' height, pitch and field of view; nullopt without intrinsics.
+std::optional<XtionView> recordingView(std::vector<Keyframe>::const_iterator begin,
+                                       std::vector<Keyframe>::const_iterator end, double floor_height_m)
 {
   std::vector<double> heights, pitches, vertical, horizontal;
-  for (const Keyframe& k : keyframes)
+  for (auto k = begin; k != end; ++k)
   {
-    if (k.focal_px <= 0.0 || k.image_width <= 0 || k.image_height <= 0)
+    if (k->focal_px <= 0.0 || k->image_width <= 0 || k->image_height <= 0)
       continue;
-    const Eigen::Vector3d axis = k.T_map_camera.linear().col(2);
-    heights.push_back(k.T_map_camera.translation().z() - floor_height_m);
+    const Eigen::Vector3d axis = k->T_map_camera.linear().col(2);
+    heights.push_back(k->T_map_camera.translation().z() - floor_height_m);
     pitches.push_back(std::asin(std::clamp(axis.z(), -1.0, 1.0)) * 180.0 / M_PI);
-    vertical.push_back(std::atan(0.5 * k.image_height / k.focal_px) * 180.0 / M_PI);
-    horizontal.push_back(std::atan(0.5 * k.image_width / k.focal_px) * 180.0 / M_PI);
+    vertical.push_back(std::atan(0.5 * k->image_height / k->focal_px) * 180.0 / M_PI);
+    horizontal.push_back(std::atan(0.5 * k->image_width / k->focal_px) * 180.0 / M_PI);
   }
   if (heights.empty())
     return std::nullopt;
   return XtionView{middleValue(heights), middleValue(pitches), middleValue(vertical), middleValue(horizontal)};
+}
+}  // namespace
+
+std::vector<XtionView> xtionViewsOf(const std::vector<Keyframe>& keyframes, double floor_height_m)
+{
+  std::vector<XtionView> views;
+  for (auto begin = keyframes.begin(); begin != keyframes.end();)
+  {
+    const auto end =
+        std::find_if(std::next(begin), keyframes.end(), [](const Keyframe& k) { return k.starts_recording; });
+    const std::optional<XtionView> view = recordingView(begin, end, floor_height_m);
+    const bool known =
+        view && std::any_of(views.begin(), views.end(), [&](const XtionView& v) {
+          return std::abs(v.height_m - view->height_m) <= 0.05 && std::abs(v.pitch_deg - view->pitch_deg) <= 2.0;
+        });
+    if (view && !known)
+      views.push_back(*view);
+    begin = end;
+  }
+  return views;
 }
 
 SurveyGuidance computeSurveyGuidance(const CameraModel& camera, int width, int height,
