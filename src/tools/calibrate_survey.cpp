@@ -153,9 +153,10 @@ Options:
                         camera: "truth-limit" lines) and the cameras' poses relative to each other against the
                         truth ("truth-relative" lines), the map's coverage of each camera's image lines
                         ("truth-coverage" lines) and how much of an accepted camera's error its lines' true offsets
-                        explain, all, wrong matches and right ones (linearised through the refinement:
-                        "truth-line-shift" lines), and where each of the ambiguity test's alternatives ended
-                        ("truth-alternative" lines)
+                        explain, all, wrong matches and right ones (linearised through the refinement: the
+                        camera's change when the lines move onto their true edges, so an explained error has the
+                        opposite sign; focal, lambda, rotation, position: "truth-line-shift" lines), and where
+                        each of the ambiguity test's alternatives ended ("truth-alternative" lines)
   --coverage-diagnosis WORLD
                         with --truth-dir: per image line the map lacks, why (the simulator's WORLD file rendered
                         at each keyframe: never in the Xtion's view (-mount: at a height the mount has nowhere in
@@ -190,7 +191,7 @@ Exit status: 0 when every camera calibrated, 1 when one failed, 2 on bad argumen
 
 // The camera's error the matched lines' true 3D offsets explain (linearised, predictCameraShift): each inlier line
 // moved from its map line onto the true edge its image line shows (for a wrong match, the other edge), all of them,
-// the wrong matches only and the others ("truth-line-shift" lines).
+// the wrong matches only and the others ("truth-line-shift" lines: the correction, the error's opposite sign).
 void reportLineShiftsAgainstTruth(const ic::CameraModel& truth, const std::vector<ic::Segment3d>& segments,
                                   const std::vector<ic::TrueEdgeImage>& images, const ic::FixedCameraResult& result,
                                   const ic::RefinementOptions& options, const std::string& name)
@@ -220,8 +221,12 @@ void reportLineShiftsAgainstTruth(const ic::CameraModel& truth, const std::vecto
   }
   const ic::CameraErrors actual = ic::compareCameras(truth, result.calibration.camera);
   const double f = truth.intrinsics().fx;
-  std::printf("truth-line-shift %s actual: focal %+.3f %%, rotation %.3f deg, position %.1f mm\n", name.c_str(),
-              100.0 * actual.focal_relative, actual.rotation_rad * 180.0 / M_PI, 1000.0 * actual.center_m);
+  const double lambda = truth.distortion().lambda;
+  auto lambdaPercent = [&](double change) { return lambda != 0.0 ? 100.0 * change / std::abs(lambda) : 0.0; };
+  std::printf("truth-line-shift %s actual: focal %+.3f %%, lambda %+.2f %%, rotation %.3f deg, position %.1f mm\n",
+              name.c_str(), 100.0 * actual.focal_relative,
+              lambdaPercent(result.calibration.camera.distortion().lambda - lambda), actual.rotation_rad * 180.0 / M_PI,
+              1000.0 * actual.center_m);
   for (int group = 0; group < 3; ++group)
   {
     std::vector<Eigen::Vector3d> some = moves;
@@ -231,11 +236,13 @@ void reportLineShiftsAgainstTruth(const ic::CameraModel& truth, const std::vecto
     const auto shift = ic::predictCameraShift(inliers, result.calibration.camera, options, some);
     if (!shift)
       return;
-    std::printf("truth-line-shift %s %s: focal %+.3f %%, rotation %.3f deg, position %.1f mm\n", name.c_str(),
+    std::printf("truth-line-shift %s %s: focal %+.3f %%, lambda %+.2f %%, rotation %.3f deg, position %.1f mm\n",
+                name.c_str(),
                 group == 0   ? "all lines"
                 : group == 1 ? "wrong matches"
                              : "right matches",
-                100.0 * shift->fx_px / f, shift->rotation_rad.norm() * 180.0 / M_PI, 1000.0 * shift->center_m.norm());
+                100.0 * shift->fx_px / f, lambdaPercent(shift->lambda), shift->rotation_rad.norm() * 180.0 / M_PI,
+                1000.0 * shift->center_m.norm());
   }
 }
 

@@ -173,6 +173,7 @@ std::vector<std::vector<Eigen::Vector3d>> errorsAcrossLines(const Correspondence
 struct CameraShift
 {
   double fx_px = 0.0;
+  double lambda = 0.0;  // the division model's (1/px^2); 0 when it is not estimated
   Eigen::Vector3d rotation_rad = Eigen::Vector3d::Zero();
   Eigen::Vector3d center_m = Eigen::Vector3d::Zero();
 };

@@ -911,6 +911,7 @@ Expected<CameraShift> predictCameraShift(const CorrespondenceSet& data, const Ca
     if (shift.size() > 0)
     {
       out.fx_px += shift(f, 0);
+      out.lambda += columns.distortion >= 0 ? shift(columns.distortion, 0) / r_ref2 : 0.0;
       out.rotation_rad += shift.block(d, 0, 3, 1);
       out.center_m += shift.block(c, 0, 3, 1);
     }
