@@ -593,30 +593,43 @@ ic::Keyframe keyframeAt(double x, double z, double yaw_deg, double pitch_deg)
 }
 }  // namespace
 
-// The Xtion's views from keyframes, one per mount: per recording the median height above the floor and pitch, the
-// field of view from the image; a recording at an earlier one's mount adds none.
+// The Xtion's views from keyframes, one per mount: the median height above the floor and pitch of each group of
+// keyframes at one mount, the field of view from the image; a mount driven again adds none, a mount changed within a
+// recording (the node's survey going on after a re-tilt) adds one, a moment's tilt (a threshold) none.
 TEST(XtionViewTest, FromKeyframesOnePerMount)
 {
   EXPECT_TRUE(ic::xtionViewsOf({}, 0.0).empty());
   std::vector<ic::Keyframe> keyframes;
   for (int k = 0; k < 5; ++k)
-    keyframes.push_back(keyframeAt(k, 0.1 + (k == 4 ? 0.5 : 0.8), 30.0 * k, -12.0));
+    keyframes.push_back(keyframeAt(k, 0.1 + 0.8, 30.0 * k, -12.0));
   auto views = ic::xtionViewsOf(keyframes, 0.1);
   ASSERT_EQ(views.size(), 1u);
   EXPECT_NEAR(views[0].height_m, 0.8, 1e-9);
   EXPECT_NEAR(views[0].pitch_deg, -12.0, 1e-9);
   EXPECT_NEAR(views[0].vertical_half_fov_deg, std::atan(240.0 / 525.0) * 180.0 / M_PI, 1e-9);
   EXPECT_NEAR(views[0].horizontal_half_fov_deg, std::atan(320.0 / 525.0) * 180.0 / M_PI, 1e-9);
-  // A second recording re-pitched to +10 deg, a third at about the first's mount (1 deg, 3 cm off).
+  // A second recording re-pitched to +10 deg, a third at the first's mount (1 deg, 2 cm off), two keyframes tilted
+  // +4 deg for a moment (a threshold).
   for (int recording = 0; recording < 2; ++recording)
-    for (int k = 0; k < 4; ++k)
+    for (int k = 0; k < 5; ++k)
     {
-      keyframes.push_back(recording == 0 ? keyframeAt(k, 0.9, 45.0 * k, 10.0) : keyframeAt(k, 0.93, -20.0 * k, -11.0));
+      keyframes.push_back(recording == 0 ? keyframeAt(k, 0.9, 45.0 * k, 10.0) : keyframeAt(k, 0.92, -20.0 * k, -11.0));
       keyframes.back().starts_recording = k == 0;
     }
+  keyframes.push_back(keyframeAt(3.0, 0.9, 0.0, -8.0));
+  keyframes.push_back(keyframeAt(3.1, 0.9, 0.0, -8.0));
   views = ic::xtionViewsOf(keyframes, 0.1);
   ASSERT_EQ(views.size(), 2u);
-  EXPECT_NEAR(views[0].pitch_deg, -12.0, 1e-9);
+  EXPECT_NEAR(views[0].pitch_deg, -12.0, 1.0);  // the first and third recordings' keyframes
+  EXPECT_NEAR(views[0].height_m, 0.81, 0.0101);  // 0.8 or 0.82: the median of both
   EXPECT_NEAR(views[1].height_m, 0.8, 1e-9);
   EXPECT_NEAR(views[1].pitch_deg, 10.0, 1e-9);
+  // One recording whose Xtion is raised 20 cm half-way, pitch unchanged: two mounts.
+  std::vector<ic::Keyframe> raised;
+  for (int k = 0; k < 10; ++k)
+    raised.push_back(keyframeAt(k, k < 5 ? 0.6 : 0.8, 36.0 * k, 5.0));
+  views = ic::xtionViewsOf(raised, 0.0);
+  ASSERT_EQ(views.size(), 2u);
+  EXPECT_NEAR(views[0].height_m, 0.6, 1e-9);
+  EXPECT_NEAR(views[1].height_m, 0.8, 1e-9);
 }

@@ -67,9 +67,10 @@ struct XtionView
   std::optional<double> pitchToSee(double low_m, double high_m, double reach_m) const;
 };
 
-// The Xtion's views in the survey's keyframes, one per mount: per recording (Keyframe::starts_recording) the medians
-// of its keyframes' height and pitch (the field of view from the image size and focal length), the floor at
-// z = floor_height_m; a recording within 5 cm and 2 deg of an earlier mount adds none (the same mount driven again).
+// The Xtion's views in the survey's keyframes, one per mount (the Xtion re-pitched or moved between recordings or
+// during one): the keyframes grouped where their pitches (sorted) jump by more than 2 deg or their heights by more
+// than 5 cm, each group of at least a twentieth of them (and 3) a mount, with its keyframes' median height above the
+// floor (z = floor_height_m) and pitch and field of view (from the image size and focal length); ordered by pitch.
 // Empty without keyframes.
 std::vector<XtionView> xtionViewsOf(const std::vector<Keyframe>& keyframes, double floor_height_m);
 

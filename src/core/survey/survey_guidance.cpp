@@ -604,44 +604,66 @@ std::vector<Eigen::Vector2d> visitedPositions(const std::vector<Keyframe>& keyfr
 
 namespace
 {
-// One recording's view: the medians of its keyframes' height, pitch and field of view; nullopt without intrinsics.
-std::optional<XtionView> recordingView(std::vector<Keyframe>::const_iterator begin,
-                                       std::vector<Keyframe>::const_iterator end, double floor_height_m)
+// A keyframe's Xtion: height above the floor, pitch and half fields of view; nullopt without intrinsics.
+std::optional<XtionView> keyframeView(const Keyframe& k, double floor_height_m)
+{
+  if (k.focal_px <= 0.0 || k.image_width <= 0 || k.image_height <= 0)
+    return std::nullopt;
+  const double deg = 180.0 / M_PI;
+  const Eigen::Vector3d axis = k.T_map_camera.linear().col(2);
+  return XtionView{k.T_map_camera.translation().z() - floor_height_m, std::asin(std::clamp(axis.z(), -1.0, 1.0)) * deg,
+                   std::atan(0.5 * k.image_height / k.focal_px) * deg,
+                   std::atan(0.5 * k.image_width / k.focal_px) * deg};
+}
+
+// Mounts differ by more than this in pitch or height; a robot on a level floor keeps its Xtion's within it.
+constexpr double kMountPitchGapDeg = 2.0;
+constexpr double kMountHeightGapM = 0.05;
+
+// The views split where the sorted values of `key` jump by more than `gap`.
+std::vector<std::vector<XtionView>> splitAtGaps(std::vector<XtionView> views, double XtionView::*key, double gap)
+{
+  std::sort(views.begin(), views.end(), [&](const XtionView& a, const XtionView& b) { return a.*key < b.*key; });
+  std::vector<std::vector<XtionView>> groups;
+  for (const XtionView& v : views)
+  {
+    if (groups.empty() || v.*key - groups.back().back().*key > gap)
+      groups.emplace_back();
+    groups.back().push_back(v);
+  }
+  return groups;
+}
+
+XtionView medianView(const std::vector<XtionView>& views)
 {
   std::vector<double> heights, pitches, vertical, horizontal;
-  for (auto k = begin; k != end; ++k)
+  for (const XtionView& v : views)
   {
-    if (k->focal_px <= 0.0 || k->image_width <= 0 || k->image_height <= 0)
-      continue;
-    const Eigen::Vector3d axis = k->T_map_camera.linear().col(2);
-    heights.push_back(k->T_map_camera.translation().z() - floor_height_m);
-    pitches.push_back(std::asin(std::clamp(axis.z(), -1.0, 1.0)) * 180.0 / M_PI);
-    vertical.push_back(std::atan(0.5 * k->image_height / k->focal_px) * 180.0 / M_PI);
-    horizontal.push_back(std::atan(0.5 * k->image_width / k->focal_px) * 180.0 / M_PI);
+    heights.push_back(v.height_m);
+    pitches.push_back(v.pitch_deg);
+    vertical.push_back(v.vertical_half_fov_deg);
+    horizontal.push_back(v.horizontal_half_fov_deg);
   }
-  if (heights.empty())
-    return std::nullopt;
   return XtionView{middleValue(heights), middleValue(pitches), middleValue(vertical), middleValue(horizontal)};
 }
 }  // namespace
 
 std::vector<XtionView> xtionViewsOf(const std::vector<Keyframe>& keyframes, double floor_height_m)
 {
-  std::vector<XtionView> views;
-  for (auto begin = keyframes.begin(); begin != keyframes.end();)
-  {
-    const auto end =
-        std::find_if(std::next(begin), keyframes.end(), [](const Keyframe& k) { return k.starts_recording; });
-    const std::optional<XtionView> view = recordingView(begin, end, floor_height_m);
-    const bool known =
-        view && std::any_of(views.begin(), views.end(), [&](const XtionView& v) {
-          return std::abs(v.height_m - view->height_m) <= 0.05 && std::abs(v.pitch_deg - view->pitch_deg) <= 2.0;
-        });
-    if (view && !known)
-      views.push_back(*view);
-    begin = end;
-  }
-  return views;
+  std::vector<XtionView> all;
+  for (const Keyframe& k : keyframes)
+    if (const auto view = keyframeView(k, floor_height_m))
+      all.push_back(*view);
+  // A mount holds at least a twentieth of the keyframes (and 3): a robot tilted over a threshold for a moment is none.
+  const size_t min_keyframes = std::max<size_t>(3, all.size() / 20);
+  std::vector<XtionView> mounts;
+  for (const auto& by_pitch : splitAtGaps(all, &XtionView::pitch_deg, kMountPitchGapDeg))
+    for (const auto& mount : splitAtGaps(by_pitch, &XtionView::height_m, kMountHeightGapM))
+      if (mount.size() >= min_keyframes)
+        mounts.push_back(medianView(mount));
+  if (mounts.empty() && !all.empty())
+    mounts.push_back(medianView(all));  // too few keyframes for any mount to count: their medians
+  return mounts;
 }
 
 SurveyGuidance computeSurveyGuidance(const CameraModel& camera, int width, int height,
