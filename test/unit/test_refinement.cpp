@@ -251,12 +251,13 @@ TEST(Refinement, SharedLineErrorsPropagateToTheCamera)
   }
 }
 
-// Noise-free image lines of 13 3D lines moved by known offsets (1 mm): the refined camera moves by what
-// predictCameraShift says the offsets do (moving the lines back moves it back onto the camera refined on the true
-// lines), within a tenth of the move and the solver's precision (least squares, no robust loss) in most trials.
+// Noise-free image lines of 13 3D lines moved by known offsets (1 mm): the refined camera (focal length, centre and
+// distortion) moves by what predictCameraShift says the offsets do (moving the lines back moves it back onto the camera
+// refined on the true lines), within a tenth of the move and the solver's precision (least squares, no robust loss) in
+// most trials.
 TEST(Refinement, PredictedCameraShiftOfKnownLineOffsets)
 {
-  int predicted = 0;
+  int predicted = 0, lambda_predicted = 0;
   for (int t = 0; t < 20; ++t)
   {
     Scene s = makeScene(950 + t, 0.0, 13);
@@ -276,10 +277,14 @@ TEST(Refinement, PredictedCameraShiftOfKnownLineOffsets)
     const Eigen::Vector3d center_move = exact->camera.pose().center() - refined->camera.pose().center();
     const bool fx_near = std::abs(shift->fx_px - fx_move) < 0.1 * std::abs(fx_move) + 1e-3;
     const bool center_near = (shift->center_m - center_move).norm() < 0.1 * center_move.norm() + 1e-6;
+    const double lambda_move = exact->camera.distortion().lambda - refined->camera.distortion().lambda;
+    const bool lambda_near = std::abs(shift->lambda - lambda_move) < 0.1 * std::abs(lambda_move) + 1e-12;
     predicted += fx_near && center_near ? 1 : 0;
+    lambda_predicted += lambda_near ? 1 : 0;
   }
-  std::printf("camera moves predicted within 10 %%: %d of 20 trials\n", predicted);
+  std::printf("camera moves predicted within 10 %%: %d of 20 trials, lambda's %d\n", predicted, lambda_predicted);
   EXPECT_GE(predicted, 17);
+  EXPECT_GE(lambda_predicted, 17);
 }
 
 // Two wrong correspondences that agree (one wrong match twice, as when two image lines of one edge are paired with the
