@@ -529,8 +529,8 @@ std::string xtionRemedy(const UnmappedRegion& r, bool with_band)
   return std::string(text) + band;
 }
 
-// The survey's mounts: "0.60 m high and pitched +10 deg", or "at its mounts of the survey (0.60 m high pitched
-// +10 deg; 0.60 m high pitched -10 deg)".
+// The survey's mounts: "0.60 m high and pitched +10 deg", or "at the survey's 2 mounts (0.60 m high pitched +10 deg;
+// 0.60 m high pitched -10 deg)".
 std::string describeMounts(const UnmappedRegion& r)
 {
   char text[96];
