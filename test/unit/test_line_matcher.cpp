@@ -158,6 +158,36 @@ TEST(LineMatcher, RefusesEmptyInput)
             ic::ErrorCode::kInvalidInput);
 }
 
+// Two map lines that project onto one image line are one edge mapped twice only when they are near in 3D too: a
+// post's two edges seen edge-on (10 cm apart along the viewing ray, the same image line) leave the image line
+// unmatched, since either match biases the camera; the same edge twice (5 mm apart) is matched.
+TEST(LineMatcher, DistinctEdgesOnOneImageLineAreAmbiguous)
+{
+  std::mt19937 rng(17);
+  const ic::CameraModel camera = randomCamera(900.0, 1100.0, rng);
+  const Eigen::Vector3d centre = camera.pose().center();
+  const Eigen::Matrix3d r = camera.pose().rotation;
+  const Eigen::Vector3d forward = r.row(2).transpose();
+  const Eigen::Vector3d up = -r.row(1).transpose();
+  const Eigen::Vector3d middle = centre + 6.0 * forward + 0.8 * r.row(0).transpose();
+  const ic::Segment3d edge{middle - 0.6 * up, middle + 0.6 * up};
+  const Eigen::Vector3d ray = (middle - centre).normalized();
+  std::vector<std::vector<Eigen::Vector2d>> image(1);
+  for (int k = 0; k < 6; ++k)
+    image[0].push_back(*camera.project(edge.pointAt(k / 5.0)));
+  ASSERT_GT((image[0].back() - image[0].front()).norm(), 100.0);
+  const ic::LineMatcherOptions options;
+  for (const double apart_m : {0.10, 0.005})
+  {
+    const ic::Segment3d behind{edge.a + apart_m * ray, edge.b + apart_m * ray};
+    const auto matches = ic::matchLines({edge, behind}, image, camera, kWidth, kHeight, 2.0, 4.0, options);
+    SCOPED_TRACE("apart " + std::to_string(apart_m) + " m");
+    EXPECT_EQ(matches.size(), apart_m > options.near_duplicate_m ? 0u : 1u);
+    const auto alone = ic::matchLines({edge}, image, camera, kWidth, kHeight, 2.0, 4.0, options);
+    EXPECT_EQ(alone.size(), 1u);  // the edge alone is matched: only the second line makes it ambiguous
+  }
+}
+
 // The local moves run from the local_search_starts best refined starts that are distinct cameras: a start that
 // refined to the same camera as a better one (within a few mm, 0.05 deg and 0.2 % focal length) is skipped, and the
 // next distinct one takes its place.

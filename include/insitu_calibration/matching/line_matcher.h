@@ -58,9 +58,12 @@ struct LineMatcherOptions
   // lines (CorrespondenceSet::straight_lines): they constrain the distortion. 0: none.
   double min_straight_line_px = 100.0;
   // Ambiguity: an image line whose second-best 3D line is not worse by max(50 %, min_separation_px) is not matched,
-  // unless both are within near_duplicate_px (the map holding one edge twice).
+  // unless both are within near_duplicate_px and lie within max(near_duplicate_m, 3 times their combined sigma) of
+  // each other in 3D (the map holding one edge twice). Distinct edges that project onto one image line (a post's two
+  // edges seen edge-on, 0.2 px apart at a view's border) leave it ambiguous: either match would bias the distortion.
   double min_separation_px = 1.0;
   double near_duplicate_px = 1.5;
+  double near_duplicate_m = 0.02;
   int max_iterations = 10;
   int search_steps = 9;  // per dimension of the prior search (odd: includes the prior itself)
   // The search scores a camera by each image line's distance to its nearest compatible projected 3D line, capped

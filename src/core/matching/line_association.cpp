@@ -1,5 +1,6 @@
 // Step 2 of the matcher: which image line is which map line under a given camera.
 #include <algorithm>
+#include <cmath>
 #include <set>
 
 #include "matching/matching_problem.h"
@@ -10,9 +11,31 @@ namespace matching
 {
 namespace
 {
+// The largest distance of the shorter segment's end points from the longer one's line, m.
+double separation(const Segment3d& s, const Segment3d& t)
+{
+  const Segment3d& longer = s.length() >= t.length() ? s : t;
+  const Segment3d& shorter = s.length() >= t.length() ? t : s;
+  const Eigen::Vector3d u = (longer.b - longer.a).normalized();
+  auto off = [&](const Eigen::Vector3d& p) {
+    const Eigen::Vector3d d = p - longer.a;
+    return (d - d.dot(u) * u).norm();
+  };
+  return std::max(off(shorter.a), off(shorter.b));
+}
+
+// Two map lines that project onto one image line are one edge mapped twice when they are also near in 3D.
+bool sameEdge(const MatchingProblem& problem, size_t j, size_t k)
+{
+  const std::vector<double>& sigmas = problem.map_sigmas;
+  const double sigma = sigmas.size() == problem.map_lines.size() ? std::hypot(sigmas[j], sigmas[k]) : 0.0;
+  return separation(problem.map_lines[j], problem.map_lines[k]) <=
+         std::max(problem.options.near_duplicate_m, 3.0 * sigma);
+}
+
 // An image line's compatible map lines (angle, overlap, distance), best first; empty when the best two fit about as
-// well (repetitive texture: ceiling tiles, shelves), unless the second is within near_duplicate_px too (the same
-// edge twice in the map).
+// well (repetitive texture: ceiling tiles, shelves), unless the second is within near_duplicate_px too and both are
+// one edge in 3D (the same edge twice in the map).
 std::vector<LineMatch> candidatesOf(size_t i, const MatchingProblem& problem,
                                     const std::vector<ProjectedLine>& projected, double max_angle_deg,
                                     double max_distance_px, const PairSet& banned)
@@ -38,7 +61,8 @@ std::vector<LineMatch> candidatesOf(size_t i, const MatchingProblem& problem,
   {
     const double best = own[0].distance_px;
     const double second = own[1].distance_px;
-    if (second > options.near_duplicate_px && second - best < std::max(0.5 * best, options.min_separation_px))
+    const bool duplicate = second <= options.near_duplicate_px && sameEdge(problem, own[0].map_line, own[1].map_line);
+    if (!duplicate && second - best < std::max(0.5 * best, options.min_separation_px))
       return {};
   }
   return own;
