@@ -128,6 +128,10 @@ Options:
   --plain-floor-samples 0|1
                         the final check leaves floor samples out one by one where the floor looks plain there
                         instead of whole plain floor lines (params plain_floor_samples; default 1)
+  --texture-min-neighbours N
+                        the final check leaves samples of texture lines (joints of bricks, tiles, panels: N or more
+                        parallel map lines side by side) out where the image shows no edge on or beside them
+                        (params texture_min_neighbours; default 4; 0: off)
   --occluders-follow-adjustment 0|1
                         those surfaces are inserted again under the map adjustment's corrected keyframe poses
                         (default 0: at tf's poses)
@@ -1217,6 +1221,8 @@ void parseCameraOptions(ic::CommandLine& cli, ic::FixedCameraOptions* cameras)
 {
   cameras->explanation.plain_floor_by_sample =
       onOff(cli, "plain-floor-samples", cameras->explanation.plain_floor_by_sample);
+  cameras->explanation.texture.min_neighbours = static_cast<size_t>(
+      cli.number("texture-min-neighbours", static_cast<double>(cameras->explanation.texture.min_neighbours), 0, 100));
   ic::LineMatcherOptions& matcher = cameras->matcher;
   if (cli.flag("no-refine"))
     matcher.calibration.refine = false;
@@ -1567,6 +1573,7 @@ const std::set<std::string> kValueOptions = {"cameras",
                                              "floor-extended",
                                              "occlusion-test",
                                              "plain-floor-samples",
+                                             "texture-min-neighbours",
                                              "occluders-follow-adjustment",
                                              "triangulated-lines",
                                              "ceiling-lines",

@@ -126,3 +126,48 @@ TEST(UnresolvedJoints, DegenerateInputKeepsItsSigmaOrGetsZero)
   EXPECT_NEAR(from_zero[0], 0.005, 1e-12);
   EXPECT_EQ(from_zero[2], 0.0);
 }
+
+// Texture lines (textureLines): a brick wall's bed joints (two flanks 1 cm apart every 6.5 cm) are texture, all but
+// the field's outermost flanks; an edge above the field, a door frame's few parallel edges, a lone edge and an
+// edge mapped twice (two lines 2 mm apart) are not; off with min_neighbours 0.
+TEST(TextureLines, BrickJointsAreTextureStructuralEdgesAreNot)
+{
+  std::vector<ic::Segment3d> lines;
+  for (int course = 0; course < 8; ++course)
+    for (const double flank : {0.0, 0.01})
+      lines.push_back(horizontal(3.0, 0.5 + 0.065 * course + flank));
+  const size_t bricks = lines.size();
+  lines.push_back(horizontal(3.0, 0.5 + 0.065 * 7 + 0.2));  // an edge above the brick field: not one of its joints
+  for (const double x : {-2.0, -1.96, -1.92})               // a door frame: three vertical edges 4 cm apart
+    lines.push_back({Eigen::Vector3d(x, 3.0, 0.0), Eigen::Vector3d(x, 3.0, 2.0)});
+  lines.push_back(horizontal(-2.0, 2.5));  // a lone edge, mapped twice 2 mm apart
+  lines.push_back(horizontal(-2.0, 2.502));
+  const std::vector<bool> texture = ic::textureLines(lines);
+  ASSERT_EQ(texture.size(), lines.size());
+  // The field's two lowest flanks have fewer than two neighbours below them, its top one (the edge above counts)
+  // fewer than two above it.
+  for (size_t i = 0; i < lines.size(); ++i)
+    EXPECT_EQ(texture[i], i >= 2 && i + 1 < bricks) << "line " << i;
+
+  ic::TextureLineOptions off;
+  off.min_neighbours = 0;
+  for (const bool t : ic::textureLines(lines, off))
+    EXPECT_FALSE(t);
+  ic::TextureLineOptions two;  // the door frame's edges have two neighbours each
+  two.min_neighbours = 2;
+  EXPECT_TRUE(ic::textureLines(lines, two)[bricks + 2]);  // the frame's middle edge
+  EXPECT_FALSE(ic::textureLines(lines, two).back());
+}
+
+// Lines beside each other end to end, or crossing, are not beside each other (besideSeparation).
+TEST(TextureLines, BesideSeparationNeedsOverlapAndParallelLines)
+{
+  const double cos_max = std::cos(3.0 * M_PI / 180.0);
+  const auto s = ic::besideSeparation(horizontal(0.0, 1.0), horizontal(0.0, 1.1), cos_max, 0.3);
+  ASSERT_TRUE(s.has_value());
+  EXPECT_NEAR(s->z(), 0.1, 1e-12);
+  EXPECT_NEAR(s->head<2>().norm(), 0.0, 1e-12);
+  EXPECT_FALSE(ic::besideSeparation(horizontal(0.0, 1.0, -1.0, 0.0), horizontal(0.0, 1.1, 0.1, 1.0), cos_max, 0.3));
+  const ic::Segment3d across{Eigen::Vector3d(0.0, 0.0, 0.0), Eigen::Vector3d(0.0, 0.0, 2.0)};
+  EXPECT_FALSE(ic::besideSeparation(horizontal(0.0, 1.0), across, cos_max, 0.3));
+}

@@ -9,6 +9,7 @@
 #ifndef INSITU_CALIBRATION_MAP_JOINT_LINES_H
 #define INSITU_CALIBRATION_MAP_JOINT_LINES_H
 
+#include <optional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -25,6 +26,27 @@ struct UnresolvedJointOptions
   double min_overlap = 0.3;        // of the shorter line's length, along the lines
   double min_resolved_px = 2.0;    // twins that project closer than this (across the line) are one ridge
 };
+
+// Map lines of a wall's or floor's texture: joints of bricks, tiles, planks or panelling, recognised in the map by
+// their repetition (a structural edge, such as a corner, a door frame or a shelf's front, stands nearly alone).
+struct TextureLineOptions
+{
+  size_t min_neighbours = 4;   // distinct parallel lines beside a line, half of them on either side, make it
+                               // texture (a line at a texture's border is not); 0: none is
+  double max_spacing_m = 0.3;  // beside it: within this across it,
+  double max_angle_deg = 3.0;  // parallel within this,
+  double min_overlap = 0.3;    // overlapping it along by this share of the shorter line
+  double distinct_m = 0.005;   // offsets closer than this are one line (an edge mapped twice)
+};
+
+// When b runs beside a (parallel within cos_max, overlapping along a by at least min_overlap of the shorter length):
+// the separation from a to b in the middle of their overlap, across a.
+std::optional<Eigen::Vector3d> besideSeparation(const Segment3d& a, const Segment3d& b, double cos_max,
+                                                double min_overlap);
+
+// Per line, whether it is texture: at least min_neighbours lines run beside it at distinct offsets, at least half of
+// them on either side of it.
+std::vector<bool> textureLines(const std::vector<Segment3d>& lines, const TextureLineOptions& options = {});
 
 // Per map line, its sigma (m) grown in quadrature by half the separation from its farthest unresolved twin: a
 // parallel map line within max_separation_m that overlaps it and that, seen from `viewpoint` through a focal length

@@ -22,6 +22,7 @@
 #include "insitu_calibration/camera/camera_model.h"
 #include "insitu_calibration/error.h"
 #include "insitu_calibration/geometry/segment.h"
+#include "insitu_calibration/map/joint_lines.h"
 #include "insitu_calibration/refine/refinement.h"
 
 namespace insitu_calibration
@@ -56,6 +57,12 @@ struct ImageExplanationOptions
   // both right and refused by the check without it, accepted; no camera lost, none wrong. On since 2026-12-03
   // (parameter plain_floor_samples).
   bool plain_floor_by_sample = true;
+  // Texture lines (map/joint_lines.h: joints of bricks, tiles, planks or panelling, four or more parallel map lines
+  // side by side) are left out sample by sample where the image shows no edge on or beside them, as plain floor
+  // samples are: such joints the Xtion mapped from 1-2 m are often below a fixed camera's resolution from 3-10 m (a
+  // right camera's brick lines then find no edge); a lone structural edge (a corner, a door frame) always counts.
+  // min_neighbours 0: off (parameter texture_min_neighbours).
+  TextureLineOptions texture;
   // Left out only when at least this many map lines remain (fewer are too little to judge the camera on: every
   // floor line counts then).
   size_t min_lines_without_plain_floor = 30;
@@ -77,10 +84,11 @@ struct ImageExplanation
   bool image_checked = false;      // there was an image to check against
   size_t map_lines = 0;            // map lines assessed (visible, long enough)
   size_t samples = 0;              // points along them
-  size_t plain_floor_lines = 0;    // floor lines left out where the floor looks plain (not in map_lines, samples)
+  size_t plain_lines = 0;          // floor, texture lines left out where the image is plain (not in map_lines, samples)
   size_t plain_floor_samples = 0;  // with plain_floor_by_sample: samples of other lines left out (not in samples)
-  double overlay_agreement = 0.0;  // share of the samples on an edge
-  double overlay_chance = 0.0;     // share 4 px beside the lines
+  size_t plain_texture_samples = 0;  // texture lines' samples left out where the image is plain (not in samples)
+  double overlay_agreement = 0.0;    // share of the samples on an edge
+  double overlay_chance = 0.0;       // share 4 px beside the lines
   double overlayExcess() const
   {
     return overlay_chance < 1.0 ? (overlay_agreement - overlay_chance) / (1.0 - overlay_chance) : 0.0;
@@ -100,8 +108,8 @@ struct EdgeSamples
   std::vector<Eigen::Vector2d> points;      // distorted pixels, in order along the line
   std::vector<Eigen::Vector3d> map_points;  // the map line's points they are the images of (map frame)
   std::vector<bool> on_edge;
-  bool counted = true;         // false: a floor line the test left out where the floor looks plain
-  std::vector<bool> left_out;  // per sample of a counted line: left out there (plain_floor_by_sample); empty: none
+  bool counted = true;         // false: a floor or texture line the test left out where the image looks plain
+  std::vector<bool> left_out;  // per sample of a counted line: left out there (plain floor or texture); empty: none
   bool countedAt(size_t k) const { return counted && (left_out.empty() || !left_out[k]); }
 };
 

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "insitu_calibration/cpu_time.h"
+#include "insitu_calibration/io/parameter_range.h"
 
 namespace insitu_calibration
 {
@@ -211,10 +212,10 @@ double shareOn(const ImageLine& a, const ImageLine& b, double tolerance_px)
 std::string noLinesNote(const ImageLineStats& st, size_t polylines, const ImageLineOptions& options)
 {
   if (st.segments.empty())
-    return "no line segment of at least " + std::to_string(options.detector.min_length_px) + " px detected";
+    return "no line segment of at least " + formatParameterValue(options.detector.min_length_px) + " px detected";
   if (polylines == 0)
     return std::to_string(st.segments.size()) + " segments, but no merged line of at least " +
-           std::to_string(options.merge.min_length_px) + " px";
+           formatParameterValue(options.merge.min_length_px) + " px";
   return "fine-tuning found no edge under any of the " + std::to_string(polylines) + " lines";
 }
 }  // namespace

@@ -13,6 +13,7 @@
 #include <pcl/sample_consensus/ransac.h>
 #include <pcl/sample_consensus/sac_model_line.h>
 
+#include "insitu_calibration/io/parameter_range.h"
 #include "insitu_calibration/robust_statistics.h"
 
 namespace insitu_calibration
@@ -160,8 +161,8 @@ Line3d finishLine(const std::vector<Eigen::Vector3d>& points, const std::vector<
 Status checkLength(const Line3d& line, const Line3dFitOptions& options)
 {
   if (line.length() < options.min_length_m)
-    return Error(ErrorCode::kDegenerate, "the inliers span " + std::to_string(line.length()) + " m, less than " +
-                                             std::to_string(options.min_length_m) + " m");
+    return Error(ErrorCode::kDegenerate, "the inliers span " + formatParameterValue(line.length()) + " m, less than " +
+                                             formatParameterValue(options.min_length_m) + " m");
   return Success();
 }
 

@@ -1,6 +1,7 @@
 #include "insitu_calibration/lines/rgbd_lines.h"
 
 #include "insitu_calibration/cpu_time.h"
+#include "insitu_calibration/io/parameter_range.h"
 
 namespace insitu_calibration
 {
@@ -40,7 +41,7 @@ Status refineSegments(const cv::Mat& rgb, const RefinerOptions& options, std::ve
 std::string noLineNote(const RgbdLineStats& st, double min_length_px)
 {
   if (st.segments == 0)
-    return "no line segment of at least " + std::to_string(min_length_px) + " px in the RGB image";
+    return "no line segment of at least " + formatParameterValue(min_length_px) + " px in the RGB image";
   return std::to_string(st.segments) + " segments, none became a 3D line (" + std::to_string(st.no_depth) +
          " without depth, " + std::to_string(st.no_line) + " without a consensus, " + std::to_string(st.too_short) +
          " too short)";

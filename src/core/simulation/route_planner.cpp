@@ -6,6 +6,8 @@
 #include <queue>
 #include <utility>
 
+#include "insitu_calibration/io/parameter_range.h"
+
 namespace insitu_calibration
 {
 namespace simulation
@@ -365,7 +367,8 @@ Expected<std::vector<Eigen::Vector2d>> appendVisits(const FloorPlan& plan, std::
   int here = grid.nearestFree(route.back(), options.max_offset_m);
   if (here < 0)
     return Error(ErrorCode::kNoSolution, "the route's end has no free cell within " +
-                                             std::to_string(options.max_offset_m) + " m to start the visits from");
+                                             formatParameterValue(options.max_offset_m) +
+                                             " m to start the visits from");
   size_t left_out = 0;
   std::vector<bool> done(visits.size(), false);
   for (size_t n = 0; n < visits.size(); ++n)
@@ -436,7 +439,7 @@ Expected<std::vector<Eigen::Vector2d>> planCoverageRoute(const FloorPlan& plan, 
   const bool along_x = plan.walkable.sizes().x() >= plan.walkable.sizes().y();
   const std::vector<int> lanes = laneTargets(grid, along_x, options.lane_spacing_m, options.cell_m);
   if (lanes.size() < 2)
-    return Error(ErrorCode::kNoSolution, "the floor has no free lane " + std::to_string(options.clearance_m) +
+    return Error(ErrorCode::kNoSolution, "the floor has no free lane " + formatParameterValue(options.clearance_m) +
                                              " m clear of walls and obstacles");
   const std::vector<int> legs = viewLegTargets(grid, options.view_legs, options.cell_m);
   std::vector<Eigen::Vector2d> route = joinTargets(grid, legs);

@@ -6,6 +6,7 @@
 #include <numeric>
 #include <random>
 
+#include "insitu_calibration/io/parameter_range.h"
 #include "insitu_calibration/metrics.h"
 #include "insitu_calibration/solvers/decomposition.h"
 
@@ -150,11 +151,11 @@ Expected<RansacResult> ransacDlt(const CorrespondenceSet& data, const DltOptions
                                   : std::log(1.0 - options.confidence) / std::log(1.0 - all_inliers);
   }
   if (best.inlier_count < minimal)
-    return Error(ErrorCode::kNoSolution, "RANSAC found no camera that fits " + std::to_string(minimal) +
-                                             " or more lines within " + std::to_string(options.inlier_threshold_px) +
-                                             " px after " + std::to_string(iterations) +
-                                             " iterations; the correspondences are mostly wrong or the threshold "
-                                             "is too tight for the noise");
+    return Error(ErrorCode::kNoSolution,
+                 "RANSAC found no camera that fits " + std::to_string(minimal) + " or more lines within " +
+                     formatParameterValue(options.inlier_threshold_px) + " px after " + std::to_string(iterations) +
+                     " iterations; the correspondences are mostly wrong or the threshold "
+                     "is too tight for the noise");
   RansacResult result;
   result.inliers = best.inliers;
   result.inlier_count = best.inlier_count;

@@ -10,6 +10,14 @@ namespace insitu_calibration
 {
 namespace
 {
+// A measured number with four significant digits (a message's "523.4 px", not "523.423423 px").
+std::string fourDigits(double value)
+{
+  char buffer[32];
+  std::snprintf(buffer, sizeof(buffer), "%.4g", value);
+  return buffer;
+}
+
 std::string describeResult(const CameraCalibration& c, size_t matched)
 {
   char buffer[512];
@@ -123,12 +131,12 @@ Status FixedCamera::check(const CameraCalibration& c, size_t matched_lines, bool
   if (k.fx < options_.min_focal_ratio * w || k.fx > options_.max_focal_ratio * w ||
       k.fy < options_.min_focal_ratio * w || k.fy > options_.max_focal_ratio * w)
     return Error(ErrorCode::kNoSolution,
-                 "the focal length (" + std::to_string(k.fx) + " px) is outside the plausible range " +
-                     std::to_string(options_.min_focal_ratio * w) + " .. " +
-                     std::to_string(options_.max_focal_ratio * w) + " px; the matches are probably wrong");
+                 "the focal length (" + fourDigits(k.fx) + " px) is outside the plausible range " +
+                     fourDigits(options_.min_focal_ratio * w) + " .. " + fourDigits(options_.max_focal_ratio * w) +
+                     " px; the matches are probably wrong");
   if (c.reprojection.rms_px > options_.max_rms_px)
-    return Error(ErrorCode::kNoSolution, "the reprojection error (RMS " + std::to_string(c.reprojection.rms_px) +
-                                             " px) is above the limit of " + std::to_string(options_.max_rms_px) +
+    return Error(ErrorCode::kNoSolution, "the reprojection error (RMS " + fourDigits(c.reprojection.rms_px) +
+                                             " px) is above the limit of " + fourDigits(options_.max_rms_px) +
                                              " px; survey more of the camera's view or check its prior");
   if (matched_lines < options_.min_matched_lines)
     return Error(ErrorCode::kNotEnoughData, "only " + std::to_string(matched_lines) + " lines matched (" +
@@ -139,8 +147,8 @@ Status FixedCamera::check(const CameraCalibration& c, size_t matched_lines, bool
   {
     const double distance = (c.camera.pose().center() - config_.prior->position).norm();
     const double limit = options_.max_prior_distance_sigmas * config_.prior->position_sigma_m;
-    return Error(ErrorCode::kNoSolution, "the camera came out " + std::to_string(distance) +
-                                             " m from its prior position (more than " + std::to_string(limit) +
+    return Error(ErrorCode::kNoSolution, "the camera came out " + fourDigits(distance) +
+                                             " m from its prior position (more than " + fourDigits(limit) +
                                              " m); the matches are probably wrong, or the prior is");
   }
   if (c.refinement)

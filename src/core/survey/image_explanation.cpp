@@ -105,6 +105,7 @@ struct AssessedLine
 {
   LineSupport support;
   EdgeSamples samples;
+  bool is_floor = true;  // its plain samples are counted as floor samples (else as texture samples)
 };
 
 // One sample's edge test on the line and beside it, counted into a (kept in a.samples with keep_samples).
@@ -153,13 +154,17 @@ bool isFloorLine(const Segment3d& line, const ImageExplanationOptions& o)
 }
 
 // A floor line whose image shows hardly any edge on it or beside it: texture this camera does not resolve. With
-// plain_floor_by_sample, one whose every sample was left out.
+// plain_floor_by_sample, one whose every sample was left out; a texture line too.
 bool onPlainFloor(const Segment3d& line, const LineSupport& s, const ImageExplanationOptions& o)
 {
-  if (s.samples == 0 || !isFloorLine(line, o))
+  if (s.samples == 0)
+    return false;
+  if (s.left_out == s.samples)
+    return true;
+  if (!isFloorLine(line, o))
     return false;
   if (o.plain_floor_by_sample)
-    return s.left_out == s.samples;
+    return false;
   const double n = static_cast<double>(s.samples);
   return s.on < o.plain_floor_on_edge * n && 0.5 * s.beside < o.plain_floor_beside * n;
 }
@@ -180,16 +185,26 @@ std::vector<AssessedLine> assessOverlay(const cv::Mat& image, const CameraModel&
                                         bool keep_samples)
 {
   const Gradients g = gradients(image);
+  std::vector<Segment3d> in_view;
+  std::vector<std::pair<double, double>> intervals;
+  for (const auto& line : map_lines)
+    if (const auto interval = visibleInterval(camera, line, width, height))
+    {
+      in_view.push_back(line);
+      intervals.push_back(*interval);
+    }
+  const std::vector<bool> texture = textureLines(in_view, options.texture);
   std::vector<AssessedLine> lines;
   size_t plain_count = 0;
-  for (const auto& line : map_lines)
+  for (size_t i = 0; i < in_view.size(); ++i)
   {
-    const auto interval = visibleInterval(camera, line, width, height);
-    const bool by_sample = options.plain_floor_by_sample && isFloorLine(line, options);
-    auto assessed = interval ? assessLine(g, camera, line, *interval, width, height, options, keep_samples, by_sample)
-                             : std::nullopt;
+    const Segment3d& line = in_view[i];
+    const bool floor_by_sample = options.plain_floor_by_sample && isFloorLine(line, options);
+    auto assessed =
+        assessLine(g, camera, line, intervals[i], width, height, options, keep_samples, floor_by_sample || texture[i]);
     if (!assessed || assessed->support.samples == 0)  // not assessed, or only at the border
       continue;
+    assessed->is_floor = floor_by_sample;
     assessed->samples.counted = !onPlainFloor(line, assessed->support, options);
     plain_count += assessed->samples.counted ? 0 : 1;
     lines.push_back(std::move(*assessed));
@@ -208,12 +223,12 @@ void measureOverlay(const std::vector<AssessedLine>& lines, ImageExplanation& ou
   {
     if (!a.samples.counted)
     {
-      ++out.plain_floor_lines;
+      ++out.plain_lines;
       continue;
     }
     ++out.map_lines;
     out.samples += a.support.samples - a.support.left_out;
-    out.plain_floor_samples += a.support.left_out;
+    (a.is_floor ? out.plain_floor_samples : out.plain_texture_samples) += a.support.left_out;
     on += a.support.on;
     beside += a.support.beside;
   }
@@ -235,10 +250,13 @@ std::string ImageExplanation::describe() const
       map_lines, 100.0 * overlay_agreement, 100.0 * overlay_chance, overlayExcess(), matched_lines, median_rms_px,
       median_heldout_px);
   std::string out = buffer;
-  if (plain_floor_lines > 0)
-    out += "; " + std::to_string(plain_floor_lines) + " floor lines left out where the floor looks plain";
+  if (plain_lines > 0)
+    out += "; " + std::to_string(plain_lines) + " floor or texture lines left out where the image looks plain";
   if (plain_floor_samples > 0)
     out += "; " + std::to_string(plain_floor_samples) + " samples of other floor lines left out where it looks plain";
+  if (plain_texture_samples > 0)
+    out += "; " + std::to_string(plain_texture_samples) +
+           " samples of wall texture (brick, tile or panel joints) left out where the image is plain";
   return out;
 }
 

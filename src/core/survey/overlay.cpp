@@ -194,7 +194,8 @@ void drawOverlayLegend(cv::Mat* canvas, bool with_unmatched, MapLineLegend map_l
     case MapLineLegend::kFinalCheck:
       entries.push_back({kMapLineColour, "map lines on an image edge", kWide});
       entries.push_back({kMapLineColour, "map lines with no image edge (count against the camera)", kThin});
-      entries.push_back({kLeftOutLineColour, "map lines the check left out (hidden, plain floor, short)", kThinDashed});
+      entries.push_back(
+          {kLeftOutLineColour, "map lines the check left out (hidden, plain floor or texture, short)", kThinDashed});
       break;
   }
   entries.push_back({kMatchedLineColour, "matched image lines", kWide});
