@@ -131,7 +131,7 @@ Options:
   --texture-min-neighbours N
                         the final check leaves samples of texture lines (joints of bricks, tiles, panels: N or more
                         parallel map lines side by side) out where the image shows no edge on or beside them
-                        (params texture_min_neighbours; default 4; 0: off)
+                        (params texture_min_neighbours; default 0: off; 4 turns it on)
   --occluders-follow-adjustment 0|1
                         those surfaces are inserted again under the map adjustment's corrected keyframe poses
                         (default 0: at tf's poses)

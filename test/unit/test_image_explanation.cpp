@@ -185,8 +185,9 @@ TEST(ImageExplanation, UnresolvedWallTextureDoesNotRefuseTheTrueCamera)
   const auto world = sim::loadWorldFile(kWorld);
   ASSERT_TRUE(world) << world.error().describe();
   const sim::Renderer renderer(*world);
-  const ic::ImageExplanationOptions options = ic::FixedCameraOptions{}.explanation;
-  ASSERT_GT(options.texture.min_neighbours, 0u);
+  ic::ImageExplanationOptions options = ic::FixedCameraOptions{}.explanation;
+  ASSERT_EQ(options.texture.min_neighbours, 0u);  // off by default
+  options.texture.min_neighbours = 4;
   ic::ImageExplanationOptions no_texture = options;
   no_texture.texture.min_neighbours = 0;
   std::vector<ic::Segment3d> mortar;  // the north wall is y = 6, x 0-8

@@ -49,7 +49,7 @@ TEST(SurveyParameters, UnsetParametersKeepTheStructsDefaults)
   EXPECT_TRUE(read.cameras.unresolved_joints.enabled);
   EXPECT_TRUE(read.cameras.matcher.prior_start);
   EXPECT_TRUE(read.cameras.explanation.plain_floor_by_sample);
-  EXPECT_EQ(read.cameras.explanation.texture.min_neighbours, 4u);
+  EXPECT_EQ(read.cameras.explanation.texture.min_neighbours, 0u);  // off (docs/measurements.md)
   EXPECT_EQ(read.cameras.ambiguity.neighbourhood_share, 0.05);
   EXPECT_EQ(read.ceiling.min_height_m, 2.2);
 }
@@ -85,7 +85,7 @@ thin_lines: true
 thin_line_sigma: 0.005
 plain_floor_test: false
 plain_floor_samples: false
-texture_min_neighbours: 0
+texture_min_neighbours: 6
 unresolved_joints: false
 ambiguity: {neighbourhood_share: 0}
 ceiling: {min_height: 2.5}
@@ -131,7 +131,7 @@ cameras: []
   EXPECT_FALSE(o.cameras.unresolved_joints.enabled);
   EXPECT_FALSE(o.cameras.matcher.prior_start);
   EXPECT_FALSE(o.cameras.explanation.plain_floor_by_sample);
-  EXPECT_EQ(o.cameras.explanation.texture.min_neighbours, 0u);
+  EXPECT_EQ(o.cameras.explanation.texture.min_neighbours, 6u);
   EXPECT_EQ(o.cameras.ambiguity.neighbourhood_share, 0.0);
   EXPECT_EQ(o.ceiling.min_height_m, 2.5);
 }
