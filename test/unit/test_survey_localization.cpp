@@ -301,3 +301,31 @@ TEST(SurveyLocalization, ASecondRecordingIsNotTiedToTheFirstByOdometry)
   EXPECT_LT(correctionsOfTwoRecordings(true), 1e-4);
   EXPECT_GT(correctionsOfTwoRecordings(false), 1e-3);  // the test can fail: tied, the odometry bends them
 }
+
+// A camera refused as weakly determined while the survey assumes a localiser error says that its sigmas include that
+// error's effect on its map lines, and how to give a better localiser's error; with tf trusted (0, 0), and for other
+// refusals, the refusal is unchanged.
+TEST(SurveyLocalization, AWeaklyDeterminedRefusalNamesTheAssumedLocaliserError)
+{
+  const ic::Error weak(ic::ErrorCode::kDegenerate, std::string(ic::kWeaklyDeterminedRefusal) +
+                                                       " (1 sigma: focal length 0.55 %, position 15 mm, rotation 0.60 "
+                                                       "deg): mostly coplanar or parallel lines");
+  ic::SurveyOptions assumed;
+  assumed.localization_sigma_m = 0.02;
+  assumed.localization_sigma_deg = 0.5;
+  const ic::Error noted = ic::withAssumedLocaliser(weak, assumed);
+  EXPECT_EQ(noted.code(), ic::ErrorCode::kDegenerate);
+  EXPECT_EQ(noted.message().rfind(weak.message(), 0), 0u) << noted.message();
+  EXPECT_NE(noted.message().find("localization_sigma_m 0.02, localization_sigma_deg 0.5"), std::string::npos)
+      << noted.message();
+  EXPECT_NE(noted.message().find("--localization-sigma"), std::string::npos) << noted.message();
+
+  ic::SurveyOptions trusted = assumed;
+  trusted.localization_sigma_m = 0.0;
+  trusted.localization_sigma_deg = 0.0;
+  EXPECT_EQ(ic::withAssumedLocaliser(weak, trusted).message(), weak.message());
+  const ic::Error under(ic::ErrorCode::kDegenerate, "the matched lines leave the camera under-constrained (rank 10)");
+  EXPECT_EQ(ic::withAssumedLocaliser(under, assumed).message(), under.message());
+  const ic::Error few(ic::ErrorCode::kNotEnoughData, "only 5 lines matched (8 needed)");
+  EXPECT_EQ(ic::withAssumedLocaliser(few, assumed).message(), few.message());
+}

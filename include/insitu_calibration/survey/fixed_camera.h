@@ -38,6 +38,9 @@ struct FixedCameraConfig
   Status validate() const;
 };
 
+// How a refusal for a camera whose sigmas exceed the limits (max_sigma_*) begins (kDegenerate).
+constexpr const char* kWeaklyDeterminedRefusal = "the matched lines determine the camera too weakly";
+
 struct FixedCameraOptions
 {
   size_t median_images = 15;

@@ -105,6 +105,11 @@ struct MapAdjustment
   std::shared_ptr<SurfaceVoxels> surfaces;
 };
 
+// A camera refused as weakly determined (kWeaklyDeterminedRefusal) while the survey assumes a localiser error
+// (options.localization_sigma_*): the refusal, with a note that its sigmas include what that error does to its map
+// lines and how to give a better localiser's error. Other refusals unchanged.
+Error withAssumedLocaliser(const Error& refusal, const SurveyOptions& options);
+
 class Survey
 {
 public:

@@ -162,7 +162,7 @@ Status FixedCamera::check(const CameraCalibration& c, size_t matched_lines, bool
                   100.0 * u.fx / k.fx, 1000.0 * u.position_m, u.rotation_deg);
     if (u.fx > options_.max_sigma_focal_relative * k.fx || u.position_m > options_.max_sigma_position_m ||
         u.rotation_deg > options_.max_sigma_rotation_deg)
-      return Error(ErrorCode::kDegenerate, std::string("the matched lines determine the camera too weakly (") + buffer +
+      return Error(ErrorCode::kDegenerate, std::string(kWeaklyDeterminedRefusal) + " (" + buffer +
                                                "): mostly coplanar or parallel lines, or too small a part of the "
                                                "view; survey more of the camera's view");
   }

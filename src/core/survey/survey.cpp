@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <utility>
 
 #include "insitu_calibration/cpu_time.h"
@@ -439,6 +440,23 @@ MapPlacementUncertainty Survey::mapPlacement() const
   return out;
 }
 
+// Its sigmas include what the assumed error does to its map lines (lines seen over a few seconds share one keyframe
+// pose error, which no averaging removes): a better localiser, given as such, may determine it (docs/measurements.md,
+// "Wall texture in the final check").
+Error withAssumedLocaliser(const Error& refusal, const SurveyOptions& o)
+{
+  if (refusal.code() != ErrorCode::kDegenerate || refusal.message().rfind(kWeaklyDeterminedRefusal, 0) != 0 ||
+      !adjusting(o))
+    return refusal;
+  char note[320];
+  std::snprintf(note, sizeof(note),
+                "; the sigmas include the map lines' uncertainty under the localiser error the survey assumes "
+                "(localization_sigma_m %g, localization_sigma_deg %g): if the robot's localiser is better than that, "
+                "give its error (calibrate_survey --localization-sigma M,DEG; 0,0 trusts tf)",
+                o.localization_sigma_m, o.localization_sigma_deg);
+  return Error(refusal.code(), refusal.message() + note);
+}
+
 Expected<FixedCameraResult> Survey::calibrate(const std::string& name, const std::string& world_frame)
 {
   if (!hasCamera(name))
@@ -449,7 +467,7 @@ Expected<FixedCameraResult> Survey::calibrate(const std::string& name, const std
   auto result = camera(name).calibrate(mapSegments(), world_frame, mapLineSigmas());
   camera(name).setOccluders(nullptr);
   if (!result)
-    return result;
+    return withAssumedLocaliser(result.error(), options_);
   if (addMapPlacement(&*result, usedMapLines()))
     camera(name).setCalibration(result->file);
   return result;
