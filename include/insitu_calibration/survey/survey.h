@@ -106,8 +106,8 @@ struct MapAdjustment
 };
 
 // A camera refused as weakly determined (kWeaklyDeterminedRefusal) while the survey assumes a localiser error
-// (options.localization_sigma_*): the refusal, with a note that its sigmas include what that error does to its map
-// lines and how to give a better localiser's error. Other refusals unchanged.
+// (options.localization_sigma_*): the refusal, with a note that the map was adjusted for that error and how to take
+// exact poses as they are. Other refusals unchanged.
 Error withAssumedLocaliser(const Error& refusal, const SurveyOptions& options);
 
 class Survey

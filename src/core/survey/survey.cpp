@@ -59,7 +59,9 @@ void addLinesBeyondDepth(const std::vector<Keyframe>& keyframes, const std::vect
       used.push_back(line);
   for (const auto& line : confirmCeilingLines(keyframes, corrections, used, o.ceiling, o.floor.floor_height_m))
     map->add(line);
-  for (const auto& line : triangulateLines(keyframes, corrections, map->lines(), o.triangulated))
+  TriangulatedLineOptions triangulated = o.triangulated;
+  triangulated.floor_height_m = o.floor.floor_height_m;
+  for (const auto& line : triangulateLines(keyframes, corrections, map->lines(), triangulated))
     map->add(line);
 }
 
@@ -440,19 +442,21 @@ MapPlacementUncertainty Survey::mapPlacement() const
   return out;
 }
 
-// Its sigmas include what the assumed error does to its map lines (lines seen over a few seconds share one keyframe
-// pose error, which no averaging removes): a better localiser, given as such, may determine it (docs/measurements.md,
-// "Wall texture in the final check").
+// The map it was matched to was adjusted for the assumed error, and the adjustment moves the keyframes by a few
+// millimetres even where tf is exact: on a simulated survey such a camera was accepted with tf's poses as they are,
+// and refused with any assumed error, 5 mm / 0.1 deg too (docs/measurements.md, "The refusal's localiser note
+// corrected").
 Error withAssumedLocaliser(const Error& refusal, const SurveyOptions& o)
 {
   if (refusal.code() != ErrorCode::kDegenerate || refusal.message().rfind(kWeaklyDeterminedRefusal, 0) != 0 ||
       !adjusting(o))
     return refusal;
-  char note[320];
+  char note[512];
   std::snprintf(note, sizeof(note),
-                "; the sigmas include the map lines' uncertainty under the localiser error the survey assumes "
-                "(localization_sigma_m %g, localization_sigma_deg %g): if the robot's localiser is better than that, "
-                "give its error (calibrate_survey --localization-sigma M,DEG; 0,0 trusts tf)",
+                "; the map was adjusted for the localiser error the survey assumes (localization_sigma_m %g, "
+                "localization_sigma_deg %g), which moves the keyframes by a few millimetres even where tf is exact: "
+                "if the robot's poses are exact to about a millimetre (motion capture, a simulator), "
+                "calibrate_survey --localization-sigma 0,0 takes them as they are",
                 o.localization_sigma_m, o.localization_sigma_deg);
   return Error(refusal.code(), refusal.message() + note);
 }
