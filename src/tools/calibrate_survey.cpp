@@ -123,6 +123,9 @@ Options:
   --triangulated-lines 0|1
                         RGB lines beyond the depth range (4 m) triangulated from five or more keyframes become map lines
                         (default 0: off)
+  --triangulated-repetition-px PX
+                        with --triangulated-lines 1: a line with another parallel segment beside it within PX px in
+                        half of its keyframes (brick courses, tiles) is left out (default 10; 0: kept)
   --occlusion-test 0|1  the final check leaves out map lines that surfaces the survey's depth measured hide from
                         the camera (default 1)
   --plain-floor-samples 0|1
@@ -1298,6 +1301,8 @@ bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options, bool* 
   options->rgbd.sampler.slant_allowance = onOff(cli, "depth-slant-allowance", options->rgbd.sampler.slant_allowance);
   options->ceiling.enabled = onOff(cli, "ceiling-lines", options->ceiling.enabled);
   options->triangulated.enabled = onOff(cli, "triangulated-lines", options->triangulated.enabled);
+  options->triangulated.repetition_px =
+      cli.number("triangulated-repetition-px", options->triangulated.repetition_px, 0.0, 100.0);
   options->occlusion.enabled = onOff(cli, "occlusion-test", options->occlusion.enabled);
   options->occlusion.follow_adjustment =
       onOff(cli, "occluders-follow-adjustment", options->occlusion.follow_adjustment);
@@ -1576,6 +1581,7 @@ const std::set<std::string> kValueOptions = {"cameras",
                                              "texture-min-neighbours",
                                              "occluders-follow-adjustment",
                                              "triangulated-lines",
+                                             "triangulated-repetition-px",
                                              "ceiling-lines",
                                              "max-fusion-sigma",
                                              "min-fusion-keyframes",

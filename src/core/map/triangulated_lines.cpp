@@ -83,19 +83,42 @@ Eigen::Vector2d imageResiduals(const View& v, const FloorObservation& s, const L
                          l.dot(Eigen::Vector3d(s.image_b.x(), s.image_b.y(), 1.0)));
 }
 
-// Whether a segment supports the line: both end points within confirm_px of its image, about parallel to it, in
+// Whether a segment lies along the line: both end points within max_px of its image, about parallel to it, in
 // front within range, overlapping the extent [s_min, s_max].
-bool supports(const View& v, const FloorObservation& s, const Line& line, double s_min, double s_max,
-              const TriangulatedLineOptions& o)
+bool alongLine(const View& v, const FloorObservation& s, const Line& line, double s_min, double s_max, double max_px,
+               const TriangulatedLineOptions& o)
 {
   const Eigen::Vector2d r = imageResiduals(v, s, line);
-  if (!(r.cwiseAbs().maxCoeff() <= o.confirm_px))
+  if (!(r.cwiseAbs().maxCoeff() <= max_px))
     return false;
   const double length_px = v.focal_px * (s.image_b - s.image_a).norm();
   if (std::abs(r.x() - r.y()) > length_px * std::sin(o.max_angle_deg * M_PI / 180.0))
     return false;
   const auto extent = extentOn(v, s, line, o);
   return extent && extent->second > s_min && extent->first < s_max;
+}
+
+// A supporting segment: along the line within confirm_px.
+bool supports(const View& v, const FloorObservation& s, const Line& line, double s_min, double s_max,
+              const TriangulatedLineOptions& o)
+{
+  return alongLine(v, s, line, s_min, s_max, o.confirm_px, o);
+}
+
+// Whether two or more other segments of the view lie beside the line's image: along it within repetition_px, not
+// within confirm_px (repeated parallel edges; one neighbour alone is a frame's other side, a door's or a skirting's).
+bool amongParallels(const View& v, int own_segment, const Line& line, double s_min, double s_max,
+                    const TriangulatedLineOptions& o)
+{
+  int neighbours = 0;
+  for (size_t k = 0; k < v.segments->size() && neighbours < 2; ++k)
+  {
+    const FloorObservation& s = (*v.segments)[k];
+    if (static_cast<int>(k) != own_segment && !supports(v, s, line, s_min, s_max, o) &&
+        alongLine(v, s, line, s_min, s_max, o.repetition_px, o))
+      ++neighbours;
+  }
+  return neighbours >= 2;
 }
 
 // The one segment of a view that supports the line, -1 when none or several do.
@@ -304,6 +327,23 @@ std::vector<Support> gatherSupport(const std::vector<View>& views, Support first
   return support;
 }
 
+// Whether the line's image lies among repeated parallel edges in at least half of its supporting keyframes.
+bool amongRepeatedEdges(const std::vector<View>& views, const std::vector<Support>& support, const Line& line,
+                        double s_min, double s_max, const TriangulatedLineOptions& o)
+{
+  if (!(o.repetition_px > o.confirm_px))
+    return false;
+  size_t beside = 0;
+  for (const auto& k : support)
+    beside += amongParallels(views[k.view], k.segment, line, s_min, s_max, o) ? 1 : 0;
+  return 2 * beside >= support.size();
+}
+
+bool underFloor(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const TriangulatedLineOptions& o)
+{
+  return std::min(a.z(), b.z()) < o.floor_height_m - o.below_floor_m;
+}
+
 // The refined line of the support (outliers of the refined line dropped and refined again), centred on its extent,
 // as a map line with its predicted error; nullopt when it fails a test.
 std::optional<MapLine> fitLine(const std::vector<View>& views, const std::vector<Keyframe>& keyframes,
@@ -326,6 +366,9 @@ std::optional<MapLine> fitLine(const std::vector<View>& views, const std::vector
   double s_min = 0.0, s_max = 0.0;
   if (static_cast<int>(support->size()) < std::max(3, o.min_keyframes) ||
       !supportedExtent(views, *support, line, o, &s_min, &s_max) || s_max - s_min < o.min_length_m)
+    return std::nullopt;
+  if (amongRepeatedEdges(views, *support, line, s_min, s_max, o) ||
+      underFloor(line.point + s_min * line.direction, line.point + s_max * line.direction, o))
     return std::nullopt;
   MapLine out;
   out.source = MapLineSource::kTriangulated;

@@ -78,6 +78,7 @@ void readTriangulationParameters(ParameterSource& read, TriangulatedLineOptions&
   t.enabled = read.flag("triangulated_lines", t.enabled);
   t.max_range_m = read.number("triangulated/max_range", t.max_range_m, Range::positive(100.0, "m"));
   t.max_sigma_m = read.number("triangulated/max_sigma", t.max_sigma_m, Range::positive(1.0, "m"));
+  t.repetition_px = read.number("triangulated/repetition_px", t.repetition_px, Range::closed(0.0, 100.0, "px"));
 }
 
 // A fixed camera's calibration options set once at start-up (its median image, the prior search, the robust
