@@ -98,3 +98,28 @@ TEST(SurfaceVoxels, ALinePartlyBehindAWallIsCutWhereTheWallEnds)
   EXPECT_NEAR((all[0].a - Eigen::Vector3d(4.0, -3.0, 1.5)).norm(), 0.0, 1e-9);
   EXPECT_NEAR((all[0].b - Eigen::Vector3d(4.0, 3.0, 1.5)).norm(), 0.0, 1e-9);
 }
+
+TEST(NearestDepthGrid, HoldsTheNearestDepthPerCell)
+{
+  ic::RgbdFrame frame;
+  frame.camera.width = 64;
+  frame.camera.height = 48;
+  frame.camera.intrinsics.fx = frame.camera.intrinsics.fy = 500.0;
+  frame.camera.intrinsics.cx = 31.5;
+  frame.camera.intrinsics.cy = 23.5;
+  frame.depth = cv::Mat(48, 64, CV_32FC1, cv::Scalar(3.0f));
+  frame.depth(cv::Rect(0, 0, 16, 16)).setTo(cv::Scalar(1.5f));    // something nearer at the top left
+  frame.depth(cv::Rect(48, 32, 16, 16)).setTo(cv::Scalar(0.0f));  // no depth at the bottom right
+  frame.depth.at<float>(24, 40) = 2.0f;                           // one nearer pixel right of the centre
+  const ic::NearestDepthGrid grid = ic::nearestDepthGrid(frame, 16.0, 1);
+  auto at = [&](double col, double row) { return grid.nearestAt(frame.camera.normalize({col, row})); };
+  EXPECT_FLOAT_EQ(at(8.0, 8.0), 1.5f);
+  EXPECT_FLOAT_EQ(at(20.0, 24.0), 3.0f);
+  EXPECT_FLOAT_EQ(at(40.0, 20.0), 2.0f);       // the cell holding (40, 24)
+  EXPECT_EQ(at(56.0, 40.0), 0.0);              // no depth: no evidence
+  EXPECT_EQ(grid.nearestAt({5.0, 0.0}), 0.0);  // outside the view
+  EXPECT_FLOAT_EQ(grid.farthestAt(frame.camera.normalize({8.0, 8.0})), 1.5f);
+  EXPECT_FLOAT_EQ(grid.farthestAt(frame.camera.normalize({40.0, 20.0})), 3.0f);
+  frame.depth.at<float>(20, 40) = 0.0f;  // a pixel without depth: what the cell hides is unknown
+  EXPECT_EQ(ic::nearestDepthGrid(frame, 16.0, 1).farthestAt(frame.camera.normalize({40.0, 20.0})), 0.0);
+}

@@ -3,7 +3,8 @@
 // Synthetic: lines 8-15 m from a 4 m straight route (keyframes every 0.1 m, the camera looking across it, turning
 // slowly): noise-free segments give the true lines to 1e-6 m; with 0.3 px noise at least 90 % of the lines lie
 // within 3 predicted sigmas of the truth; a line seen from only two keyframes, and a line a depth map line holds,
-// are not made.
+// are not made; nor are ghosts of wrongly paired views: lines among repeated parallel edges, under the floor, or
+// where a keyframe's depth saw free space.
 #include <gtest/gtest.h>
 
 #include <functional>
@@ -237,4 +238,43 @@ TEST(TriangulatedLines, ALineUnderTheFloorIsNotMade)
   ic::TriangulatedLineOptions lower = enabled();
   lower.floor_height_m = -0.5;  // the floor lower: both are above it
   EXPECT_EQ(ic::triangulateLines(keyframes, {}, {}, lower).size(), 2u);
+}
+
+TEST(TriangulatedLines, ALineWhereDepthSawFreeSpaceOrThatDepthHidIsNotMade)
+{
+  std::mt19937 rng(7);
+  const std::vector<TrueLine> lines = {{{1.0, 10.0, 0.5}, {1.0, 10.0, 1.8}}, {{3.0, 10.5, 0.4}, {3.0, 10.5, 1.6}}};
+  auto keyframes = route(lines, 0.0, rng, always);
+  // A later keyframe 3 m nearer whose depth saw nothing nearer than `nearest` in its whole view (no RGB segments).
+  auto nearer = [&](double nearest) {
+    ic::Keyframe kf;
+    kf.stamp = 100.0;
+    kf.T_map_camera = cameraAt(2.0, 0.0);
+    kf.T_map_camera.translation().y() = 7.0;
+    kf.focal_px = 570.0;
+    kf.depth_grid.origin = Eigen::Vector2d(-1.0, -1.0);
+    kf.depth_grid.cell = 0.05;
+    kf.depth_grid.cols = kf.depth_grid.rows = 40;
+    kf.depth_grid.nearest_m.assign(1600, static_cast<float>(nearest));
+    return kf;
+  };
+  keyframes.push_back(nearer(3.0));  // the lines' own wall 3-3.5 m ahead: they are there
+  EXPECT_EQ(ic::triangulateLines(keyframes, {}, {}, enabled()).size(), 2u);
+  keyframes.back() = nearer(4.4);  // free up to 4.4 m: it saw through both
+  EXPECT_TRUE(ic::triangulateLines(keyframes, {}, {}, enabled()).empty());
+  ic::TriangulatedLineOptions far = enabled();
+  far.free_max_range_m = 2.5;  // beyond the depth range the test trusts: no evidence
+  EXPECT_EQ(ic::triangulateLines(keyframes, {}, {}, far).size(), 2u);
+
+  // Every keyframe that saw them measured a wall 4 m ahead over its whole view: they would have been hidden.
+  keyframes.pop_back();
+  for (auto& kf : keyframes)
+  {
+    kf.depth_grid = nearer(4.0).depth_grid;
+    kf.depth_grid.farthest_m = kf.depth_grid.nearest_m;
+  }
+  EXPECT_TRUE(ic::triangulateLines(keyframes, {}, {}, enabled()).empty());
+  for (auto& kf : keyframes)
+    std::fill(kf.depth_grid.farthest_m.begin(), kf.depth_grid.farthest_m.end(), 0.0f);  // pixels without depth
+  EXPECT_EQ(ic::triangulateLines(keyframes, {}, {}, enabled()).size(), 2u);
 }

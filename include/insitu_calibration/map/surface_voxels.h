@@ -83,6 +83,29 @@ private:
   std::unordered_set<uint64_t> voxels_;
 };
 
+// The nearest and the farthest depth a frame measured in each cell of a coarse grid over its image (undistorted
+// normalised coordinates, square cells): in front of the nearest, that part of the view is free; beyond the
+// farthest, it is hidden. Triangulated lines at points a keyframe saw through, or hidden from the keyframes that
+// saw them, are ghosts (map/triangulated_lines.h). A few hundred floats per keyframe, no image.
+struct NearestDepthGrid
+{
+  Eigen::Vector2d origin = Eigen::Vector2d::Zero();  // the first cell's corner
+  double cell = 0.0;
+  int cols = 0;
+  int rows = 0;
+  std::vector<float> nearest_m;   // row-major; 0: no depth in the cell
+  std::vector<float> farthest_m;  // row-major; 0: a pixel of the cell without depth (it may look past the rest)
+
+  // The nearest and the farthest depth in the cell holding the point (normalised coordinates); 0 outside the grid
+  // or without depth.
+  double nearestAt(const Eigen::Vector2d& normalised) const;
+  double farthestAt(const Eigen::Vector2d& normalised) const;
+  // The cell's index (row-major), or -1 outside the grid.
+  long cellOf(const Eigen::Vector2d& normalised) const;
+};
+
+// The frame's grid of cells cell_px wide (at the image's centre), from every pixel_step-th depth pixel.
+NearestDepthGrid nearestDepthGrid(const RgbdFrame& frame, double cell_px, int pixel_step);
 }  // namespace insitu_calibration
 
 #endif  // INSITU_CALIBRATION_MAP_SURFACE_VOXELS_H

@@ -6,8 +6,9 @@
 // line at both end points, and overlapping it) support it: two views always agree on a line, a third one tests it.
 // It is then refined by least squares over all its supporting segments (point-to-line, px); its predicted error is
 // that small problem's covariance at the pixel noise, with the keyframe poses' errors propagated over its range.
-// A line that a map line already holds (depth or floor) is left out, and so are lines among repeated parallel edges
-// and lines under the floor (ghosts of wrongly paired views).
+// A line that a map line already holds (depth or floor) is left out, and so are ghosts of wrongly paired views: lines
+// among repeated parallel edges, under the floor, where keyframes' depth saw free space, or hidden from the keyframes
+// that saw them.
 #ifndef INSITU_CALIBRATION_MAP_TRIANGULATED_LINES_H
 #define INSITU_CALIBRATION_MAP_TRIANGULATED_LINES_H
 
@@ -51,6 +52,15 @@ struct TriangulatedLineOptions
   // parallel segments beside it (overlapping, within repetition_px, farther than confirm_px) in at least half of its
   // supporting keyframes is left out; one neighbour alone (a frame's other edge) is not repetition. 0: off.
   double repetition_px = 10.0;
+  // Free space: a keyframe's depth saw through a point (Keyframe::depth_grid: the point within free_max_range_m of
+  // it, and the nearest depth in its part of the image farther by free_margin_m + free_margin_per_m2 * z^2) where
+  // nothing stands; a line with a third or more of its points (every 0.1 m) seen through is left out. Lines beyond
+  // the depth range are tested by the keyframes that came nearer. So is a line whose supporting keyframes' depth
+  // hid a third or more of its points (all depth in that part of the image nearer than the point by the margin, at
+  // the depth's range): a line behind a wall.
+  double free_margin_m = 0.05;
+  double free_margin_per_m2 = 0.01;
+  double free_max_range_m = 4.5;
 };
 
 // The lines triangulated from the keyframes' RGB-only segments (Keyframe::rgb) under the corrected poses

@@ -144,4 +144,62 @@ bool SurfaceVoxels::hiddenFromAll(const std::vector<Eigen::Vector3d>& viewpoints
   return true;
 }
 
+long NearestDepthGrid::cellOf(const Eigen::Vector2d& normalised) const
+{
+  if (!(cell > 0.0))
+    return -1;
+  const Eigen::Vector2d at = (normalised - origin) / cell;
+  if (!(at.x() >= 0.0 && at.y() >= 0.0 && at.x() < cols && at.y() < rows))
+    return -1;
+  return static_cast<long>(at.y()) * cols + static_cast<long>(at.x());
+}
+
+double NearestDepthGrid::nearestAt(const Eigen::Vector2d& normalised) const
+{
+  const long k = cellOf(normalised);
+  return k < 0 || static_cast<size_t>(k) >= nearest_m.size() ? 0.0 : nearest_m[k];
+}
+
+double NearestDepthGrid::farthestAt(const Eigen::Vector2d& normalised) const
+{
+  const long k = cellOf(normalised);
+  return k < 0 || static_cast<size_t>(k) >= farthest_m.size() ? 0.0 : farthest_m[k];
+}
+
+NearestDepthGrid nearestDepthGrid(const RgbdFrame& frame, double cell_px, int pixel_step)
+{
+  NearestDepthGrid grid;
+  const Intrinsics& k = frame.camera.intrinsics;
+  grid.cell = cell_px / k.fx;
+  // A cell of margin on every side: distortion moves the image's border a little.
+  grid.origin = Eigen::Vector2d(-k.cx / k.fx, -k.cy / k.fy) - Eigen::Vector2d::Constant(grid.cell);
+  grid.cols = static_cast<int>(std::ceil(frame.camera.width / cell_px)) + 2;
+  grid.rows = static_cast<int>(std::ceil(frame.camera.height * k.fx / (k.fy * cell_px))) + 2;
+  grid.nearest_m.assign(static_cast<size_t>(grid.cols) * grid.rows, 0.0f);
+  grid.farthest_m = grid.nearest_m;
+  std::vector<bool> unmeasured(grid.nearest_m.size(), false);
+  const int step = std::max(1, pixel_step);
+  for (int row = step / 2; row < frame.depth.rows; row += step)
+    for (int col = step / 2; col < frame.depth.cols; col += step)
+    {
+      const long k = grid.cellOf(frame.camera.normalize(Eigen::Vector2d(col, row)));
+      const double z = depthAt(frame.depth, row, col);
+      if (k < 0)
+        continue;
+      if (!(z > 0.0 && std::isfinite(z)))
+      {
+        unmeasured[k] = true;
+        continue;
+      }
+      if (grid.nearest_m[k] == 0.0f || z < grid.nearest_m[k])
+        grid.nearest_m[k] = static_cast<float>(z);
+      grid.farthest_m[k] = std::max(grid.farthest_m[k], static_cast<float>(z));
+    }
+  // A pixel without depth may look past everything the cell measured (beyond the depth's range): nothing is known
+  // hidden there.
+  for (size_t k = 0; k < unmeasured.size(); ++k)
+    if (unmeasured[k])
+      grid.farthest_m[k] = 0.0f;
+  return grid;
+}
 }  // namespace insitu_calibration

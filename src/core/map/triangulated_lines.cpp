@@ -21,6 +21,7 @@ struct View
   Eigen::Vector3d C = Eigen::Vector3d::Zero();
   double focal_px = 0.0;
   const std::vector<FloorObservation>* segments = nullptr;
+  const NearestDepthGrid* free = nullptr;
 };
 
 struct Line
@@ -291,7 +292,8 @@ std::vector<View> viewsOf(const std::vector<Keyframe>& keyframes, const std::vec
     const Eigen::Isometry3d pose = corrections.size() == keyframes.size()
                                        ? corrections[k].apply(keyframes[k].T_map_camera)
                                        : keyframes[k].T_map_camera;
-    views.push_back({pose.linear(), pose.translation(), keyframes[k].focal_px, &keyframes[k].rgb});
+    views.push_back(
+        {pose.linear(), pose.translation(), keyframes[k].focal_px, &keyframes[k].rgb, &keyframes[k].depth_grid});
   }
   return views;
 }
@@ -344,6 +346,59 @@ bool underFloor(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Triang
   return std::min(a.z(), b.z()) < o.floor_height_m - o.below_floor_m;
 }
 
+// Whether the view's depth saw through the point: nearer than free_max_range_m, and the nearest depth in its part of
+// the image farther than it by the margin.
+bool sawThrough(const View& v, const Eigen::Vector3d& point, const TriangulatedLineOptions& o)
+{
+  const Eigen::Vector3d c = v.R.transpose() * (point - v.C);
+  if (!v.free || !(c.z() > 0.0 && c.z() <= o.free_max_range_m))
+    return false;
+  const double nearest = v.free->nearestAt(c.head<2>() / c.z());
+  return nearest > c.z() + o.free_margin_m + o.free_margin_per_m2 * c.z() * c.z();
+}
+
+// Whether the view's depth hides the point: every depth in its part of the image nearer than the point by the margin
+// (something stood in front of it).
+bool hides(const View& v, const Eigen::Vector3d& point, const TriangulatedLineOptions& o)
+{
+  const Eigen::Vector3d c = v.R.transpose() * (point - v.C);
+  if (!v.free || !(c.z() > 0.0))
+    return false;
+  const double farthest = v.free->farthestAt(c.head<2>() / c.z());
+  return farthest > 0.0 && farthest < c.z() - o.free_margin_m - o.free_margin_per_m2 * farthest * farthest;
+}
+
+// Whether the keyframes that support the line had a third or more of its points (every 0.1 m) hidden behind what
+// their depth measured.
+bool hiddenFromSupport(const std::vector<View>& views, const std::vector<Support>& support, const Eigen::Vector3d& a,
+                       const Eigen::Vector3d& b, const TriangulatedLineOptions& o)
+{
+  const int n = std::max(2, static_cast<int>(std::ceil((b - a).norm() / 0.1)) + 1);
+  int hidden = 0;
+  for (int i = 0; i < n; ++i)
+  {
+    const Eigen::Vector3d p = a + (b - a) * (static_cast<double>(i) / (n - 1));
+    hidden += std::any_of(support.begin(), support.end(), [&](const Support& k) { return hides(views[k.view], p, o); })
+                  ? 1
+                  : 0;
+  }
+  return 3 * hidden >= n;
+}
+
+// Whether some keyframe's depth saw through at least a third of the line's points (every 0.1 m from a to b).
+bool inFreeSpace(const std::vector<View>& views, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                 const TriangulatedLineOptions& o)
+{
+  const int n = std::max(2, static_cast<int>(std::ceil((b - a).norm() / 0.1)) + 1);
+  int through = 0;
+  for (int i = 0; i < n; ++i)
+  {
+    const Eigen::Vector3d p = a + (b - a) * (static_cast<double>(i) / (n - 1));
+    through += std::any_of(views.begin(), views.end(), [&](const View& v) { return sawThrough(v, p, o); }) ? 1 : 0;
+  }
+  return 3 * through >= n;
+}
+
 // The refined line of the support (outliers of the refined line dropped and refined again), centred on its extent,
 // as a map line with its predicted error; nullopt when it fails a test.
 std::optional<MapLine> fitLine(const std::vector<View>& views, const std::vector<Keyframe>& keyframes,
@@ -367,8 +422,9 @@ std::optional<MapLine> fitLine(const std::vector<View>& views, const std::vector
   if (static_cast<int>(support->size()) < std::max(3, o.min_keyframes) ||
       !supportedExtent(views, *support, line, o, &s_min, &s_max) || s_max - s_min < o.min_length_m)
     return std::nullopt;
-  if (amongRepeatedEdges(views, *support, line, s_min, s_max, o) ||
-      underFloor(line.point + s_min * line.direction, line.point + s_max * line.direction, o))
+  const Eigen::Vector3d a = line.point + s_min * line.direction, b = line.point + s_max * line.direction;
+  if (amongRepeatedEdges(views, *support, line, s_min, s_max, o) || underFloor(a, b, o) ||
+      inFreeSpace(views, a, b, o) || hiddenFromSupport(views, *support, a, b, o))
     return std::nullopt;
   MapLine out;
   out.source = MapLineSource::kTriangulated;

@@ -13,6 +13,11 @@ namespace insitu_calibration
 {
 namespace
 {
+// The free-space grid of a keyframe (triangulated lines): 16 px cells (about 3 deg of the Xtion's view), from every
+// 4th depth pixel.
+constexpr double kFreeSpaceCellPx = 16.0;
+constexpr int kFreeSpacePixelStep = 4;
+
 // What the adjustment needs of a keyframe: its tf pose and its lines in the camera frame with their 2D segments.
 Keyframe toKeyframe(const RgbdFrame& frame, const std::vector<Line3d>& lines, std::vector<FloorObservation> floor)
 {
@@ -185,8 +190,11 @@ Expected<bool> Survey::addRgbdFrame(const RgbdFrame& frame, const std::optional<
     keyframe_data_.back().ceiling = ceilingObservations(frame, *lines, unlifted, options_.map);
   keyframe_data_.back().surface = std::move(depth_samples);
   if (options_.triangulated.enabled)
+  {
     for (const auto& u : unlifted)
       keyframe_data_.back().rgb.push_back({frame.camera.normalize(u.segment.a), frame.camera.normalize(u.segment.b)});
+    keyframe_data_.back().depth_grid = nearestDepthGrid(frame, kFreeSpaceCellPx, kFreeSpacePixelStep);
+  }
   keyframe_data_.back().starts_recording = std::exchange(recording_started_, false);
   keyframe_data_.back().has_odometry = T_odom_camera.has_value();
   if (T_odom_camera)
