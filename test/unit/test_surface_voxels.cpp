@@ -31,18 +31,24 @@ void insertWallY(ic::SurfaceVoxels& voxels)
         voxels.insert({x, -0.5 * k * voxels.options().voxel_m, z});
     }
 }
+// A 64 x 48 camera (f 500 px) facing a plane at depth_m.
+ic::RgbdFrame planeAt(double depth_m)
+{
+  ic::RgbdFrame frame;
+  frame.camera.width = 64;
+  frame.camera.height = 48;
+  frame.camera.intrinsics.fx = frame.camera.intrinsics.fy = 500.0;
+  frame.camera.intrinsics.cx = 31.5;
+  frame.camera.intrinsics.cy = 23.5;
+  frame.depth = cv::Mat(48, 64, CV_32FC1, cv::Scalar(static_cast<float>(depth_m)));
+  return frame;
+}
 }  // namespace
 
 TEST(SurfaceVoxels, DepthOfAPlaneMarksTwoVoxelLayers)
 {
   ic::SurfaceVoxels voxels;
-  ic::RgbdFrame frame;
-  frame.camera.width = 64;
-  frame.camera.height = 48;
-  frame.camera.intrinsics.fx = frame.camera.intrinsics.fy = 500.0;  // 2.4 cm between samples at 3 m
-  frame.camera.intrinsics.cx = 31.5;
-  frame.camera.intrinsics.cy = 23.5;
-  frame.depth = cv::Mat(48, 64, CV_32FC1, cv::Scalar(3.0f));
+  ic::RgbdFrame frame = planeAt(3.0);  // 2.4 cm between samples at 3 m
   frame.depth.at<float>(0, 0) = 0.0f;  // no measurement
   voxels.insertDepth(frame);
   EXPECT_TRUE(voxels.occupied({0.18, 0.13, 3.01}));  // the image corner's sample (col 62, row 46)
@@ -101,13 +107,7 @@ TEST(SurfaceVoxels, ALinePartlyBehindAWallIsCutWhereTheWallEnds)
 
 TEST(NearestDepthGrid, HoldsTheNearestDepthPerCell)
 {
-  ic::RgbdFrame frame;
-  frame.camera.width = 64;
-  frame.camera.height = 48;
-  frame.camera.intrinsics.fx = frame.camera.intrinsics.fy = 500.0;
-  frame.camera.intrinsics.cx = 31.5;
-  frame.camera.intrinsics.cy = 23.5;
-  frame.depth = cv::Mat(48, 64, CV_32FC1, cv::Scalar(3.0f));
+  ic::RgbdFrame frame = planeAt(3.0);
   frame.depth(cv::Rect(0, 0, 16, 16)).setTo(cv::Scalar(1.5f));    // something nearer at the top left
   frame.depth(cv::Rect(48, 32, 16, 16)).setTo(cv::Scalar(0.0f));  // no depth at the bottom right
   frame.depth.at<float>(24, 40) = 2.0f;                           // one nearer pixel right of the centre

@@ -368,35 +368,34 @@ bool hides(const View& v, const Eigen::Vector3d& point, const TriangulatedLineOp
   return farthest > 0.0 && farthest < c.z() - o.free_margin_m - o.free_margin_per_m2 * farthest * farthest;
 }
 
-// Whether the keyframes that support the line had a third or more of its points (every 0.1 m) hidden behind what
-// their depth measured.
+// Whether at least a third of the line's points (every 0.1 m from a to b) are ones the predicate holds for.
+template <typename Predicate>
+bool aThirdOfItsPoints(const Eigen::Vector3d& a, const Eigen::Vector3d& b, Predicate holds)
+{
+  const int n = std::max(2, static_cast<int>(std::ceil((b - a).norm() / 0.1)) + 1);
+  int count = 0;
+  for (int i = 0; i < n; ++i)
+    count += holds(a + (b - a) * (static_cast<double>(i) / (n - 1))) ? 1 : 0;
+  return 3 * count >= n;
+}
+
+// Whether the keyframes that support the line had a third or more of its points hidden behind what their depth
+// measured.
 bool hiddenFromSupport(const std::vector<View>& views, const std::vector<Support>& support, const Eigen::Vector3d& a,
                        const Eigen::Vector3d& b, const TriangulatedLineOptions& o)
 {
-  const int n = std::max(2, static_cast<int>(std::ceil((b - a).norm() / 0.1)) + 1);
-  int hidden = 0;
-  for (int i = 0; i < n; ++i)
-  {
-    const Eigen::Vector3d p = a + (b - a) * (static_cast<double>(i) / (n - 1));
-    hidden += std::any_of(support.begin(), support.end(), [&](const Support& k) { return hides(views[k.view], p, o); })
-                  ? 1
-                  : 0;
-  }
-  return 3 * hidden >= n;
+  return aThirdOfItsPoints(a, b, [&](const Eigen::Vector3d& p) {
+    return std::any_of(support.begin(), support.end(), [&](const Support& k) { return hides(views[k.view], p, o); });
+  });
 }
 
-// Whether some keyframe's depth saw through at least a third of the line's points (every 0.1 m from a to b).
+// Whether some keyframe's depth saw through a third or more of the line's points.
 bool inFreeSpace(const std::vector<View>& views, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
                  const TriangulatedLineOptions& o)
 {
-  const int n = std::max(2, static_cast<int>(std::ceil((b - a).norm() / 0.1)) + 1);
-  int through = 0;
-  for (int i = 0; i < n; ++i)
-  {
-    const Eigen::Vector3d p = a + (b - a) * (static_cast<double>(i) / (n - 1));
-    through += std::any_of(views.begin(), views.end(), [&](const View& v) { return sawThrough(v, p, o); }) ? 1 : 0;
-  }
-  return 3 * through >= n;
+  return aThirdOfItsPoints(a, b, [&](const Eigen::Vector3d& p) {
+    return std::any_of(views.begin(), views.end(), [&](const View& v) { return sawThrough(v, p, o); });
+  });
 }
 
 // The refined line of the support (outliers of the refined line dropped and refined again), centred on its extent,
