@@ -186,6 +186,11 @@ private:
   bool priorRulesOut(const CameraModel& alternative, const CameraModel& accepted) const;
   Status checkAmbiguity(FixedCameraResult& result, const std::vector<Segment3d>& map_lines,
                         const std::vector<double>& map_line_sigmas_m) const;
+  // The median image's lines under a distortion for the calibration loop: thin lines (thin_lines) only once a camera
+  // is known (camera_known), or from the start in a view with no edge line at all; thin_lines says whether they were
+  // fine-tuned. No line: an error that says what the view shows.
+  Expected<std::vector<ImageLine>> linesOfMedian(const cv::Mat& median, const DivisionModel& distortion,
+                                                 bool camera_known, bool* thin_lines) const;
   // The image lines of the median image under a distortion (the polylines only).
   Expected<std::vector<std::vector<Eigen::Vector2d>>> medianLines(const DivisionModel& distortion) const;
   void measureVerificationReference(const std::vector<Segment3d>& map_lines,

@@ -341,6 +341,38 @@ FixedCameraResult FixedCamera::resultOfMatching(LineMatchResult matched,
   return result;
 }
 
+Expected<std::vector<ImageLine>> FixedCamera::linesOfMedian(const cv::Mat& median, const DivisionModel& distortion,
+                                                            bool camera_known, bool* thin_lines) const
+{
+  // Thin lines (joints: often a repeating grid) only once a camera is known: from the prior their repetition would
+  // offer the search a match one joint over.
+  ImageLineOptions line_options = options_.image_lines;
+  *thin_lines = line_options.refiner.thin_lines && camera_known;
+  line_options.refiner.thin_lines = *thin_lines;
+  ImageLineStats stats;
+  auto lines = extractImageLines(median, distortion, line_options, &stats);
+  if (!lines || !lines->empty())
+    return lines;
+  std::string message = "no lines were found in the median image (" + stats.note + ")";
+  if (!*thin_lines)
+  {  // A view of joints alone (a tiled floor seen from above): thin lines are all it has.
+    line_options.refiner.thin_lines = true;
+    ImageLineStats thin_stats;
+    auto thin = extractImageLines(median, distortion, line_options, &thin_stats);
+    if (thin && !thin->empty() && options_.image_lines.refiner.thin_lines)
+    {
+      *thin_lines = true;
+      return thin;
+    }
+    if (thin && !thin->empty())
+      message += "; it shows " + std::to_string(thin->size()) +
+                 " thin lines without a step across them (the joints of tiles, bricks or planks), which only the "
+                 "parameter thin_lines uses (off by default); or calibrate this camera from CAD lines "
+                 "(calibrate_lines)";
+  }
+  return Error(ErrorCode::kNotEnoughData, message);
+}
+
 Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segment3d>& all_map_lines,
                                                           const std::string& world_frame,
                                                           const std::vector<double>& map_line_sigmas_all)
@@ -362,17 +394,10 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
   std::optional<FixedCameraResult> best;
   for (int loop = 0; loop < options_.max_loops; ++loop)
   {
-    // Thin lines (joints: often a repeating grid) only once a camera is known: from the prior their repetition would
-    // offer the search a match one joint over.
-    ImageLineOptions line_options = options_.image_lines;
-    const bool thin_lines = line_options.refiner.thin_lines && best;
-    line_options.refiner.thin_lines = thin_lines;
-    ImageLineStats stats;
-    const auto lines = extractImageLines(median, distortion, line_options, &stats);
+    bool thin_lines = false;
+    const auto lines = linesOfMedian(median, distortion, best.has_value(), &thin_lines);
     if (!lines)
       return lines.error();
-    if (lines->empty())
-      return Error(ErrorCode::kNotEnoughData, "no lines were found in the median image (" + stats.note + ")");
     std::vector<std::vector<Eigen::Vector2d>> polylines;
     std::vector<double> image_line_sigmas;
     for (const auto& l : *lines)
