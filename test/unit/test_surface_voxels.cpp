@@ -105,13 +105,13 @@ TEST(SurfaceVoxels, ALinePartlyBehindAWallIsCutWhereTheWallEnds)
   EXPECT_NEAR((all[0].b - Eigen::Vector3d(4.0, 3.0, 1.5)).norm(), 0.0, 1e-9);
 }
 
-TEST(NearestDepthGrid, HoldsTheNearestDepthPerCell)
+TEST(DepthRangeGrid, HoldsTheNearestAndFarthestDepthPerCell)
 {
   ic::RgbdFrame frame = planeAt(3.0);
   frame.depth(cv::Rect(0, 0, 16, 16)).setTo(cv::Scalar(1.5f));    // something nearer at the top left
   frame.depth(cv::Rect(48, 32, 16, 16)).setTo(cv::Scalar(0.0f));  // no depth at the bottom right
   frame.depth.at<float>(24, 40) = 2.0f;                           // one nearer pixel right of the centre
-  const ic::NearestDepthGrid grid = ic::nearestDepthGrid(frame, 16.0, 1);
+  const ic::DepthRangeGrid grid = ic::depthRangeGrid(frame, 16.0, 1);
   auto at = [&](double col, double row) { return grid.nearestAt(frame.camera.normalize({col, row})); };
   EXPECT_FLOAT_EQ(at(8.0, 8.0), 1.5f);
   EXPECT_FLOAT_EQ(at(20.0, 24.0), 3.0f);
@@ -121,5 +121,5 @@ TEST(NearestDepthGrid, HoldsTheNearestDepthPerCell)
   EXPECT_FLOAT_EQ(grid.farthestAt(frame.camera.normalize({8.0, 8.0})), 1.5f);
   EXPECT_FLOAT_EQ(grid.farthestAt(frame.camera.normalize({40.0, 20.0})), 3.0f);
   frame.depth.at<float>(20, 40) = 0.0f;  // a pixel without depth: what the cell hides is unknown
-  EXPECT_EQ(ic::nearestDepthGrid(frame, 16.0, 1).farthestAt(frame.camera.normalize({40.0, 20.0})), 0.0);
+  EXPECT_EQ(ic::depthRangeGrid(frame, 16.0, 1).farthestAt(frame.camera.normalize({40.0, 20.0})), 0.0);
 }

@@ -79,7 +79,7 @@ struct Keyframe
   std::vector<KeyframeLine> lines;
   std::vector<FloorObservation> floor;      // not adjusted: placed on the floor under the corrected pose
   std::vector<FloorObservation> rgb;        // every RGB segment without a depth line, when lines are triangulated
-  NearestDepthGrid depth_grid;              // what its depth saw free, when lines are triangulated
+  DepthRangeGrid depth_grid;                // its depth's nearest and farthest per image cell, when triangulating
   std::vector<CeilingObservation> ceiling;  // when ceiling lines are enabled
   // Its depth samples in the camera frame (SurfaceVoxels::depthSamples, thinned), when the survey tests occlusion
   // and adjusts the map: the surfaces are inserted again under the corrected pose.

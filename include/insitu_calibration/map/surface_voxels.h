@@ -87,7 +87,7 @@ private:
 // normalised coordinates, square cells): in front of the nearest, that part of the view is free; beyond the
 // farthest, it is hidden. Triangulated lines at points a keyframe saw through, or hidden from the keyframes that
 // saw them, are ghosts (map/triangulated_lines.h). A few hundred floats per keyframe, no image.
-struct NearestDepthGrid
+struct DepthRangeGrid
 {
   Eigen::Vector2d origin = Eigen::Vector2d::Zero();  // the first cell's corner
   double cell = 0.0;
@@ -105,7 +105,7 @@ struct NearestDepthGrid
 };
 
 // The frame's grid of cells cell_px wide (at the image's centre), from every pixel_step-th depth pixel.
-NearestDepthGrid nearestDepthGrid(const RgbdFrame& frame, double cell_px, int pixel_step);
+DepthRangeGrid depthRangeGrid(const RgbdFrame& frame, double cell_px, int pixel_step);
 }  // namespace insitu_calibration
 
 #endif  // INSITU_CALIBRATION_MAP_SURFACE_VOXELS_H

@@ -144,7 +144,7 @@ bool SurfaceVoxels::hiddenFromAll(const std::vector<Eigen::Vector3d>& viewpoints
   return true;
 }
 
-long NearestDepthGrid::cellOf(const Eigen::Vector2d& normalised) const
+long DepthRangeGrid::cellOf(const Eigen::Vector2d& normalised) const
 {
   if (!(cell > 0.0))
     return -1;
@@ -154,21 +154,21 @@ long NearestDepthGrid::cellOf(const Eigen::Vector2d& normalised) const
   return static_cast<long>(at.y()) * cols + static_cast<long>(at.x());
 }
 
-double NearestDepthGrid::nearestAt(const Eigen::Vector2d& normalised) const
+double DepthRangeGrid::nearestAt(const Eigen::Vector2d& normalised) const
 {
   const long k = cellOf(normalised);
   return k < 0 || static_cast<size_t>(k) >= nearest_m.size() ? 0.0 : nearest_m[k];
 }
 
-double NearestDepthGrid::farthestAt(const Eigen::Vector2d& normalised) const
+double DepthRangeGrid::farthestAt(const Eigen::Vector2d& normalised) const
 {
   const long k = cellOf(normalised);
   return k < 0 || static_cast<size_t>(k) >= farthest_m.size() ? 0.0 : farthest_m[k];
 }
 
-NearestDepthGrid nearestDepthGrid(const RgbdFrame& frame, double cell_px, int pixel_step)
+DepthRangeGrid depthRangeGrid(const RgbdFrame& frame, double cell_px, int pixel_step)
 {
-  NearestDepthGrid grid;
+  DepthRangeGrid grid;
   const Intrinsics& k = frame.camera.intrinsics;
   grid.cell = cell_px / k.fx;
   // A cell of margin on every side: distortion moves the image's border a little.

@@ -21,7 +21,7 @@ struct View
   Eigen::Vector3d C = Eigen::Vector3d::Zero();
   double focal_px = 0.0;
   const std::vector<FloorObservation>* segments = nullptr;
-  const NearestDepthGrid* free = nullptr;
+  const DepthRangeGrid* free = nullptr;
 };
 
 struct Line

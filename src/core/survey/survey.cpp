@@ -193,7 +193,7 @@ Expected<bool> Survey::addRgbdFrame(const RgbdFrame& frame, const std::optional<
   {
     for (const auto& u : unlifted)
       keyframe_data_.back().rgb.push_back({frame.camera.normalize(u.segment.a), frame.camera.normalize(u.segment.b)});
-    keyframe_data_.back().depth_grid = nearestDepthGrid(frame, kFreeSpaceCellPx, kFreeSpacePixelStep);
+    keyframe_data_.back().depth_grid = depthRangeGrid(frame, kFreeSpaceCellPx, kFreeSpacePixelStep);
   }
   keyframe_data_.back().starts_recording = std::exchange(recording_started_, false);
   keyframe_data_.back().has_odometry = T_odom_camera.has_value();
