@@ -607,13 +607,30 @@ void CalibrationServer::reportFailure(const std::string& name, const FixedCamera
   ROS_WARN_STREAM("calibration_node: " << name << ": calibration failed: " << failed.message);
 }
 
+CalibrationMap CalibrationServer::extendedMap(const std::function<void(const std::string&)>& stage)
+{
+  std::vector<Keyframe> keyframes;
+  std::vector<PoseCorrection> corrections;
+  SurveyOptions options;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    options = survey_->options();
+    if (!extendedRetryAdds(options))
+      return {};
+    keyframes = survey_->keyframes();
+    corrections = survey_->latestPoseCorrections();
+  }
+  stage("retrying on the extended map");
+  const LineMap extended = Survey::computeExtendedMap(keyframes, corrections, options);
+  std::lock_guard<std::mutex> lock(mutex_);
+  return survey_->calibrationMapOf(extended, true);
+}
+
 void CalibrationServer::calibrateOne(const std::string& name, const std::function<void(const std::string&)>& stage,
                                      CalibrationOutcome* outcome)
 {
   std::optional<FixedCamera> camera;
-  std::vector<Segment3d> map;
-  std::vector<double> sigmas;
-  std::vector<MapLine> used_lines;  // behind map: their shared errors widen the result's sigmas
+  CalibrationMap in_use;
   uint64_t generation = 0;
   size_t keyframes = 0;
   refreshMapAdjustment();
@@ -622,14 +639,16 @@ void CalibrationServer::calibrateOne(const std::string& name, const std::functio
     camera.emplace(survey_->camera(name));
     camera->setOccluders(survey_->surfaces());
     keyframes = survey_->stats().keyframes;
-    map = survey_->latestMapSegments();
-    sigmas = survey_->latestMapLineSigmas();
-    used_lines = survey_->latestUsedMapLines();
+    in_use = survey_->calibrationMapOf(survey_->latestLineMap());
     generation = reset_generation_;
   }
   const std::optional<CalibrationFile> previous = camera->calibration();
   stage("calibrating");
-  auto result = camera->calibrate(map, world_frame_, sigmas);  // the long part, without mutex_
+  CalibrationMap used;  // its lines' shared errors widen the result's sigmas
+  // The long part, without mutex_ (the extended map too: only its keyframes are copied under it).
+  auto result = calibrateWithExtendedRetry(
+      *camera, world_frame_, in_use, [&]() { return extendedMap(stage); }, &used);
+  const std::vector<Segment3d>& map = used.segments;
   if (!result)
   {
     stage("survey guidance");
@@ -641,7 +660,7 @@ void CalibrationServer::calibrateOne(const std::string& name, const std::functio
     // The map's placement in world_frame_ (the localiser's error over the survey) and the errors the used map lines'
     // observations share widen the sigmas.
     std::lock_guard<std::mutex> lock(mutex_);
-    if (survey_->addMapPlacement(&*result, used_lines))
+    if (survey_->addMapPlacement(&*result, used.lines))
       camera->setCalibration(result->file);
   }
   auto msg = toResultMsg(result->file, &result->calibration, world_frame_);

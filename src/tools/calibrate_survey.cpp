@@ -104,6 +104,9 @@ Options:
   --ceiling-lines 0|1   RGB lines on the ceiling (the horizontal plane above the Xtion that its depth lines
                         measured) whose own depth is too poor for the map or missing, placed on it by ray-plane
                         intersection and confirmed from several keyframes, become map lines (default 0: off)
+  --extended-retry 0|1  a camera the map refuses is tried once more against the map with its extensions (fused
+                        uncertain depth lines, --max-fusion-sigma 0.012, and ceiling lines); a camera the map
+                        calibrates keeps that result (params extended_retry; default 0: off)
   --max-fusion-sigma M  observations too uncertain for the map alone (sigma above 3 mm) up to M m are fused into
                         map lines used when many keyframes agree (params map/max_fusion_sigma; default 0: off;
                         0.012 measured: docs/measurements.md, "Fusion measured again")
@@ -1301,6 +1304,7 @@ bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options, bool* 
   options->rgbd.sampler.slant_allowance = onOff(cli, "depth-slant-allowance", options->rgbd.sampler.slant_allowance);
   options->ceiling.enabled = onOff(cli, "ceiling-lines", options->ceiling.enabled);
   options->triangulated.enabled = onOff(cli, "triangulated-lines", options->triangulated.enabled);
+  options->extended_retry.enabled = onOff(cli, "extended-retry", options->extended_retry.enabled);
   options->triangulated.repetition_px =
       cli.number("triangulated-repetition-px", options->triangulated.repetition_px, 0.0, 100.0);
   options->occlusion.enabled = onOff(cli, "occlusion-test", options->occlusion.enabled);
@@ -1583,6 +1587,7 @@ const std::set<std::string> kValueOptions = {"cameras",
                                              "triangulated-lines",
                                              "triangulated-repetition-px",
                                              "ceiling-lines",
+                                             "extended-retry",
                                              "max-fusion-sigma",
                                              "min-fusion-keyframes",
                                              "fusion-floor",

@@ -52,6 +52,9 @@ TEST(SurveyParameters, UnsetParametersKeepTheStructsDefaults)
   EXPECT_EQ(read.cameras.explanation.texture.min_neighbours, 0u);  // off (docs/measurements.md)
   EXPECT_EQ(read.cameras.ambiguity.neighbourhood_share, 0.05);
   EXPECT_EQ(read.ceiling.min_height_m, 2.2);
+  EXPECT_FALSE(read.extended_retry.enabled);
+  EXPECT_EQ(read.extended_retry.max_fusion_sigma_m, 0.012);
+  EXPECT_TRUE(read.extended_retry.ceiling_lines);
 }
 
 TEST(SurveyParameters, EverySetParameterIsTaken)
@@ -89,6 +92,8 @@ texture_min_neighbours: 6
 unresolved_joints: false
 ambiguity: {neighbourhood_share: 0}
 ceiling: {min_height: 2.5}
+extended_retry: true
+extended_map: {max_fusion_sigma: 0.02, ceiling_lines: false}
 cameras: []
 )");
   const ic::SurveyOptions o = ic::readSurveyParameters(source);
@@ -134,6 +139,9 @@ cameras: []
   EXPECT_EQ(o.cameras.explanation.texture.min_neighbours, 6u);
   EXPECT_EQ(o.cameras.ambiguity.neighbourhood_share, 0.0);
   EXPECT_EQ(o.ceiling.min_height_m, 2.5);
+  EXPECT_TRUE(o.extended_retry.enabled);
+  EXPECT_EQ(o.extended_retry.max_fusion_sigma_m, 0.02);
+  EXPECT_FALSE(o.extended_retry.ceiling_lines);
 }
 
 TEST(SurveyParameters, BadValuesAreEachReportedAndKeepTheirDefaults)

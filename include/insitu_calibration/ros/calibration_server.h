@@ -119,6 +119,9 @@ private:
                                       const std::function<bool()>& cancelled);
   void calibrateOne(const std::string& name, const std::function<void(const std::string&)>& stage,
                     CalibrationOutcome* outcome);
+  // The extended map of the survey's keyframes for a refused camera's retry (extended_retry), built without
+  // mutex_; an empty map when the retry is off or adds nothing.
+  CalibrationMap extendedMap(const std::function<void(const std::string&)>& stage);
   // A refused calibration: the survey guidance published and the refusal added to the outcome.
   void reportFailure(const std::string& name, const FixedCamera& camera, const std::vector<Segment3d>& map,
                      const Error& error, CalibrationOutcome* outcome);

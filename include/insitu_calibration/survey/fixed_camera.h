@@ -40,6 +40,8 @@ struct FixedCameraConfig
 
 // How a refusal for a camera whose sigmas exceed the limits (max_sigma_*) begins (kDegenerate).
 constexpr const char* kWeaklyDeterminedRefusal = "the matched lines determine the camera too weakly";
+// How a refusal for a camera without images begins (kNotEnoughData).
+constexpr const char* kNoImageRefusal = "no image has arrived from ";
 
 struct FixedCameraOptions
 {

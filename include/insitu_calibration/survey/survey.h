@@ -4,6 +4,7 @@
 #ifndef INSITU_CALIBRATION_SURVEY_SURVEY_H
 #define INSITU_CALIBRATION_SURVEY_SURVEY_H
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -65,7 +66,47 @@ struct SurveyOptions
   // The surfaces the keyframes' depth measured (map/surface_voxels.h): the final check leaves out map lines they
   // hide from a fixed camera.
   SurfaceVoxelOptions occlusion;
+  // A camera the map in use cannot calibrate (refused: too few matches, too weakly determined, not explaining its
+  // image) is tried once more against the map with its extensions, which add lines where depth alone is too
+  // uncertain (far walls) or out of reach (the ceiling) but each let a wrong camera through somewhere when used for
+  // every camera (docs/measurements.md): a camera the map in use calibrates keeps that result.
+  struct ExtendedMapRetry
+  {
+    bool enabled = false;
+    double max_fusion_sigma_m = 0.012;  // LineMapOptions::max_fusion_sigma_m of the extended map (0: no fusion)
+    bool ceiling_lines = true;          // CeilingLineOptions::enabled of the extended map
+  } extended_retry;
 };
+
+// The options of the map with its extensions (SurveyOptions::extended_retry): fusion and ceiling lines on, each at
+// least as the retry asks.
+SurveyOptions extendedMapOptions(const SurveyOptions& options);
+
+// Whether the retry on the extended map can differ from the map in use: enabled, and adding fusion or ceiling lines
+// the options do not have already.
+bool extendedRetryAdds(const SurveyOptions& options);
+
+// What a camera is calibrated against: the map lines the calibration uses, as segments, with their sigmas.
+struct CalibrationMap
+{
+  std::vector<MapLine> lines;
+  std::vector<Segment3d> segments;
+  std::vector<double> sigmas;
+  bool extended = false;  // the map with its extensions (SurveyOptions::extended_retry)
+};
+
+// Whether a refusal is one the extended map may turn: too few matches, too weakly determined, or no acceptable
+// solution (not kInvalidInput, nor a camera without images).
+bool extendedRetryWorthwhile(const Error& refusal);
+
+// Calibrates the camera against map; a refusal that extendedRetryWorthwhile is tried once more against extended()
+// (called only then; a map without lines: no retry). An accepted retry says so in its summary and quality extras
+// (extended_map 1); a refused one keeps the first refusal (its advice is for the map in use) with the second's reason
+// noted. *used (optional): the map the result came from.
+Expected<FixedCameraResult> calibrateWithExtendedRetry(FixedCamera& camera, const std::string& world_frame,
+                                                       const CalibrationMap& map,
+                                                       const std::function<CalibrationMap()>& extended,
+                                                       CalibrationMap* used = nullptr);
 
 // The map's placement in the map frame: how far the whole survey may be off, as a shift and a turn about centre.
 struct MapPlacementUncertainty
@@ -147,9 +188,19 @@ public:
   std::vector<PoseCorrection> poseCorrections() const;
   MapPlacementUncertainty mapPlacement() const;
 
-  // Calibrates one camera against the map in use (FixedCamera::calibrate with the map's segments and sigmas) and
+  // Calibrates one camera against the map in use (FixedCamera::calibrate with the map's segments and sigmas; a
+  // refusal tried again on the extended map when options().extended_retry is on: calibrateWithExtendedRetry) and
   // adds the map's placement uncertainty to the result's pose sigmas. Errors as FixedCamera::calibrate.
   Expected<FixedCameraResult> calibrate(const std::string& name, const std::string& world_frame);
+  // The map lines a calibration uses of a map (usedMapLines' selection), with their segments and sigmas.
+  CalibrationMap calibrationMapOf(const LineMap& map, bool extended = false) const;
+  // The extended map (extendedMapOptions) of the keyframes at the corrected poses (corrections: one per keyframe or
+  // fewer, the rest taken as tf gave them), for a caller that must not hold the survey while it is built (the node);
+  // pass it to calibrationMapOf with extended true.
+  static LineMap computeExtendedMap(const std::vector<Keyframe>& keyframes, std::vector<PoseCorrection> corrections,
+                                    const SurveyOptions& options);
+  // The corrections of the last installed adjustment (latestLineMap's), none without one.
+  const std::vector<PoseCorrection>& latestPoseCorrections() const { return corrections_; }
   // The map's placement uncertainty added to a calibration made against used_lines (usedMapLines() or
   // latestUsedMapLines() when the calibration began: the node calibrates a copy of a camera outside its lock, and
   // the map may be adjusted meanwhile) to its sigmas and its file's quality, with the used lines' shared errors
@@ -203,6 +254,7 @@ private:
   bool addSharedMapErrors(FixedCameraResult* result, const std::vector<MapLine>& used_lines) const;
   // The map as inserted with the lines beyond the depth range (cached per keyframe generation).
   const LineMap& unadjustedMap() const;
+  const LineMap& extendedMap() const;  // computeExtendedMap at the map in use's corrections (cached likewise)
   std::vector<FloorObservation> floorObservations(const RgbdFrame& frame, const std::vector<Line3d>& lines,
                                                   const std::vector<UnliftedSegment>& unlifted);
 
@@ -222,6 +274,8 @@ private:
   mutable bool adjusted_ = false;
   mutable bool has_adjustment_ = false;
   mutable LineMap unadjusted_map_;  // map_ with the floor lines, current at unadjusted_generation_
+  mutable LineMap extended_map_;    // computeExtendedMap of the map in use, current at extended_generation_
+  mutable uint64_t extended_generation_ = UINT64_MAX;
   mutable uint64_t unadjusted_generation_ = UINT64_MAX;
   uint64_t keyframe_generation_ = 0;  // counts keyframes added and resets
   uint64_t reset_generation_ = 0;     // keyframe_generation_ at the last reset()

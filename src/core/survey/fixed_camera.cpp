@@ -378,7 +378,7 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
                                                           const std::vector<double>& map_line_sigmas_all)
 {
   if (median_.empty())
-    return Error(ErrorCode::kNotEnoughData, "no image has arrived from " + config_.image_topic + " yet");
+    return Error(ErrorCode::kNotEnoughData, kNoImageRefusal + config_.image_topic + " yet");
   if (all_map_lines.empty())
     return Error(ErrorCode::kNotEnoughData, "the 3D line map is empty: drive the robot through the camera's view");
   // Map lines no camera near the prior could see (behind surfaces the survey measured, from the prior's position
@@ -504,7 +504,7 @@ Expected<CameraMotion> FixedCamera::verify(const std::vector<Segment3d>& map_lin
   if (!calibration_)
     return Error(ErrorCode::kNotEnoughData, "camera " + config_.name + " is not calibrated: nothing to verify");
   if (median_.empty())
-    return Error(ErrorCode::kNotEnoughData, "no image has arrived from " + config_.image_topic + " yet");
+    return Error(ErrorCode::kNotEnoughData, kNoImageRefusal + config_.image_topic + " yet");
   CameraModel zero = calibration_->camera;
   const auto& r = verification_reference_;
   if (r && r->calibrated.rotation == zero.pose().rotation && r->calibrated.translation == zero.pose().translation)

@@ -44,6 +44,14 @@ Keyframe toKeyframe(const RgbdFrame& frame, const std::vector<Line3d>& lines, st
 
 // Whether the calibration uses a map line with enough support: its observations' spread within the limit, or fused
 // (a fused line's observations are spread by their depth errors; its consistency test stands for the spread's).
+std::vector<Segment3d> segmentsOf(const std::vector<MapLine>& lines)
+{
+  std::vector<Segment3d> out;
+  for (const auto& line : lines)
+    out.push_back({line.a(), line.b()});
+  return out;
+}
+
 bool usedByCalibration(const MapLine& line, const SurveyOptions& o)
 {
   return line.fused || line.spread() <= o.max_map_spread_m;
@@ -68,6 +76,18 @@ void addLinesBeyondDepth(const std::vector<Keyframe>& keyframes, const std::vect
   triangulated.floor_height_m = o.floor.floor_height_m;
   for (const auto& line : triangulateLines(keyframes, corrections, map->lines(), triangulated))
     map->add(line);
+}
+
+// Whether keyframes keep their ceiling candidates: for the map in use or for the retry's extended map.
+bool keepsCeilingObservations(const SurveyOptions& o)
+{
+  return o.ceiling.enabled || (o.extended_retry.enabled && o.extended_retry.ceiling_lines);
+}
+
+// Whether the extraction keeps the RGB segments without a depth line (the lines beyond the depth range need them).
+bool keepsUnlifted(const SurveyOptions& o)
+{
+  return o.floor.enabled || keepsCeilingObservations(o) || o.triangulated.enabled;
 }
 
 bool beyondDepth(const SurveyOptions& o)
@@ -145,7 +165,8 @@ Survey::Survey(const std::vector<FixedCameraConfig>& cameras, const SurveyOption
       map_(options.map),
       keyframes_(options.keyframes),
       adjusted_map_(options.map),
-      unadjusted_map_(options.map)
+      unadjusted_map_(options.map),
+      extended_map_(options.map)
 {
   options_.adjustment.localization_sigma_m = options.localization_sigma_m;
   options_.adjustment.localization_sigma_deg = options.localization_sigma_deg;
@@ -169,7 +190,8 @@ Expected<bool> Survey::addRgbdFrame(const RgbdFrame& frame, const std::optional<
   if (!keyframes_.accept(frame.T_map_camera, frame.stamp))
     return false;
   std::vector<UnliftedSegment> unlifted;
-  const auto lines = extractor_.extract(frame, nullptr, beyondDepth(options_) ? &unlifted : nullptr, keyframe_segments);
+  const auto lines =
+      extractor_.extract(frame, nullptr, keepsUnlifted(options_) ? &unlifted : nullptr, keyframe_segments);
   if (!lines)
   {
     ++stats_.skipped;
@@ -186,7 +208,7 @@ Expected<bool> Survey::addRgbdFrame(const RgbdFrame& frame, const std::optional<
       depth_samples = surfaces_->depthSamples(frame, options_.occlusion.kept_cell_m);
   }
   keyframe_data_.push_back(toKeyframe(frame, *lines, floorObservations(frame, *lines, unlifted)));
-  if (options_.ceiling.enabled)
+  if (keepsCeilingObservations(options_))
     keyframe_data_.back().ceiling = ceilingObservations(frame, *lines, unlifted, options_.map);
   keyframe_data_.back().surface = std::move(depth_samples);
   if (options_.triangulated.enabled)
@@ -473,16 +495,121 @@ Expected<FixedCameraResult> Survey::calibrate(const std::string& name, const std
 {
   if (!hasCamera(name))
     return Error(ErrorCode::kInvalidInput, "unknown camera '" + name + "'");
-  lineMap();  // adjusts the map (and the surfaces with it) if new keyframes came
+  const LineMap& in_use = lineMap();  // adjusts the map (and the surfaces with it) if new keyframes came
   // The camera holds the voxels only while it calibrates: a holder makes the next keyframe copy them.
   camera(name).setOccluders(surfaces_);
-  auto result = camera(name).calibrate(mapSegments(), world_frame, mapLineSigmas());
+  CalibrationMap used;
+  auto result = calibrateWithExtendedRetry(
+      camera(name), world_frame, calibrationMapOf(in_use),
+      [this]() { return extendedRetryAdds(options_) ? calibrationMapOf(extendedMap(), true) : CalibrationMap{}; },
+      &used);
   camera(name).setOccluders(nullptr);
   if (!result)
     return withAssumedLocaliser(result.error(), options_);
-  if (addMapPlacement(&*result, usedMapLines()))
+  if (addMapPlacement(&*result, used.lines))
     camera(name).setCalibration(result->file);
   return result;
+}
+
+CalibrationMap Survey::calibrationMapOf(const LineMap& map, bool extended) const
+{
+  CalibrationMap out;
+  out.lines = usedLinesOf(map);
+  out.segments = segmentsOf(out.lines);
+  out.sigmas = sigmasOf(out.lines);
+  out.extended = extended;
+  return out;
+}
+
+LineMap Survey::computeExtendedMap(const std::vector<Keyframe>& keyframes, std::vector<PoseCorrection> corrections,
+                                   const SurveyOptions& options)
+{
+  const SurveyOptions extended = extendedMapOptions(options);
+  corrections.resize(keyframes.size());  // keyframes after the last adjustment: as tf gave them
+  LineMap map = rebuildLineMap(keyframes, corrections, extended.map);
+  addLinesBeyondDepth(keyframes, corrections, extended, &map);
+  return map;
+}
+
+const LineMap& Survey::extendedMap() const
+{
+  if (extended_generation_ != keyframe_generation_)
+  {
+    extended_map_ = computeExtendedMap(keyframe_data_, poseCorrections(), options_);
+    extended_generation_ = keyframe_generation_;
+  }
+  return extended_map_;
+}
+
+SurveyOptions extendedMapOptions(const SurveyOptions& options)
+{
+  SurveyOptions out = options;
+  out.map.max_fusion_sigma_m = std::max(out.map.max_fusion_sigma_m, options.extended_retry.max_fusion_sigma_m);
+  out.ceiling.enabled = out.ceiling.enabled || options.extended_retry.ceiling_lines;
+  return out;
+}
+
+bool extendedRetryAdds(const SurveyOptions& options)
+{
+  const auto& retry = options.extended_retry;
+  return retry.enabled && (retry.max_fusion_sigma_m > options.map.max_fusion_sigma_m ||
+                           (retry.ceiling_lines && !options.ceiling.enabled));
+}
+
+bool extendedRetryWorthwhile(const Error& refusal)
+{
+  const ErrorCode code = refusal.code();
+  return (code == ErrorCode::kNotEnoughData || code == ErrorCode::kDegenerate || code == ErrorCode::kNoSolution) &&
+         refusal.message().find(kNoImageRefusal) == std::string::npos;
+}
+
+namespace
+{
+constexpr const char* kExtendedMap = "the map with its extensions (fused uncertain depth lines, ceiling lines)";
+
+// A refusal's reason without its numbers and advice: up to its first ':' or ' ('.
+std::string firstClause(const std::string& message)
+{
+  return message.substr(0, std::min(message.find(':'), message.find(" (")));
+}
+
+// The first refusal with the retry's reason inserted before its advice ("What to do: ..."), which is for the map in
+// use and stays last.
+Error withExtendedAttempt(const Error& first, const Error& second)
+{
+  const std::string advice_mark = " What to do:";
+  const std::string reason = second.message().substr(0, second.message().find(advice_mark));
+  const std::string note = std::string(" (tried again on ") + kExtendedMap + ": " + reason + ")";
+  std::string message = first.message();
+  const size_t advice = message.find(advice_mark);
+  message.insert(advice == std::string::npos ? message.size() : advice, note);
+  return Error(first.code(), message);
+}
+}  // namespace
+
+Expected<FixedCameraResult> calibrateWithExtendedRetry(FixedCamera& camera, const std::string& world_frame,
+                                                       const CalibrationMap& map,
+                                                       const std::function<CalibrationMap()>& extended,
+                                                       CalibrationMap* used)
+{
+  auto result = camera.calibrate(map.segments, world_frame, map.sigmas);
+  if (used)
+    *used = map;
+  if (result || !extendedRetryWorthwhile(result.error()))
+    return result;
+  const CalibrationMap second_map = extended();
+  if (second_map.segments.empty())
+    return result;
+  auto second = camera.calibrate(second_map.segments, world_frame, second_map.sigmas);
+  if (!second)
+    return withExtendedAttempt(result.error(), second.error());
+  second->summary += std::string("; on ") + kExtendedMap + ": the map in use refused it (" +
+                     firstClause(result.error().message()) + ")";
+  if (second->file.quality)
+    second->file.quality->extra["extended_map"] = 1.0;
+  if (used)
+    *used = second_map;
+  return second;
 }
 
 bool Survey::addMapPlacement(FixedCameraResult* result, const std::vector<MapLine>& used_lines) const
@@ -664,17 +791,6 @@ std::vector<MapLine> Survey::latestUsedMapLines() const
 {
   return usedLinesOf(latestLineMap());
 }
-
-namespace
-{
-std::vector<Segment3d> segmentsOf(const std::vector<MapLine>& lines)
-{
-  std::vector<Segment3d> out;
-  for (const auto& line : lines)
-    out.push_back({line.a(), line.b()});
-  return out;
-}
-}  // namespace
 
 std::vector<Segment3d> Survey::mapSegments() const
 {

@@ -72,6 +72,15 @@ void readCeilingParameters(ParameterSource& read, CeilingLineOptions& ceiling)
   ceiling.min_height_m = read.number("ceiling/min_height", ceiling.min_height_m, Range::closed(0.0, 100.0, "m"));
 }
 
+// The retry of a refused camera on the map with its extensions (SurveyOptions::extended_retry).
+void readExtendedRetryParameters(ParameterSource& read, SurveyOptions::ExtendedMapRetry& retry)
+{
+  retry.enabled = read.flag("extended_retry", retry.enabled);
+  retry.max_fusion_sigma_m =
+      read.number("extended_map/max_fusion_sigma", retry.max_fusion_sigma_m, Range::closed(0.0, 1.0, "m"));
+  retry.ceiling_lines = read.flag("extended_map/ceiling_lines", retry.ceiling_lines);
+}
+
 // Lines triangulated from the Xtion's RGB segments (map/triangulated_lines.h).
 void readTriangulationParameters(ParameterSource& read, TriangulatedLineOptions& t)
 {
@@ -116,6 +125,7 @@ SurveyOptions readSurveyParameters(ParameterSource& source, SurveyOptions option
   readFloorParameters(source, options.floor);
   readCeilingParameters(source, options.ceiling);
   readTriangulationParameters(source, options.triangulated);
+  readExtendedRetryParameters(source, options.extended_retry);
   options.occlusion.enabled = source.flag("occlusion_test", options.occlusion.enabled);
   options.occlusion.follow_adjustment =
       source.flag("occlusion_follows_adjustment", options.occlusion.follow_adjustment);
