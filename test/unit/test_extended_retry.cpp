@@ -77,6 +77,20 @@ protected:
 
   std::vector<ic::Segment3d> fewEdges() const { return {edges_.begin(), edges_.begin() + 3}; }
 
+  // The retry from map_in_use with every seen edge as the extended map, counting how often that map is built.
+  ic::Expected<ic::FixedCameraResult> retryOnAllEdges(const std::vector<ic::Segment3d>& map_in_use, int* built,
+                                                      ic::CalibrationMap* used) const
+  {
+    ic::FixedCamera fixed = camera();
+    return ic::calibrateWithExtendedRetry(
+        fixed, "map", mapOf(map_in_use, false),
+        [&]() {
+          ++*built;
+          return mapOf(edges_, true);
+        },
+        used);
+  }
+
   std::unique_ptr<sim::World> world_;
   const sim::SimulatedFixedCamera* cam_ = nullptr;
   cv::Mat grey_;
@@ -86,16 +100,9 @@ protected:
 
 TEST_F(ExtendedRetryTest, ARefusedCameraIsCalibratedOnTheExtendedMap)
 {
-  ic::FixedCamera fixed = camera();
   int built = 0;
   ic::CalibrationMap used;
-  const auto result = ic::calibrateWithExtendedRetry(
-      fixed, "map", mapOf(fewEdges(), false),
-      [&]() {
-        ++built;
-        return mapOf(edges_, true);
-      },
-      &used);
+  const auto result = retryOnAllEdges(fewEdges(), &built, &used);
   ASSERT_TRUE(result) << result.error().describe();
   EXPECT_EQ(built, 1);
   EXPECT_TRUE(used.extended);
@@ -113,16 +120,9 @@ TEST_F(ExtendedRetryTest, ARefusedCameraIsCalibratedOnTheExtendedMap)
 
 TEST_F(ExtendedRetryTest, ACameraTheMapInUseCalibratesNeverBuildsTheExtendedMap)
 {
-  ic::FixedCamera fixed = camera();
   int built = 0;
   ic::CalibrationMap used;
-  const auto result = ic::calibrateWithExtendedRetry(
-      fixed, "map", mapOf(edges_, false),
-      [&]() {
-        ++built;
-        return mapOf(edges_, true);
-      },
-      &used);
+  const auto result = retryOnAllEdges(edges_, &built, &used);
   ASSERT_TRUE(result) << result.error().describe();
   EXPECT_EQ(built, 0);
   EXPECT_FALSE(used.extended);

@@ -92,8 +92,6 @@ texture_min_neighbours: 6
 unresolved_joints: false
 ambiguity: {neighbourhood_share: 0}
 ceiling: {min_height: 2.5}
-extended_retry: true
-extended_map: {max_fusion_sigma: 0.02, ceiling_lines: false}
 cameras: []
 )");
   const ic::SurveyOptions o = ic::readSurveyParameters(source);
@@ -139,6 +137,17 @@ cameras: []
   EXPECT_EQ(o.cameras.explanation.texture.min_neighbours, 6u);
   EXPECT_EQ(o.cameras.ambiguity.neighbourhood_share, 0.0);
   EXPECT_EQ(o.ceiling.min_height_m, 2.5);
+}
+
+TEST(SurveyParameters, TheExtendedRetryParametersAreTaken)
+{
+  ic::YamlParameterSource source = parsed(R"(
+extended_retry: true
+extended_map: {max_fusion_sigma: 0.02, ceiling_lines: false}
+cameras: []
+)");
+  const ic::SurveyOptions o = ic::readSurveyParameters(source);
+  ASSERT_TRUE(source.ok()) << source.summary();
   EXPECT_TRUE(o.extended_retry.enabled);
   EXPECT_EQ(o.extended_retry.max_fusion_sigma_m, 0.02);
   EXPECT_FALSE(o.extended_retry.ceiling_lines);
