@@ -201,9 +201,9 @@ public:
                                     const SurveyOptions& options);
   // The corrections of the last installed adjustment (latestLineMap's), none without one.
   const std::vector<PoseCorrection>& latestPoseCorrections() const { return corrections_; }
-  // The map's placement uncertainty added to a calibration made against used_lines (usedMapLines() or
-  // latestUsedMapLines() when the calibration began: the node calibrates a copy of a camera outside its lock, and
-  // the map may be adjusted meanwhile) to its sigmas and its file's quality, with the used lines' shared errors
+  // The map's placement uncertainty added to a calibration made against used_lines (usedMapLines(), or the lines of
+  // the CalibrationMap it was made against: the node calibrates a copy of a camera outside its lock, and the map may
+  // be adjusted meanwhile) to its sigmas and its file's quality, with the used lines' shared errors
   // (SurveyOptions::shared_map_errors_in_sigma). False when there is none to add.
   bool addMapPlacement(FixedCameraResult* result, const std::vector<MapLine>& used_lines) const;
 
@@ -243,7 +243,6 @@ public:
   const LineMap& latestLineMap() const;
   std::vector<Segment3d> latestMapSegments() const;
   std::vector<double> latestMapLineSigmas() const;
-  std::vector<MapLine> latestUsedMapLines() const;
 
 private:
   bool adjusting() const;

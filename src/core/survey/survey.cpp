@@ -787,11 +787,6 @@ std::vector<double> Survey::latestMapLineSigmas() const
   return sigmasOf(usedLinesOf(latestLineMap()));
 }
 
-std::vector<MapLine> Survey::latestUsedMapLines() const
-{
-  return usedLinesOf(latestLineMap());
-}
-
 std::vector<Segment3d> Survey::mapSegments() const
 {
   return segmentsOf(usedMapLines());
