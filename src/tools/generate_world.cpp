@@ -50,6 +50,10 @@ Options:
                            cameras and route and the mount's height unchanged); "advised": the middle of the pitches
                            the --visit-hints files advise for regions out of the Xtion's reach (their
                            xtion_pitch_deg), the drawn tilt if none does
+  --xtion-height M         the Xtion's mount M metres above the floor instead of the drawn height (everything else
+                           unchanged); "advised": the height of the mount the --visit-hints files advise (the
+                           xtion_height_m of the region whose pitch --xtion-tilt advised takes), the drawn height
+                           where that mount keeps it
   --appearance A           realistic (default): sensor blur, vignetting, exposure and white balance differing per
                            camera, JPEG on the fixed cameras, Xtion RGB noise, flying pixels, low-frequency depth
                            error and RGB-to-depth misregistration (docs/simulator.md, "appearance"); plain: none of
@@ -97,7 +101,8 @@ std::string parseXtionTilt(const std::string& text, const std::vector<insitu_cal
   {
     if (hints.empty())
       return "--xtion-tilt advised needs --visit-hints";
-    options->xtion_tilt_deg = insitu_calibration::advisedXtionPitchDeg(hints);
+    if (const auto mount = insitu_calibration::advisedXtionMount(hints))
+      options->xtion_tilt_deg = mount->pitch_deg;
     return "";
   }
   double tilt = 0.0;
@@ -105,6 +110,27 @@ std::string parseXtionTilt(const std::string& text, const std::vector<insitu_cal
   if (std::sscanf(text.c_str(), "%lf%c", &tilt, &extra) != 1 || std::abs(tilt) > 60.0)
     return "--xtion-tilt must be degrees between -60 and 60 or 'advised' (got '" + text + "')";
   options->xtion_tilt_deg = tilt;
+  return "";
+}
+
+// --xtion-height: metres above the floor, or "advised" (the height of the hints' advised mount; nothing to change
+// where it keeps the Xtion's height).
+std::string parseXtionHeight(const std::string& text, const std::vector<insitu_calibration::SurveyHint>& hints,
+                             sim::WorldGeneratorOptions* options)
+{
+  if (text == "advised")
+  {
+    if (hints.empty())
+      return "--xtion-height advised needs --visit-hints";
+    if (const auto mount = insitu_calibration::advisedXtionMount(hints))
+      options->xtion_height_m = mount->height_m;
+    return "";
+  }
+  double height = 0.0;
+  char extra = 0;
+  if (std::sscanf(text.c_str(), "%lf%c", &height, &extra) != 1 || height < 0.1 || height > 3.0)
+    return "--xtion-height must be metres between 0.1 and 3 or 'advised' (got '" + text + "')";
+  options->xtion_height_m = height;
   return "";
 }
 
@@ -165,6 +191,8 @@ std::string parseOptions(insitu_calibration::CommandLine& cli, sim::WorldGenerat
     problem = "--visits-only needs --visit-hints";
   if (problem.empty() && cli.has("xtion-tilt"))
     problem = parseXtionTilt(cli.value("xtion-tilt"), hints, options);
+  if (problem.empty() && cli.has("xtion-height"))
+    problem = parseXtionHeight(cli.value("xtion-height"), hints, options);
   return problem;
 }
 
@@ -178,8 +206,9 @@ void printSummary(const sim::WorldGeneratorOptions& options, const sim::Generate
     std::printf("  visits: %zu of %zu driven after the route's %.1f s (%.1f s more)\n",
                 options.visits.size() - world.visits_skipped, options.visits.size(), world.route_before_visits_s,
                 world.route_duration_s - world.route_before_visits_s);
-  std::printf("  xtion %.2f m high, tilted %+.1f deg (%s)\n", world.world.xtion.mount_height_m,
-              world.world.xtion.tilt_deg, options.xtion_tilt_deg ? "given" : "drawn");
+  std::printf("  xtion %.2f m high (%s), tilted %+.1f deg (%s)\n", world.world.xtion.mount_height_m,
+              options.xtion_height_m ? "given" : "drawn", world.world.xtion.tilt_deg,
+              options.xtion_tilt_deg ? "given" : "drawn");
   for (const auto& c : world.world.fixed_cameras)
   {
     const auto& k = c.camera.intrinsics();
@@ -192,10 +221,11 @@ void printSummary(const sim::WorldGeneratorOptions& options, const sim::Generate
 
 int main(int argc, char** argv)
 {
-  insitu_calibration::CommandLine cli(argc, argv,
-                                      {"seed", "kind", "out", "cameras-out", "prior-error", "max-route-s",
-                                       "look-around-spacing", "view-leg", "appearance", "visit-hints", "xtion-tilt"},
-                                      {"visits-only"});
+  insitu_calibration::CommandLine cli(
+      argc, argv,
+      {"seed", "kind", "out", "cameras-out", "prior-error", "max-route-s", "look-around-spacing", "view-leg",
+       "appearance", "visit-hints", "xtion-tilt", "xtion-height"},
+      {"visits-only"});
   if (cli.help())
   {
     std::cout << kUsage;

@@ -283,6 +283,13 @@ TEST_F(SurveyGuidanceTest, FixedCameraFromItsPriorAndTheRefusalMessage)
   prior.horizontal_fov_deg = 2.0 * std::atan(0.5 * r.camera->width / r.camera->camera.intrinsics().fx) * 180.0 / M_PI;
   config.prior = prior;
   ic::FixedCamera camera(config, {});
+  // A refused result guides only with a plausible focal length (one of 0.0035 px showed a region "254061 m high").
+  EXPECT_TRUE(camera.focalIsPlausible(r.camera->camera));
+  ic::CameraModel absurd = r.camera->camera;
+  absurd.intrinsics().fx = absurd.intrinsics().fy = 0.0035;
+  EXPECT_FALSE(camera.focalIsPlausible(absurd));
+  absurd.intrinsics().fx = absurd.intrinsics().fy = std::nan("");
+  EXPECT_FALSE(camera.focalIsPlausible(absurd));
   EXPECT_FALSE(ic::guideSurvey(camera, segmentsOf(r.edges), {}));  // no image yet
   ASSERT_TRUE(camera.addImage(r.grey));
   const auto full = ic::guideSurvey(camera, segmentsOf(r.edges), {});
@@ -574,6 +581,69 @@ TEST(XtionViewTest, PitchToSeeABandOfHeights)
 
 namespace
 {
+// A region above the Xtion (80 % of what it shows higher than the survey's mount sees), out of its reach.
+ic::UnmappedRegion regionAbove(const ic::XtionView& xtion, double top_m, double camera_height_m)
+{
+  ic::UnmappedRegion r;
+  r.where = "centre";
+  r.image_lines = 40;
+  r.xtion = xtion;
+  r.xtions = {xtion};
+  r.xtion_reach_m = 4.0;
+  r.xtion_share = 0.01;
+  r.xtion_above_share = 0.8;
+  r.structure_max_height_m = top_m;
+  r.camera_height_m = camera_height_m;
+  return r;
+}
+}  // namespace
+
+// A hall's camera 4.6 m high over an Xtion 0.67 m high: no pitch within 45 deg has the heights it misses in view at
+// its height; the lowest mount that does is 1.1 m high pitched +44 deg (at 1.0 m it would take +47), and it adds what
+// the survey's mount misses without a gap. A pitch alone keeps the height (none in the hint); nothing within the
+// limits: the sentence says what is beyond them.
+TEST(XtionViewTest, AMountHigherWhereNoPitchDoes)
+{
+  const ic::XtionView survey_mount{0.67, 3.0, 22.5, 29.0};
+  const ic::UnmappedRegion hall = regionAbove(survey_mount, 4.6, 4.6);
+  const auto mount = hall.mountToSee();
+  ASSERT_TRUE(mount);
+  EXPECT_NEAR(mount->height_m, 1.1, 1e-9);
+  EXPECT_EQ(mount->pitch_deg, 44.0);
+  ic::XtionView mounted = survey_mount;
+  mounted.height_m = mount->height_m;
+  mounted.pitch_deg = mount->pitch_deg;
+  EXPECT_GE(mounted.highestInReach(4.0), 4.6);
+  EXPECT_LE(mounted.lowestInReach(4.0), survey_mount.highestInReach(4.0));
+  const auto from_one_metre = regionAbove({1.0, 3.0, 22.5, 29.0}, 4.6, 4.6).mountToSee();  // +47 at its own height
+  ASSERT_TRUE(from_one_metre);
+  EXPECT_NEAR(from_one_metre->height_m, 1.1, 1e-9);
+  ic::SurveyGuidance g;
+  g.regions = {hall};
+  EXPECT_NE(g.sentence().find("mount the Xtion about 1.1 m high and pitch it to about +44 deg"), std::string::npos)
+      << g.sentence();
+  const ic::SurveyHint hint = ic::surveyHintOf("cam_b", g);
+  ASSERT_TRUE(hint.regions.front().xtion_pitch_deg && hint.regions.front().xtion_height_m);
+  EXPECT_EQ(*hint.regions.front().xtion_pitch_deg, 44.0);
+  EXPECT_NEAR(*hint.regions.front().xtion_height_m, 1.1, 1e-9);
+
+  const ic::UnmappedRegion room = regionAbove({0.38, -13.7, 22.8, 29.0}, 2.0, 2.6);
+  const auto pitched = room.mountToSee();
+  ASSERT_TRUE(pitched);
+  EXPECT_EQ(pitched->height_m, 0.38);
+  EXPECT_EQ(pitched->pitch_deg, std::round(*room.xtion.pitchToSee(0.0, 2.6, 4.0)));
+  g.regions = {room};
+  EXPECT_FALSE(ic::surveyHintOf("cam_a", g).regions.front().xtion_height_m);
+  EXPECT_NE(g.sentence().find("pitch the Xtion to about +14 deg"), std::string::npos) << g.sentence();
+
+  g.regions = {regionAbove(survey_mount, 9.0, 9.5)};  // 5 m above 1.5 m: no mount within the limits
+  EXPECT_FALSE(g.regions.front().mountToSee());
+  EXPECT_NE(g.sentence().find("mount the Xtion higher than 1.5 m (or pitched more than 45 deg)"), std::string::npos)
+      << g.sentence();
+}
+
+namespace
+{
 // A keyframe 640 x 480 at 525 px, at (x, 2, z), the robot facing yaw_deg with the camera pitched pitch_deg.
 ic::Keyframe keyframeAt(double x, double z, double yaw_deg, double pitch_deg)
 {
@@ -620,7 +690,7 @@ TEST(XtionViewTest, FromKeyframesOnePerMount)
   keyframes.push_back(keyframeAt(3.1, 0.9, 0.0, -8.0));
   views = ic::xtionViewsOf(keyframes, 0.1);
   ASSERT_EQ(views.size(), 2u);
-  EXPECT_NEAR(views[0].pitch_deg, -12.0, 1.0);  // the first and third recordings' keyframes
+  EXPECT_NEAR(views[0].pitch_deg, -12.0, 1.0);   // the first and third recordings' keyframes
   EXPECT_NEAR(views[0].height_m, 0.81, 0.0101);  // 0.8 or 0.82: the median of both
   EXPECT_NEAR(views[1].height_m, 0.8, 1e-9);
   EXPECT_NEAR(views[1].pitch_deg, 10.0, 1e-9);

@@ -5,6 +5,8 @@
 
 #include <filesystem>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <unistd.h>
 
@@ -106,14 +108,57 @@ TEST(SurveyHintFile, ThePitchOfTheMountAdviceIsKeptAndOnePitchChosen)
   EXPECT_NE(refused.error().message().find("regions[1].xtion_pitch_deg"), std::string::npos)
       << refused.error().message();
 
-  EXPECT_FALSE(ic::advisedXtionPitchDeg({}));
-  EXPECT_FALSE(ic::advisedXtionPitchDeg({ic::surveyHintOf("cam_a", twoRegions())}));  // no region carries one
+  EXPECT_FALSE(ic::advisedXtionMount({}));
+  EXPECT_FALSE(ic::advisedXtionMount({ic::surveyHintOf("cam_a", twoRegions())}));  // no region carries one
   ic::SurveyHint other = hint;
   other.regions[0].xtion_pitch_deg = -5.0;
   other.regions[1].xtion_pitch_deg = 14.0;
-  ASSERT_TRUE(ic::advisedXtionPitchDeg({hint, other}));
-  EXPECT_EQ(*ic::advisedXtionPitchDeg({hint, other}), 8.0);  // of -5, 8, 14
-  EXPECT_EQ(*ic::advisedXtionPitchDeg({hint}), 8.0);
+  ASSERT_TRUE(ic::advisedXtionMount({hint, other}));
+  EXPECT_EQ(ic::advisedXtionMount({hint, other})->pitch_deg, 8.0);  // of -5, 8, 14
+  EXPECT_FALSE(ic::advisedXtionMount({hint, other})->height_m);     // the Xtion's own height
+  EXPECT_EQ(ic::advisedXtionMount({hint})->pitch_deg, 8.0);
+}
+
+// A mount advice that needs another height: the height is written beside its pitch, read back, and comes with the
+// pitch chosen for the survey; a height without a pitch, or not a height, is refused with its place.
+TEST(SurveyHintFile, TheHeightOfTheMountAdviceGoesWithItsPitch)
+{
+  ic::SurveyHint hint = ic::surveyHintOf("cam_a", twoRegions());
+  hint.regions[0].xtion_pitch_deg = 25.0;
+  hint.regions[0].xtion_height_m = 1.3;
+  hint.regions[1].xtion_pitch_deg = 10.0;
+  const std::string text = ic::surveyHintYaml(hint);
+  EXPECT_EQ(text.find("xtion_height_m"), text.rfind("xtion_height_m"));
+  const auto read = ic::parseSurveyHint(text);
+  ASSERT_TRUE(read) << read.error().describe();
+  ASSERT_TRUE(read->regions[0].xtion_height_m);
+  EXPECT_NEAR(*read->regions[0].xtion_height_m, 1.3, 1e-12);
+  EXPECT_FALSE(read->regions[1].xtion_height_m);
+
+  ic::SurveyHint third = hint;
+  third.regions[0].xtion_pitch_deg = 30.0;
+  third.regions[0].xtion_height_m = 1.5;
+  third.regions[1].xtion_pitch_deg = 12.0;
+  const auto mount = ic::advisedXtionMount({hint, third});  // pitches 25, 10, 30, 12: the middle one is 25
+  ASSERT_TRUE(mount);
+  EXPECT_EQ(mount->pitch_deg, 25.0);
+  ASSERT_TRUE(mount->height_m);
+  EXPECT_NEAR(*mount->height_m, 1.3, 1e-12);
+  third.regions[0].xtion_pitch_deg = 5.0;  // 25, 10, 5, 12: 12, at the Xtion's own height
+  EXPECT_EQ(ic::advisedXtionMount({hint, third})->pitch_deg, 12.0);
+  EXPECT_FALSE(ic::advisedXtionMount({hint, third})->height_m);
+
+  for (const auto& [from, to] :
+       std::vector<std::pair<std::string, std::string>>{{"    xtion_pitch_deg: 25\n", ""},
+                                                        {"xtion_height_m: 1.30", "xtion_height_m: -1"},
+                                                        {"xtion_height_m: 1.30", "xtion_height_m: high"}})
+  {
+    std::string broken = text;
+    broken.replace(broken.find(from), from.size(), to);
+    const auto refused = ic::parseSurveyHint(broken, "hint.yaml");
+    ASSERT_FALSE(refused) << broken;
+    EXPECT_NE(refused.error().message().find("regions[0].xtion_"), std::string::npos) << refused.error().message();
+  }
 }
 
 TEST(SurveyHintFile, BrokenFilesAreRefusedWithTheirPlace)

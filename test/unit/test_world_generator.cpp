@@ -496,3 +496,26 @@ TEST(WorldGenerator, AGivenXtionTiltChangesOnlyTheTilt)
   expected.replace(at, expected.find('\n', at) - at, "  tilt_deg: 7.5");
   EXPECT_EQ(given->world_yaml, expected);
 }
+
+// A given Xtion height (generate_world --xtion-height, a mount advice that needs another height) changes that line of
+// the world file and nothing else.
+TEST(WorldGenerator, AGivenXtionHeightChangesOnlyTheHeight)
+{
+  sim::WorldGeneratorOptions options;
+  options.seed = 5;
+  options.max_route_s = 35.0;
+  const auto drawn = sim::generateWorld(options);
+  ASSERT_TRUE(drawn);
+  options.xtion_height_m = 1.4;
+  const auto given = sim::generateWorld(options);
+  ASSERT_TRUE(given) << given.error().describe();
+  EXPECT_EQ(given->world.xtion.mount_height_m, 1.4);
+  EXPECT_NE(drawn->world.xtion.mount_height_m, 1.4);
+  EXPECT_EQ(given->world.xtion.tilt_deg, drawn->world.xtion.tilt_deg);
+  EXPECT_EQ(given->cameras_yaml, drawn->cameras_yaml);
+  std::string expected = drawn->world_yaml;
+  const size_t at = expected.find("  mount_height: ");
+  ASSERT_NE(at, std::string::npos);
+  expected.replace(at, expected.find('\n', at) - at, "  mount_height: 1.4");
+  EXPECT_EQ(given->world_yaml, expected);
+}

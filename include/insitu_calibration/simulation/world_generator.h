@@ -76,6 +76,9 @@ struct WorldGeneratorOptions
   // The Xtion's tilt (deg above the horizontal) instead of the drawn one, e.g. as refused cameras' survey hints
   // advise (generate_world --xtion-tilt); everything else, the mount's height included, is drawn as without it.
   std::optional<double> xtion_tilt_deg;
+  // The Xtion's mount height above the floor (m) instead of the drawn one (generate_world --xtion-height), as a
+  // hint's mount advice may ask; the tilt and everything else as without it.
+  std::optional<double> xtion_height_m;
 };
 
 struct GeneratedWorld

@@ -142,6 +142,9 @@ public:
   // The last result the checks refused (for diagnostics against a simulator's truth), if the last calibration got
   // that far.
   const std::optional<FixedCameraResult>& lastRefused() const { return last_refused_; }
+  // Whether a camera's focal lengths are within the plausible range (FixedCameraOptions::min_focal_ratio and
+  // max_focal_ratio times the image width): a result outside it is not a camera to project anything through.
+  bool focalIsPlausible(const CameraModel& camera) const;
   void setCalibration(const CalibrationFile& calibration) { calibration_ = calibration; }
   const FixedCameraOptions& options() const { return options_; }
   // Survey::setCameraOptions (median_images as at construction).

@@ -24,11 +24,12 @@
 // closest to the fixed standpoint). A low Xtion tilted down sees a wall's upper part only from afar, and from
 // nowhere within its depth's reach when the wall is high: when most of a region's points are at heights no mount
 // of the survey has in view (xtionHeightShare() below min_xtion_share) the sentence says how high (low) the Xtion
-// sees and what to do for another drive: the pitch
-// that brings the region's heights (up to the camera's own, for a region above the Xtion) into its view within
-// reach (XtionView::pitchToSee), else a higher (lower) mount, or CAD lines. The points are where the rays meet the
-// floor or the map's extent: furniture in front of them is not known, so the heights are lower bounds (a ray that
-// descends meets a desk above the floor it would reach), and for a region below the Xtion the sentence says "if".
+// sees and what to do for another drive: the mount (the pitch at the Xtion's height, else the nearest height within
+// limits with its pitch) that brings the region's heights (up to the camera's own, for a region above the Xtion) into
+// its view within reach (UnmappedRegion::mountToSee), else a mount beyond the limits, or CAD lines. The points are
+// where the rays meet the floor or the map's extent: furniture in front of them is not known, so the heights are lower
+// bounds (a ray that descends meets a desk above the floor it would reach), and for a region below the Xtion the
+// sentence says "if".
 #ifndef INSITU_CALIBRATION_SURVEY_SURVEY_GUIDANCE_H
 #define INSITU_CALIBRATION_SURVEY_SURVEY_GUIDANCE_H
 
@@ -65,6 +66,21 @@ struct XtionView
   // that do, the nearest to its own, 3 deg inside them (their middle when they span less than 6 deg); nullopt when
   // no pitch does at its height.
   std::optional<double> pitchToSee(double low_m, double high_m, double reach_m) const;
+};
+
+// The mounts the guidance may advise (a robot's mast allows a range of heights; a pan-tilt a range of pitches).
+struct XtionMountLimits
+{
+  double min_height_m = 0.3;
+  double max_height_m = 1.5;
+  double max_abs_pitch_deg = 45.0;
+};
+
+// A mount the guidance advises: the Xtion's height above the floor and its pitch (above the horizontal, deg).
+struct XtionMount
+{
+  double height_m = 0.0;
+  double pitch_deg = 0.0;
 };
 
 // The Xtion's views in the survey's keyframes, one per mount (the Xtion re-pitched or moved between recordings or
@@ -115,6 +131,8 @@ struct SurveyGuidanceOptions
   // Below this share of the region's points at heights the Xtion can see (from anywhere), the region is out of its
   // reach.
   double min_xtion_share = 0.5;
+  // The mounts a region out of reach may be advised (UnmappedRegion::mountToSee).
+  XtionMountLimits mount_limits;
 };
 
 enum class GuidanceCell
@@ -150,10 +168,13 @@ struct UnmappedRegion
   XtionView xtion;
   double xtionHeightShare() const { return 1.0 - xtion_above_share - xtion_below_share; }
   bool outOfXtionReach(double min_share) const { return xtion_share >= 0.0 && xtionHeightShare() < min_share; }
-  // The pitch (deg, whole degrees) at which the Xtion has the region's heights in view within its reach: for a
-  // region above it up to the camera's own height if a pitch does that, else up to the region's highest point.
-  // None when no pitch does it at the Xtion's height (a higher or lower mount is needed) or the view is unknown.
-  std::optional<double> pitchToSeeDeg() const;
+  XtionMountLimits mount_limits;  // SurveyGuidanceOptions::mount_limits
+  // The mount at which the Xtion has the region's heights in view within its reach (pitch in whole degrees, height in
+  // tenths of a metre when it changes): for a region above it up to the camera's own height if a mount does that,
+  // else up to the region's highest point; failing both, only the heights no mount of the survey has in view (its
+  // recordings keep the rest). The Xtion's own height first, then the nearest heights within mount_limits (higher for
+  // a region above, lower below), pitches within them. None when no such mount does it or the view is unknown.
+  std::optional<XtionMount> mountToSee() const;
 };
 
 struct SurveyGuidance

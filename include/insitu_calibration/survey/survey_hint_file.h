@@ -16,7 +16,9 @@
 //       xtion_share: 0.82              # optional: the share of it in the Xtion's view from the standpoint (under
 //                                      # 0.5: out of its reach; mount it higher or tilted, or use CAD lines)
 //       xtion_pitch_deg: 8              # optional, for a region out of its reach: the Xtion's pitch that brings it
-//                                      # into view (UnmappedRegion::pitchToSeeDeg; above the horizontal, deg)
+//                                      # into view (UnmappedRegion::mountToSee; above the horizontal, deg)
+//       xtion_height_m: 1.2             # optional, with xtion_pitch_deg: the Xtion's height above the floor that
+//                                      # mount needs, where its own does not do
 #ifndef INSITU_CALIBRATION_SURVEY_SURVEY_HINT_FILE_H
 #define INSITU_CALIBRATION_SURVEY_SURVEY_HINT_FILE_H
 
@@ -41,6 +43,7 @@ struct SurveyHintRegion
   double xtion_share = -1.0;  // -1: not in the file
   Eigen::Vector2d structure_height_m = Eigen::Vector2d::Zero();
   std::optional<double> xtion_pitch_deg;  // the mount advice's pitch (a region out of the Xtion's reach)
+  std::optional<double> xtion_height_m;   // and its height, where the survey's does not do
 };
 
 struct SurveyHint
@@ -64,9 +67,15 @@ Expected<SurveyHint> parseSurveyHint(const std::string& yaml_text, const std::st
 // The file at a path (readFile's limits apply).
 Expected<SurveyHint> readSurveyHint(const std::string& path);
 
-// The one pitch for a survey that follows the mount advice of several hints (an operator re-mounts the Xtion once per
-// survey): the middle of their regions' pitches (middleValue: one of them); none when no region carries one.
-std::optional<double> advisedXtionPitchDeg(const std::vector<SurveyHint>& hints);
+// The one mount for a survey that follows the mount advice of several hints (an operator re-mounts the Xtion once per
+// survey): the region's whose pitch is the middle of their regions' pitches (middleValue: one of them), with its
+// height when it advises one; none when no region carries a pitch.
+struct AdvisedMount
+{
+  double pitch_deg = 0.0;
+  std::optional<double> height_m;
+};
+std::optional<AdvisedMount> advisedXtionMount(const std::vector<SurveyHint>& hints);
 
 }  // namespace insitu_calibration
 

@@ -308,7 +308,7 @@ std::string worldYaml(const WorldGeneratorOptions& options, BuildingKind kind, c
   }
   out << "]\n  speed: " << num(options.speed) << "\n  turn_rate_deg: 40\n  loop: false\n";
   const double mount_height = rng.uniform(0.3, 1.5), drawn_tilt = rng.uniform(-20.0, 15.0);
-  out << "xtion:\n  mount_height: " << num(mount_height)
+  out << "xtion:\n  mount_height: " << num(options.xtion_height_m.value_or(mount_height))
       << "\n  mount_forward: 0.1\n  tilt_deg: " << num(options.xtion_tilt_deg.value_or(drawn_tilt)) << "\n"
       << (options.realistic_appearance ? "  rgb_noise_sigma: 2\n" : "") << "fixed_cameras:\n";
   for (size_t k = 0; k < cameras.size(); ++k)

@@ -124,12 +124,19 @@ std::optional<CameraModel> FixedCamera::currentCamera() const
   return std::nullopt;
 }
 
+bool FixedCamera::focalIsPlausible(const CameraModel& camera) const
+{
+  const Intrinsics& k = camera.intrinsics();
+  const double low = options_.min_focal_ratio * config_.image_width,
+               high = options_.max_focal_ratio * config_.image_width;
+  return k.fx >= low && k.fx <= high && k.fy >= low && k.fy <= high;
+}
+
 Status FixedCamera::check(const CameraCalibration& c, size_t matched_lines, bool check_prior) const
 {
   const Intrinsics& k = c.camera.intrinsics();
   const double w = config_.image_width;
-  if (k.fx < options_.min_focal_ratio * w || k.fx > options_.max_focal_ratio * w ||
-      k.fy < options_.min_focal_ratio * w || k.fy > options_.max_focal_ratio * w)
+  if (!focalIsPlausible(c.camera))
     return Error(ErrorCode::kNoSolution,
                  "the focal length (" + fourDigits(k.fx) + " px) is outside the plausible range " +
                      fourDigits(options_.min_focal_ratio * w) + " .. " + fourDigits(options_.max_focal_ratio * w) +

@@ -315,6 +315,7 @@ void measureXtionHeights(const std::vector<Eigen::Vector3d>& points, const Surve
   region->xtion_below_share = below / n;
   region->xtion_reach_m = reach;
   region->xtions = options.xtions;
+  region->mount_limits = options.mount_limits;
   const bool up = above >= below;
   region->xtion =
       *std::max_element(options.xtions.begin(), options.xtions.end(), [&](const XtionView& a, const XtionView& b) {
@@ -491,41 +492,85 @@ size_t SurveyGuidance::count(GuidanceCell kind) const
   return static_cast<size_t>(std::count(cells.begin(), cells.end(), kind));
 }
 
+namespace
+{
+// The heights a new mount is tried at: the Xtion's own, then a tenth of a metre apart away from it (up for a region
+// above, down below) within the limits.
+std::vector<double> mountHeightsToTry(double height_m, bool up, const XtionMountLimits& limits)
+{
+  std::vector<double> heights{height_m};
+  const double step = up ? 0.1 : -0.1;
+  const double tenths = up ? std::floor(height_m * 10.0 + 1e-6) : std::ceil(height_m * 10.0 - 1e-6);
+  const double first = std::clamp(tenths / 10.0 + step, limits.min_height_m, limits.max_height_m);
+  for (double h = first;
+       (h - height_m) * step > 0.0 && h >= limits.min_height_m - 1e-9 && h <= limits.max_height_m + 1e-9; h += step)
+    heights.push_back(h);
+  return heights;
+}
+}  // namespace
+
 // The heights are lower bounds (a ray meets furniture or a wall's upper part before the floor or the map's edge), so
-// a region above the Xtion is wanted in view up to the camera's own height, where its lines may well be.
-std::optional<double> UnmappedRegion::pitchToSeeDeg() const
+// a region above the Xtion is wanted in view up to the camera's own height, where its lines may well be. What the
+// survey's mounts see stays in their recordings: a new mount that adds only the rest also does.
+std::optional<XtionMount> UnmappedRegion::mountToSee() const
 {
   if (xtion_share < 0.0)
     return std::nullopt;
   const bool above = xtion_above_share >= xtion_below_share;
-  const double low = structure_min_height_m;
-  const double high = above ? std::max(structure_max_height_m, camera_height_m) : structure_max_height_m;
-  std::optional<double> pitch = xtion.pitchToSee(low, high, xtion_reach_m);
-  if (!pitch)
-    pitch = xtion.pitchToSee(low, structure_max_height_m, xtion_reach_m);
-  if (!pitch)
-    return std::nullopt;
-  return std::round(*pitch) + 0.0;  // + 0.0: no "-0"
+  const double low = structure_min_height_m, top = structure_max_height_m;
+  const double high = above ? std::max(top, camera_height_m) : top;
+  double seen_top = low, seen_bottom = top;
+  for (const XtionView& x : xtions)
+  {
+    seen_top = std::max(seen_top, x.highestInReach(xtion_reach_m));
+    seen_bottom = std::min(seen_bottom, x.lowestInReach(xtion_reach_m));
+  }
+  std::vector<std::pair<double, double>> bands{{low, high}, {low, top}};
+  if (above)
+    bands.insert(bands.end(), {{seen_top, high}, {seen_top, top}});
+  else
+    bands.emplace_back(low, seen_bottom);
+  for (const double height : mountHeightsToTry(xtion.height_m, above, mount_limits))
+    for (const auto& [band_low, band_high] : bands)
+    {
+      XtionView view = xtion;
+      view.height_m = height;
+      const std::optional<double> pitch = view.pitchToSee(band_low, band_high, xtion_reach_m);
+      if (pitch && std::abs(std::round(*pitch)) <= mount_limits.max_abs_pitch_deg)
+        return XtionMount{height, std::round(*pitch) + 0.0};  // + 0.0: no "-0"
+    }
+  return std::nullopt;
 }
 
 namespace
 {
-// What brings a region out of the Xtion's reach into its view: the pitch that has the region's heights in view
-// within its reach (UnmappedRegion::pitchToSeeDeg), else a higher (lower) mount.
+// What brings a region out of the Xtion's reach into its view: the mount that has the region's heights in view
+// within its reach (UnmappedRegion::mountToSee), else a mount beyond the limits.
 std::string xtionRemedy(const UnmappedRegion& r, bool with_band)
 {
-  const std::optional<double> pitch = r.pitchToSeeDeg();
-  if (!pitch)
-    return std::string("mount the Xtion ") + (r.xtion_above_share >= r.xtion_below_share ? "higher" : "lower");
-  XtionView pitched = r.xtion;
-  pitched.pitch_deg = *pitch;
-  char text[128];
-  std::snprintf(text, sizeof(text), "pitch the Xtion to about %+.0f deg", pitched.pitch_deg);
+  const std::optional<XtionMount> mount = r.mountToSee();
+  char text[160];
+  if (!mount)
+  {
+    const bool up = r.xtion_above_share >= r.xtion_below_share;
+    std::snprintf(text, sizeof(text), "mount the Xtion %s than %.1f m (or pitched more than %.0f deg)",
+                  up ? "higher" : "lower", up ? r.mount_limits.max_height_m : r.mount_limits.min_height_m,
+                  r.mount_limits.max_abs_pitch_deg);
+    return text;
+  }
+  XtionView mounted = r.xtion;
+  mounted.height_m = mount->height_m;
+  mounted.pitch_deg = mount->pitch_deg;
+  if (std::abs(mount->height_m - r.xtion.height_m) < 1e-9)
+    std::snprintf(text, sizeof(text), "pitch the Xtion to about %+.0f deg", mounted.pitch_deg);
+  else
+    std::snprintf(text, sizeof(text), "mount the Xtion about %.1f m high and pitch it to about %+.0f deg",
+                  mounted.height_m, mounted.pitch_deg);
   if (!with_band)
     return text;
   char band[64];
   std::snprintf(band, sizeof(band), " (it then has %.1f-%.1f m in view)",
-                std::max(0.0, pitched.lowestInReach(r.xtion_reach_m)), pitched.highestInReach(r.xtion_reach_m));
+                std::max(0.0, mounted.lowestInReach(r.xtion_reach_m)), mounted.highestInReach(r.xtion_reach_m));
   return std::string(text) + band;
 }
 
@@ -713,7 +758,8 @@ Expected<SurveyGuidance> guideSurvey(const FixedCamera& camera, const std::vecto
     return Error(ErrorCode::kNotEnoughData, "no image has arrived from " + config.image_topic + " yet");
   std::optional<CameraModel> model;
   double tolerance_px = options.tolerance_px;
-  if (camera.lastRefused())
+  // A refused result shows where its matches put the view, unless its focal length is absurd (no camera at all).
+  if (camera.lastRefused() && camera.focalIsPlausible(camera.lastRefused()->calibration.camera))
     model = camera.lastRefused()->calibration.camera;
   else if (camera.calibration())
     model = camera.calibration()->camera;

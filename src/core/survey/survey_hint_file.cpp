@@ -1,5 +1,6 @@
 #include "insitu_calibration/survey/survey_hint_file.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -88,6 +89,16 @@ Expected<SurveyHintRegion> readRegion(const yaml_util::YamlNode& node, const std
       return Error(ErrorCode::kInvalidInput, where + ".xtion_pitch_deg: not a pitch between -90 and 90 deg");
     region.xtion_pitch_deg = *value;
   }
+  if (const YamlNode height = child(node, "xtion_height_m"))
+  {
+    const auto value = toDouble(height, where + ".xtion_height_m");
+    if (!value)
+      return value.error();
+    if (!region.xtion_pitch_deg || *value <= 0.0 || *value > 10.0)
+      return Error(ErrorCode::kInvalidInput,
+                   where + ".xtion_height_m: not a height between 0 and 10 m with an xtion_pitch_deg beside it");
+    region.xtion_height_m = *value;
+  }
   return region;
 }
 }  // namespace
@@ -100,11 +111,16 @@ SurveyHint surveyHintOf(const std::string& camera, const SurveyGuidance& guidanc
   hint.image_height = guidance.height;
   for (const UnmappedRegion& r : guidance.regions)
   {
-    // Out of the Xtion's reach: the pitch its sentence advises.
-    const std::optional<double> pitch =
-        r.outOfXtionReach(guidance.min_xtion_share) ? r.pitchToSeeDeg() : std::optional<double>();
+    // Out of the Xtion's reach: the mount its sentence advises (the height only where it changes).
+    const std::optional<XtionMount> mount =
+        r.outOfXtionReach(guidance.min_xtion_share) ? r.mountToSee() : std::optional<XtionMount>();
+    std::optional<double> pitch, height;
+    if (mount)
+      pitch = mount->pitch_deg;
+    if (mount && std::abs(mount->height_m - r.xtion.height_m) > 1e-9)
+      height = mount->height_m;
     hint.regions.push_back({r.where, r.image_lines, r.robot_position, r.look_direction, r.floor_polygon, r.xtion_share,
-                            Eigen::Vector2d(r.structure_min_height_m, r.structure_max_height_m), pitch});
+                            Eigen::Vector2d(r.structure_min_height_m, r.structure_max_height_m), pitch, height});
   }
   return hint;
 }
@@ -137,6 +153,12 @@ std::string surveyHintYaml(const SurveyHint& hint)
       char pitch[32];
       std::snprintf(pitch, sizeof(pitch), "%.0f", *r.xtion_pitch_deg);
       out << "    xtion_pitch_deg: " << pitch << "\n";
+    }
+    if (r.xtion_height_m)
+    {
+      char height[32];
+      std::snprintf(height, sizeof(height), "%.2f", *r.xtion_height_m);
+      out << "    xtion_height_m: " << height << "\n";
     }
   }
   return out.str();
@@ -187,16 +209,22 @@ Expected<SurveyHint> readSurveyHint(const std::string& path)
   return parseSurveyHint(*text, path);
 }
 
-std::optional<double> advisedXtionPitchDeg(const std::vector<SurveyHint>& hints)
+std::optional<AdvisedMount> advisedXtionMount(const std::vector<SurveyHint>& hints)
 {
-  std::vector<double> pitches;
+  std::vector<const SurveyHintRegion*> advising;
   for (const SurveyHint& hint : hints)
     for (const SurveyHintRegion& region : hint.regions)
       if (region.xtion_pitch_deg)
-        pitches.push_back(*region.xtion_pitch_deg);
-  if (pitches.empty())
+        advising.push_back(&region);
+  if (advising.empty())
     return std::nullopt;
-  return middleValue(pitches);
+  std::vector<double> pitches;
+  for (const SurveyHintRegion* region : advising)
+    pitches.push_back(*region->xtion_pitch_deg);
+  const double middle = middleValue(pitches);
+  const auto chosen = std::find_if(advising.begin(), advising.end(),
+                                   [&](const SurveyHintRegion* r) { return *r->xtion_pitch_deg == middle; });
+  return AdvisedMount{middle, (*chosen)->xtion_height_m};
 }
 
 }  // namespace insitu_calibration
