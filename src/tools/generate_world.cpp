@@ -1,6 +1,7 @@
 // generate_world: a procedural building for the simulator (a world file) and its installer's camera priors.
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <iostream>
 
 #include "command_line.h"
@@ -93,44 +94,29 @@ std::vector<sim::Visit> visitsOf(const std::vector<insitu_calibration::SurveyHin
   return visits;
 }
 
-// --xtion-tilt: a number of degrees, or "advised" (the hints' pitch; nothing to change without one).
-std::string parseXtionTilt(const std::string& text, const std::vector<insitu_calibration::SurveyHint>& hints,
-                           sim::WorldGeneratorOptions* options)
+// --xtion-tilt (deg) and --xtion-height (m): a number within [low, high], or "advised": the hints' advised mount's
+// (advisedXtionMount; nothing changes where the hints advise none, or keep the Xtion's height).
+std::string parseXtionMount(const std::string& option, const std::string& text, const char* unit, double low,
+                            double high, const std::vector<insitu_calibration::SurveyHint>& hints,
+                            std::optional<double>* value)
 {
   if (text == "advised")
   {
     if (hints.empty())
-      return "--xtion-tilt advised needs --visit-hints";
+      return "--" + option + " advised needs --visit-hints";
     if (const auto mount = insitu_calibration::advisedXtionMount(hints))
-      options->xtion_tilt_deg = mount->pitch_deg;
+      *value = option == "xtion-tilt" ? std::optional<double>(mount->pitch_deg) : mount->height_m;
     return "";
   }
-  double tilt = 0.0;
+  double number = 0.0;
   char extra = 0;
-  if (std::sscanf(text.c_str(), "%lf%c", &tilt, &extra) != 1 || std::abs(tilt) > 60.0)
-    return "--xtion-tilt must be degrees between -60 and 60 or 'advised' (got '" + text + "')";
-  options->xtion_tilt_deg = tilt;
-  return "";
-}
-
-// --xtion-height: metres above the floor, or "advised" (the height of the hints' advised mount; nothing to change
-// where it keeps the Xtion's height).
-std::string parseXtionHeight(const std::string& text, const std::vector<insitu_calibration::SurveyHint>& hints,
-                             sim::WorldGeneratorOptions* options)
-{
-  if (text == "advised")
+  if (std::sscanf(text.c_str(), "%lf%c", &number, &extra) != 1 || number < low || number > high)
   {
-    if (hints.empty())
-      return "--xtion-height advised needs --visit-hints";
-    if (const auto mount = insitu_calibration::advisedXtionMount(hints))
-      options->xtion_height_m = mount->height_m;
-    return "";
+    char range[96];
+    std::snprintf(range, sizeof(range), " must be %s between %g and %g or 'advised' (got '", unit, low, high);
+    return "--" + option + range + text + "')";
   }
-  double height = 0.0;
-  char extra = 0;
-  if (std::sscanf(text.c_str(), "%lf%c", &height, &extra) != 1 || height < 0.1 || height > 3.0)
-    return "--xtion-height must be metres between 0.1 and 3 or 'advised' (got '" + text + "')";
-  options->xtion_height_m = height;
+  *value = number;
   return "";
 }
 
@@ -190,9 +176,11 @@ std::string parseOptions(insitu_calibration::CommandLine& cli, sim::WorldGenerat
   if (problem.empty() && options->visits_only && hints.empty())
     problem = "--visits-only needs --visit-hints";
   if (problem.empty() && cli.has("xtion-tilt"))
-    problem = parseXtionTilt(cli.value("xtion-tilt"), hints, options);
+    problem =
+        parseXtionMount("xtion-tilt", cli.value("xtion-tilt"), "degrees", -60.0, 60.0, hints, &options->xtion_tilt_deg);
   if (problem.empty() && cli.has("xtion-height"))
-    problem = parseXtionHeight(cli.value("xtion-height"), hints, options);
+    problem =
+        parseXtionMount("xtion-height", cli.value("xtion-height"), "metres", 0.1, 3.0, hints, &options->xtion_height_m);
   return problem;
 }
 

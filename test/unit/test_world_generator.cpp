@@ -474,9 +474,21 @@ TEST(WorldGenerator, VisitsExtendTheRouteAndKeepEverythingElse)
   EXPECT_EQ(second->cameras_yaml, plain->cameras_yaml);
 }
 
-// A given Xtion tilt (generate_world --xtion-tilt, the mount advice followed) changes that line of the world file and
-// nothing else: the same building, cameras, route and mount height.
-TEST(WorldGenerator, AGivenXtionTiltChangesOnlyTheTilt)
+namespace
+{
+// The world file with one line of its xtion block ("  key: ...") replaced.
+std::string withXtionLine(std::string yaml, const std::string& key, const std::string& value)
+{
+  const size_t at = yaml.find("  " + key + ": ", yaml.find("xtion:\n"));
+  if (at == std::string::npos)
+    return "";
+  return yaml.replace(at, yaml.find('\n', at) - at, "  " + key + ": " + value);
+}
+}  // namespace
+
+// A given Xtion tilt or height (generate_world --xtion-tilt, --xtion-height: the mount advice followed) changes that
+// line of the world file and nothing else: the same building, cameras, route and the rest of the mount.
+TEST(WorldGenerator, AGivenXtionMountChangesOnlyItsLine)
 {
   sim::WorldGeneratorOptions options;
   options.seed = 5;
@@ -484,38 +496,21 @@ TEST(WorldGenerator, AGivenXtionTiltChangesOnlyTheTilt)
   const auto drawn = sim::generateWorld(options);
   ASSERT_TRUE(drawn);
   options.xtion_tilt_deg = 7.5;
-  const auto given = sim::generateWorld(options);
-  ASSERT_TRUE(given) << given.error().describe();
-  EXPECT_EQ(given->world.xtion.tilt_deg, 7.5);
+  const auto tilted = sim::generateWorld(options);
+  ASSERT_TRUE(tilted) << tilted.error().describe();
+  EXPECT_EQ(tilted->world.xtion.tilt_deg, 7.5);
   EXPECT_NE(drawn->world.xtion.tilt_deg, 7.5);
-  EXPECT_EQ(given->world.xtion.mount_height_m, drawn->world.xtion.mount_height_m);
-  EXPECT_EQ(given->cameras_yaml, drawn->cameras_yaml);
-  std::string expected = drawn->world_yaml;
-  const size_t at = expected.find("  tilt_deg: ");
-  ASSERT_NE(at, std::string::npos);
-  expected.replace(at, expected.find('\n', at) - at, "  tilt_deg: 7.5");
-  EXPECT_EQ(given->world_yaml, expected);
-}
+  EXPECT_EQ(tilted->world.xtion.mount_height_m, drawn->world.xtion.mount_height_m);
+  EXPECT_EQ(tilted->cameras_yaml, drawn->cameras_yaml);
+  EXPECT_EQ(tilted->world_yaml, withXtionLine(drawn->world_yaml, "tilt_deg", "7.5"));
 
-// A given Xtion height (generate_world --xtion-height, a mount advice that needs another height) changes that line of
-// the world file and nothing else.
-TEST(WorldGenerator, AGivenXtionHeightChangesOnlyTheHeight)
-{
-  sim::WorldGeneratorOptions options;
-  options.seed = 5;
-  options.max_route_s = 35.0;
-  const auto drawn = sim::generateWorld(options);
-  ASSERT_TRUE(drawn);
+  options.xtion_tilt_deg.reset();
   options.xtion_height_m = 1.4;
-  const auto given = sim::generateWorld(options);
-  ASSERT_TRUE(given) << given.error().describe();
-  EXPECT_EQ(given->world.xtion.mount_height_m, 1.4);
+  const auto raised = sim::generateWorld(options);
+  ASSERT_TRUE(raised) << raised.error().describe();
+  EXPECT_EQ(raised->world.xtion.mount_height_m, 1.4);
   EXPECT_NE(drawn->world.xtion.mount_height_m, 1.4);
-  EXPECT_EQ(given->world.xtion.tilt_deg, drawn->world.xtion.tilt_deg);
-  EXPECT_EQ(given->cameras_yaml, drawn->cameras_yaml);
-  std::string expected = drawn->world_yaml;
-  const size_t at = expected.find("  mount_height: ");
-  ASSERT_NE(at, std::string::npos);
-  expected.replace(at, expected.find('\n', at) - at, "  mount_height: 1.4");
-  EXPECT_EQ(given->world_yaml, expected);
+  EXPECT_EQ(raised->world.xtion.tilt_deg, drawn->world.xtion.tilt_deg);
+  EXPECT_EQ(raised->cameras_yaml, drawn->cameras_yaml);
+  EXPECT_EQ(raised->world_yaml, withXtionLine(drawn->world_yaml, "mount_height", "1.4"));
 }
