@@ -545,28 +545,37 @@ std::optional<XtionMount> UnmappedRegion::mountToSee() const
 namespace
 {
 // What brings a region out of the Xtion's reach into its view: the mount that has the region's heights in view
-// within its reach (UnmappedRegion::mountToSee), else a mount beyond the limits.
-std::string xtionRemedy(const UnmappedRegion& r, bool with_band)
+// within its reach (UnmappedRegion::mountToSee), else a mount beyond the limits. In words for the sentence, with the
+// heights the mount then sees, or in short for the hint picture's legend (a line of it fits a 640 px image).
+std::string xtionRemedy(const UnmappedRegion& r, bool in_short)
 {
   const std::optional<XtionMount> mount = r.mountToSee();
   char text[160];
   if (!mount)
   {
     const bool up = r.xtion_above_share >= r.xtion_below_share;
-    std::snprintf(text, sizeof(text), "mount the Xtion %s than %.1f m (or pitched more than %.0f deg)",
-                  up ? "higher" : "lower", up ? r.mount_limits.max_height_m : r.mount_limits.min_height_m,
-                  r.mount_limits.max_abs_pitch_deg);
+    const double limit = up ? r.mount_limits.max_height_m : r.mount_limits.min_height_m;
+    if (in_short)
+      std::snprintf(text, sizeof(text), "mount it %s than %.1f m", up ? "higher" : "lower", limit);
+    else
+      std::snprintf(text, sizeof(text), "mount the Xtion %s than %.1f m (or pitched more than %.0f deg)",
+                    up ? "higher" : "lower", limit, r.mount_limits.max_abs_pitch_deg);
     return text;
   }
   XtionView mounted = r.xtion;
   mounted.height_m = mount->height_m;
   mounted.pitch_deg = mount->pitch_deg;
-  if (std::abs(mount->height_m - r.xtion.height_m) < 1e-9)
+  const bool same_height = std::abs(mount->height_m - r.xtion.height_m) < 1e-9;
+  if (in_short && same_height)
+    std::snprintf(text, sizeof(text), "pitch it to %+.0f deg", mounted.pitch_deg);
+  else if (in_short)
+    std::snprintf(text, sizeof(text), "mount it %.1f m high, pitched %+.0f deg", mounted.height_m, mounted.pitch_deg);
+  else if (same_height)
     std::snprintf(text, sizeof(text), "pitch the Xtion to about %+.0f deg", mounted.pitch_deg);
   else
     std::snprintf(text, sizeof(text), "mount the Xtion about %.1f m high and pitch it to about %+.0f deg",
                   mounted.height_m, mounted.pitch_deg);
-  if (!with_band)
+  if (in_short)
     return text;
   char band[64];
   std::snprintf(band, sizeof(band), " (it then has %.1f-%.1f m in view)",
@@ -615,7 +624,7 @@ std::string xtionAdvice(const UnmappedRegion& r)
                   r.structure_min_height_m, mounts.c_str(), r.xtion.lowestInReach(r.xtion_reach_m), r.xtion_reach_m);
   const char* drive = r.xtions.size() > 1 ? " for another drive, keeping the recordings so far, "
                                           : " for a second drive, keeping the first one's recording, ";
-  return std::string(what) + xtionRemedy(r, true) + drive + "or calibrate this camera from CAD lines)";
+  return std::string(what) + xtionRemedy(r, false) + drive + "or calibrate this camera from CAD lines)";
 }
 }  // namespace
 
@@ -851,7 +860,7 @@ cv::Mat drawSurveyHint(const cv::Mat& image, const SurveyGuidance& g)
                   region.where.c_str(), region.image_lines, region.robot_position.x(), region.robot_position.y(),
                   region.look_direction.x(), region.look_direction.y(),
                   region.outOfXtionReach(g.min_xtion_share)
-                      ? ("; out of the Xtion's view: " + xtionRemedy(region, false)).c_str()
+                      ? ("; Xtion out of reach: " + xtionRemedy(region, true)).c_str()
                       : "");
     legend.emplace_back(buffer);
   }
