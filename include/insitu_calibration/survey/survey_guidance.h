@@ -76,11 +76,13 @@ struct XtionMountLimits
   double max_abs_pitch_deg = 45.0;
 };
 
-// A mount the guidance advises: the Xtion's height above the floor and its pitch (above the horizontal, deg).
+// A mount the guidance advises: the Xtion's height above the floor and its pitch (above the horizontal, deg), and
+// whether the height is a new one (else the survey's mount's, re-pitched).
 struct XtionMount
 {
   double height_m = 0.0;
   double pitch_deg = 0.0;
+  bool new_height = false;
 };
 
 // The Xtion's views in the survey's keyframes, one per mount (the Xtion re-pitched or moved between recordings or

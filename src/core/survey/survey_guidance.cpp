@@ -537,7 +537,7 @@ std::optional<XtionMount> UnmappedRegion::mountToSee() const
       view.height_m = height;
       const std::optional<double> pitch = view.pitchToSee(band_low, band_high, xtion_reach_m);
       if (pitch && std::abs(std::round(*pitch)) <= mount_limits.max_abs_pitch_deg)
-        return XtionMount{height, std::round(*pitch) + 0.0};  // + 0.0: no "-0"
+        return XtionMount{height, std::round(*pitch) + 0.0, height != xtion.height_m};  // + 0.0: no "-0"
     }
   return std::nullopt;
 }
@@ -565,7 +565,7 @@ std::string xtionRemedy(const UnmappedRegion& r, bool in_short)
   XtionView mounted = r.xtion;
   mounted.height_m = mount->height_m;
   mounted.pitch_deg = mount->pitch_deg;
-  const bool same_height = std::abs(mount->height_m - r.xtion.height_m) < 1e-9;
+  const bool same_height = !mount->new_height;
   if (in_short && same_height)
     std::snprintf(text, sizeof(text), "pitch it to %+.0f deg", mounted.pitch_deg);
   else if (in_short)

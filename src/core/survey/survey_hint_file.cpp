@@ -117,7 +117,7 @@ SurveyHint surveyHintOf(const std::string& camera, const SurveyGuidance& guidanc
     std::optional<double> pitch, height;
     if (mount)
       pitch = mount->pitch_deg;
-    if (mount && std::abs(mount->height_m - r.xtion.height_m) > 1e-9)
+    if (mount && mount->new_height)
       height = mount->height_m;
     hint.regions.push_back({r.where, r.image_lines, r.robot_position, r.look_direction, r.floor_polygon, r.xtion_share,
                             Eigen::Vector2d(r.structure_min_height_m, r.structure_max_height_m), pitch, height});
