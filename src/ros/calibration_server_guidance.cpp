@@ -41,8 +41,8 @@ std::string CalibrationServer::publishSurveyGuidance(const std::string& name, co
   {
     std::lock_guard<std::mutex> lock(mutex_);
     image_lines = survey_->options().cameras.image_lines;
-    options.xtions = xtionViewsOf(survey_->keyframes(), survey_->options().floor.floor_height_m);
-    options.visited = visitedPositions(survey_->keyframes());
+    options = surveyGuidanceOptions(survey_->keyframes(), survey_->options().floor.floor_height_m,
+                                    survey_->options().map.max_sigma_m);
   }
   options.max_regions = std::min<size_t>(options.max_regions, kMaxHintRegions);
   const auto guidance = guideSurvey(camera, map, image_lines, options);

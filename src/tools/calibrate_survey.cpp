@@ -134,10 +134,17 @@ Options:
   --plain-floor-samples 0|1
                         the final check leaves floor samples out one by one where the floor looks plain there
                         instead of whole plain floor lines (params plain_floor_samples; default 1)
+  --plain-ceiling-samples 0|1
+                        the final check tests lines on the ceiling the survey's depth lines measured as floor lines
+                        (their samples left out where the image looks plain; params plain_ceiling_samples;
+                        default 1)
   --texture-min-neighbours N
                         the final check leaves samples of texture lines (joints of bricks, tiles, panels: N or more
                         parallel map lines side by side) out where the image shows no edge on or beside them
                         (params texture_min_neighbours; default 0: off; 4 turns it on)
+  --overlay-min-gradient G
+                        the final check's edge: a gradient of at least G grey levels per px across a projected map
+                        line (params overlay_min_gradient; default 4)
   --occluders-follow-adjustment 0|1
                         those surfaces are inserted again under the map adjustment's corrected keyframe poses
                         (default 0: at tf's poses)
@@ -1227,8 +1234,10 @@ void parseCameraOptions(ic::CommandLine& cli, ic::FixedCameraOptions* cameras)
 {
   cameras->explanation.plain_floor_by_sample =
       onOff(cli, "plain-floor-samples", cameras->explanation.plain_floor_by_sample);
+  cameras->explanation.plain_ceiling = onOff(cli, "plain-ceiling-samples", cameras->explanation.plain_ceiling);
   cameras->explanation.texture.min_neighbours = static_cast<size_t>(
       cli.number("texture-min-neighbours", static_cast<double>(cameras->explanation.texture.min_neighbours), 0, 100));
+  cameras->explanation.min_gradient = cli.number("overlay-min-gradient", cameras->explanation.min_gradient, 0.1, 255.0);
   ic::LineMatcherOptions& matcher = cameras->matcher;
   if (cli.flag("no-refine"))
     matcher.calibration.refine = false;
@@ -1380,6 +1389,11 @@ void printSurveySummary(const ic::Survey& survey, size_t frames_without_pose, do
         "%zu map lines (%zu used); %.2f s CPU\n",
         stats.adjusted_observations, stats.dropped_observations, 1000.0 * stats.mean_correction_m,
         stats.mean_correction_deg, survey.lineMap().size(), used, 1e-3 * stats.adjustment_cpu_ms);
+  if (const auto reach = ic::depthLineReach(survey.keyframes(), survey.options().map.max_sigma_m))
+    std::printf(
+        "depth lines: most of them precise enough for the map (%.1f mm) within %.2f m of the Xtion (the "
+        "survey hints' reach)\n",
+        1000.0 * survey.options().map.max_sigma_m, *reach);
   if (survey.options().floor.enabled)
   {
     size_t floor_lines = 0;
@@ -1421,9 +1435,8 @@ void printSurveySummary(const ic::Survey& survey, size_t frames_without_pose, do
 void reportRefusal(const ic::CommandLine& cli, const ic::Survey& survey, const std::string& name,
                    const std::vector<ic::Segment3d>& map, const ic::Error& error)
 {
-  ic::SurveyGuidanceOptions options;
-  options.xtions = ic::xtionViewsOf(survey.keyframes(), survey.options().floor.floor_height_m);
-  options.visited = ic::visitedPositions(survey.keyframes());
+  const ic::SurveyGuidanceOptions options = ic::surveyGuidanceOptions(
+      survey.keyframes(), survey.options().floor.floor_height_m, survey.options().map.max_sigma_m);
   const auto guidance = ic::guideSurvey(survey.camera(name), map, survey.options().cameras.image_lines, options);
   if (!guidance)
   {
@@ -1582,7 +1595,9 @@ const std::set<std::string> kValueOptions = {"cameras",
                                              "floor-extended",
                                              "occlusion-test",
                                              "plain-floor-samples",
+                                             "plain-ceiling-samples",
                                              "texture-min-neighbours",
+                                             "overlay-min-gradient",
                                              "occluders-follow-adjustment",
                                              "triangulated-lines",
                                              "triangulated-repetition-px",

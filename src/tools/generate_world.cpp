@@ -48,9 +48,10 @@ Options:
   --visits-only            with --visit-hints: the route is only the drive to the visits, from where the route
                            ends (a second recording, after the first drive; calibrate_survey FIRST.bag SECOND.bag)
   --xtion-tilt DEG         the Xtion tilted DEG above the horizontal instead of the drawn tilt (the building, its
-                           cameras and route and the mount's height unchanged); "advised": the middle of the pitches
-                           the --visit-hints files advise for regions out of the Xtion's reach (their
-                           xtion_pitch_deg), the drawn tilt if none does
+                           cameras and route and the mount's height unchanged); "advised": of the pitches the
+                           --visit-hints files advise for regions out of the Xtion's reach (their
+                           xtion_pitch_deg), the one that serves most of their image lines (pitches within 5 deg
+                           one mount), the drawn tilt if none does
   --xtion-height M         the Xtion's mount M metres above the floor instead of the drawn height (everything else
                            unchanged); "advised": the height of the mount the --visit-hints files advise (the
                            xtion_height_m of the region whose pitch --xtion-tilt advised takes), the drawn height

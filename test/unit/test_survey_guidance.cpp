@@ -636,7 +636,8 @@ TEST(XtionViewTest, AMountHigherWhereNoPitchDoes)
   EXPECT_FALSE(ic::surveyHintOf("cam_a", g).regions.front().xtion_height_m);
   EXPECT_NE(g.sentence().find("pitch the Xtion to about +14 deg"), std::string::npos) << g.sentence();
 
-  g.regions = {regionAbove(survey_mount, 9.0, 9.5)};  // 5 m above 1.5 m: no mount within the limits
+  g.regions = {regionAbove(survey_mount, 9.0, 9.5)};  // from 6 m up, 4.5 m above 1.5 m: no mount within the limits
+  g.regions.front().structure_min_height_m = 6.0;
   EXPECT_FALSE(g.regions.front().mountToSee());
   EXPECT_NE(g.sentence().find("mount the Xtion higher than 1.5 m (or pitched more than 45 deg)"), std::string::npos)
       << g.sentence();
@@ -702,4 +703,71 @@ TEST(XtionViewTest, FromKeyframesOnePerMount)
   ASSERT_EQ(views.size(), 2u);
   EXPECT_NEAR(views[0].height_m, 0.6, 1e-9);
   EXPECT_NEAR(views[1].height_m, 0.8, 1e-9);
+}
+
+// The reach of the survey's depth lines for the map: the first 0.25 m band from the Xtion in which fewer than half of
+// them are precise enough (the Xtion's noise grows as z^2); none while every band is; a band of too few lines does
+// not end it. surveyGuidanceOptions takes it, and keeps the option's where the survey shows none.
+TEST(XtionViewTest, TheDepthLinesReachWhereMostAreStillPreciseEnough)
+{
+  // Lines every centimetre from 1.5 to 5 m, their sigma 3 mm at 3.1 m and growing as the range squared.
+  auto keyframesTo = [](double farthest_m) {
+    std::vector<ic::Keyframe> keyframes(2, keyframeAt(0.0, 0.9, 0.0, 0.0));
+    for (int k = 150; k <= static_cast<int>(std::round(100.0 * farthest_m)); ++k)
+    {
+      ic::KeyframeLine l;
+      l.line.range_m = 0.01 * k;
+      l.line.sigma_m = 0.003 * std::pow(l.line.range_m / 3.1, 2.0);
+      keyframes[k % 2].lines.push_back(l);
+    }
+    return keyframes;
+  };
+  const auto reach = ic::depthLineReach(keyframesTo(5.0), 0.003);
+  ASSERT_TRUE(reach);
+  EXPECT_NEAR(*reach, 3.0, 1e-9);                                         // [3.0, 3.25 m): 11 of 25 lines within 3 mm
+  EXPECT_NEAR(*ic::depthLineReach(keyframesTo(5.0), 0.0048), 4.0, 1e-9);  // 4.8 mm at 3.92 m: 18 of 25 below 4 m
+  EXPECT_FALSE(ic::depthLineReach(keyframesTo(3.0), 0.003));              // the scene ends first
+  EXPECT_FALSE(ic::depthLineReach({}, 0.003));
+  auto few = keyframesTo(3.0);
+  for (int k = 0; k < static_cast<int>(ic::kMinReachBandLines) - 1; ++k)
+  {
+    ic::KeyframeLine far;
+    far.line.range_m = 4.1;
+    far.line.sigma_m = 0.02;
+    few[0].lines.push_back(far);
+  }
+  EXPECT_FALSE(ic::depthLineReach(few, 0.003));
+
+  const auto options = ic::surveyGuidanceOptions(keyframesTo(5.0), 0.0, 0.003);
+  EXPECT_NEAR(options.xtion_reach_m, 3.0, 1e-9);
+  EXPECT_EQ(options.xtions.size(), 1u);
+  ic::SurveyGuidanceOptions given;
+  given.xtion_reach_m = 3.5;
+  EXPECT_NEAR(ic::surveyGuidanceOptions(keyframesTo(3.0), 0.0, 0.003, given).xtion_reach_m, 3.5, 1e-9);
+}
+
+// A depth reach too short for any mount within the limits to have all of a high wall's heights in view: the mount
+// pitched to the limit that adds a useful part of them is advised, and the sentence says what it then has in view; a
+// region whose heights it does not reach at all gets none.
+TEST(XtionViewTest, APartOfAHighWallWhereNoMountHasItAll)
+{
+  const ic::XtionView survey_mount{0.67, 3.0, 22.5, 29.0};
+  ic::UnmappedRegion hall = regionAbove(survey_mount, 4.6, 4.6);
+  hall.xtion_reach_m = 3.0;
+  const auto mount = hall.mountToSee();
+  ASSERT_TRUE(mount);
+  EXPECT_NEAR(mount->height_m, 0.67, 1e-9);  // no higher mount has it all either: the Xtion's own height
+  EXPECT_LE(std::abs(mount->pitch_deg), 45.0);
+  ic::XtionView mounted = survey_mount;
+  mounted.pitch_deg = mount->pitch_deg;
+  EXPECT_GE(mounted.highestInReach(3.0), survey_mount.highestInReach(3.0) + ic::kMinAdvisedBandM);
+  EXPECT_LT(mounted.highestInReach(3.0), 4.6);                              // a part only
+  EXPECT_LE(mounted.lowestInReach(3.0), survey_mount.highestInReach(3.0));  // next to what the survey has
+  ic::SurveyGuidance g;
+  g.regions = {hall};
+  char advised[96];
+  std::snprintf(advised, sizeof(advised), "pitch the Xtion to about %+.0f deg (it then has", mount->pitch_deg);
+  EXPECT_NE(g.sentence().find(advised), std::string::npos) << g.sentence();
+  hall.structure_min_height_m = 4.2;  // all above what a mount within the limits reaches within 3 m
+  EXPECT_FALSE(hall.mountToSee());
 }

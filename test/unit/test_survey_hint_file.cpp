@@ -89,7 +89,7 @@ TEST(SurveyHintFile, RoundTripKeepsEveryRegionToTheMillimetre)
 }
 
 // The mount advice's pitch: written only for the regions that carry one, read back, and one pitch for a survey
-// that follows several hints (the middle one).
+// that follows several hints (the one that serves most of their image lines).
 TEST(SurveyHintFile, ThePitchOfTheMountAdviceIsKeptAndOnePitchChosen)
 {
   ic::SurveyHint hint = ic::surveyHintOf("cam_a", twoRegions());
@@ -114,9 +114,14 @@ TEST(SurveyHintFile, ThePitchOfTheMountAdviceIsKeptAndOnePitchChosen)
   other.regions[0].xtion_pitch_deg = -5.0;
   other.regions[1].xtion_pitch_deg = 14.0;
   ASSERT_TRUE(ic::advisedXtionMount({hint, other}));
-  EXPECT_EQ(ic::advisedXtionMount({hint, other})->pitch_deg, 8.0);  // of -5, 8, 14
-  EXPECT_FALSE(ic::advisedXtionMount({hint, other})->height_m);     // the Xtion's own height
+  // Of 8 (3 image lines), -5 (29) and 14 (3): the mount that serves most lines, not the middle pitch.
+  EXPECT_EQ(ic::advisedXtionMount({hint, other})->pitch_deg, -5.0);
+  EXPECT_FALSE(ic::advisedXtionMount({hint, other})->height_m);  // the Xtion's own height
   EXPECT_EQ(ic::advisedXtionMount({hint})->pitch_deg, 8.0);
+  other.regions[0].xtion_pitch_deg = 30.0;  // 5 lines at 30 deg; 8 and 12 deg (3 lines each) are one mount
+  other.regions[0].image_lines = 5;
+  other.regions[1].xtion_pitch_deg = 12.0;
+  EXPECT_EQ(ic::advisedXtionMount({hint, other})->pitch_deg, 8.0);  // 6 lines (the first of 8 and 12)
 }
 
 // A mount advice that needs another height: the height is written beside its pitch, read back, and comes with the
@@ -139,13 +144,16 @@ TEST(SurveyHintFile, TheHeightOfTheMountAdviceGoesWithItsPitch)
   third.regions[0].xtion_pitch_deg = 30.0;
   third.regions[0].xtion_height_m = 1.5;
   third.regions[1].xtion_pitch_deg = 12.0;
-  const auto mount = ic::advisedXtionMount({hint, third});  // pitches 25, 10, 30, 12: the middle one is 25
+  // 25 deg at 1.3 m (29 lines), 10 (3), 30 deg at 1.5 m (29), 12 (3): another height is another mount; the first of
+  // equals.
+  const auto mount = ic::advisedXtionMount({hint, third});
   ASSERT_TRUE(mount);
   EXPECT_EQ(mount->pitch_deg, 25.0);
   ASSERT_TRUE(mount->height_m);
   EXPECT_NEAR(*mount->height_m, 1.3, 1e-12);
-  third.regions[0].xtion_pitch_deg = 5.0;  // 25, 10, 5, 12: 12, at the Xtion's own height
-  EXPECT_EQ(ic::advisedXtionMount({hint, third})->pitch_deg, 12.0);
+  third.regions[0].xtion_pitch_deg = 5.0;  // 25 at 1.3 m (29), then 10, 5, 12 at the Xtion's own height: 10 serves 35
+  third.regions[0].xtion_height_m.reset();
+  EXPECT_EQ(ic::advisedXtionMount({hint, third})->pitch_deg, 10.0);
   EXPECT_FALSE(ic::advisedXtionMount({hint, third})->height_m);
 
   for (const auto& [from, to] :

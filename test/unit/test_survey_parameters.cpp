@@ -50,6 +50,8 @@ TEST(SurveyParameters, UnsetParametersKeepTheStructsDefaults)
   EXPECT_TRUE(read.cameras.matcher.prior_start);
   EXPECT_TRUE(read.cameras.explanation.plain_floor_by_sample);
   EXPECT_EQ(read.cameras.explanation.texture.min_neighbours, 0u);  // off (docs/measurements.md)
+  EXPECT_EQ(read.cameras.explanation.min_gradient, 4.0);
+  EXPECT_TRUE(read.cameras.explanation.plain_ceiling);
   EXPECT_EQ(read.cameras.ambiguity.neighbourhood_share, 0.05);
   EXPECT_EQ(read.ceiling.min_height_m, 2.2);
   EXPECT_FALSE(read.extended_retry.enabled);
@@ -71,26 +73,6 @@ odometry: {sigma_m: 0.001, sigma_per_m: 0.02, sigma_deg: 0.1, sigma_per_deg: 0.0
 depth_registration: {x_px: 0.7, y_px: -0.25}
 floor_lines: true
 floor: {height: 0.05, max_range: 8, tilt_sigma_deg: 0.1, height_sigma: 0.01, extended: true}
-median_images: 9
-max_rms_px: 2.5
-min_focal_ratio: 0.3
-max_focal_ratio: 5
-min_matched_lines: 12
-search_starts: 6
-hypothesis_starts: 3
-hypothesis_centres: 7
-local_search_starts: 2
-prior_start: false
-ransac_threshold_px: 4.5
-ransac: false
-refine: no
-thin_lines: true
-thin_line_sigma: 0.005
-plain_floor_test: false
-plain_floor_samples: false
-texture_min_neighbours: 6
-unresolved_joints: false
-ambiguity: {neighbourhood_share: 0}
 ceiling: {min_height: 2.5}
 cameras: []
 )");
@@ -116,27 +98,60 @@ cameras: []
   EXPECT_EQ(o.floor.height_sigma_m, 0.01);
   EXPECT_TRUE(o.floor.depth_confirmation);
   EXPECT_TRUE(o.floor.extend_confirmed);
-  EXPECT_EQ(o.cameras.median_images, 9u);
-  EXPECT_EQ(o.cameras.max_rms_px, 2.5);
-  EXPECT_EQ(o.cameras.min_focal_ratio, 0.3);
-  EXPECT_EQ(o.cameras.max_focal_ratio, 5.0);
-  EXPECT_EQ(o.cameras.min_matched_lines, 12u);
-  EXPECT_EQ(o.cameras.matcher.search_starts, 6);
-  EXPECT_EQ(o.cameras.matcher.hypothesis_starts, 3);
-  EXPECT_EQ(o.cameras.matcher.hypothesis_centres, 7);
-  EXPECT_EQ(o.cameras.matcher.local_search_starts, 2);
-  EXPECT_EQ(o.cameras.matcher.calibration.ransac_options.inlier_threshold_px, 4.5);
-  EXPECT_FALSE(o.cameras.matcher.calibration.ransac);
-  EXPECT_FALSE(o.cameras.matcher.calibration.refine);
-  EXPECT_TRUE(o.cameras.image_lines.refiner.thin_lines);
-  EXPECT_EQ(o.cameras.thin_line_sigma_m, 0.005);
-  EXPECT_FALSE(o.cameras.explanation.leave_out_plain_floor);
-  EXPECT_FALSE(o.cameras.unresolved_joints.enabled);
-  EXPECT_FALSE(o.cameras.matcher.prior_start);
-  EXPECT_FALSE(o.cameras.explanation.plain_floor_by_sample);
-  EXPECT_EQ(o.cameras.explanation.texture.min_neighbours, 6u);
-  EXPECT_EQ(o.cameras.ambiguity.neighbourhood_share, 0.0);
   EXPECT_EQ(o.ceiling.min_height_m, 2.5);
+}
+
+TEST(SurveyParameters, EverySetCameraParameterIsTaken)
+{
+  ic::YamlParameterSource source = parsed(R"(
+median_images: 9
+max_rms_px: 2.5
+min_focal_ratio: 0.3
+max_focal_ratio: 5
+min_matched_lines: 12
+search_starts: 6
+hypothesis_starts: 3
+hypothesis_centres: 7
+local_search_starts: 2
+prior_start: false
+ransac_threshold_px: 4.5
+ransac: false
+refine: no
+thin_lines: true
+thin_line_sigma: 0.005
+plain_floor_test: false
+plain_floor_samples: false
+plain_ceiling_samples: false
+texture_min_neighbours: 6
+overlay_min_gradient: 2.5
+unresolved_joints: false
+ambiguity: {neighbourhood_share: 0}
+cameras: []
+)");
+  const ic::FixedCameraOptions o = ic::readSurveyParameters(source).cameras;
+  ASSERT_TRUE(source.ok()) << source.summary();
+  EXPECT_EQ(o.median_images, 9u);
+  EXPECT_EQ(o.max_rms_px, 2.5);
+  EXPECT_EQ(o.min_focal_ratio, 0.3);
+  EXPECT_EQ(o.max_focal_ratio, 5.0);
+  EXPECT_EQ(o.min_matched_lines, 12u);
+  EXPECT_EQ(o.matcher.search_starts, 6);
+  EXPECT_EQ(o.matcher.hypothesis_starts, 3);
+  EXPECT_EQ(o.matcher.hypothesis_centres, 7);
+  EXPECT_EQ(o.matcher.local_search_starts, 2);
+  EXPECT_EQ(o.matcher.calibration.ransac_options.inlier_threshold_px, 4.5);
+  EXPECT_FALSE(o.matcher.calibration.ransac);
+  EXPECT_FALSE(o.matcher.calibration.refine);
+  EXPECT_TRUE(o.image_lines.refiner.thin_lines);
+  EXPECT_EQ(o.thin_line_sigma_m, 0.005);
+  EXPECT_FALSE(o.explanation.leave_out_plain_floor);
+  EXPECT_FALSE(o.unresolved_joints.enabled);
+  EXPECT_FALSE(o.matcher.prior_start);
+  EXPECT_FALSE(o.explanation.plain_floor_by_sample);
+  EXPECT_FALSE(o.explanation.plain_ceiling);
+  EXPECT_EQ(o.explanation.texture.min_neighbours, 6u);
+  EXPECT_EQ(o.explanation.min_gradient, 2.5);
+  EXPECT_EQ(o.ambiguity.neighbourhood_share, 0.0);
 }
 
 TEST(SurveyParameters, TheExtendedRetryParametersAreTaken)

@@ -14,6 +14,7 @@
 #ifndef INSITU_CALIBRATION_SURVEY_IMAGE_EXPLANATION_H
 #define INSITU_CALIBRATION_SURVEY_IMAGE_EXPLANATION_H
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -57,6 +58,14 @@ struct ImageExplanationOptions
   // both right and refused by the check without it, accepted; no camera lost, none wrong. On since 2026-12-03
   // (parameter plain_floor_samples).
   bool plain_floor_by_sample = true;
+  // The ceiling's height in the map, when known (the survey measures it from its depth lines for each calibration,
+  // map/ceiling_lines.h). With plain_ceiling its lines are tested as floor lines are (left out where the image looks
+  // plain there, within floor_tolerance_m of the plane): the joints of ceiling tiles and panels that the Xtion,
+  // pitched up, mapped from below a camera sees at a grazing angle from just under the ceiling, often below its
+  // resolution. Measured on fresh set X, where the survey hints had the Xtion pitched up, and on set V's surveys
+  // against the world (docs/measurements.md, "The depth lines' reach"); parameter plain_ceiling_samples.
+  std::optional<double> ceiling_height_m;
+  bool plain_ceiling = true;
   // Texture lines (map/joint_lines.h: joints of bricks, tiles, planks or panelling, four or more parallel map lines
   // side by side) are left out sample by sample where the image shows no edge on or beside them, as plain floor
   // samples are: such joints the Xtion mapped from 1-2 m are often below a fixed camera's resolution from 3-10 m (a
@@ -83,11 +92,11 @@ struct ImageExplanationOptions
 
 struct ImageExplanation
 {
-  bool image_checked = false;      // there was an image to check against
-  size_t map_lines = 0;            // map lines assessed (visible, long enough)
-  size_t samples = 0;              // points along them
-  size_t plain_lines = 0;          // floor, texture lines left out where the image is plain (not in map_lines, samples)
-  size_t plain_floor_samples = 0;  // with plain_floor_by_sample: samples of other lines left out (not in samples)
+  bool image_checked = false;        // there was an image to check against
+  size_t map_lines = 0;              // map lines assessed (visible, long enough)
+  size_t samples = 0;                // points along them
+  size_t plain_lines = 0;            // floor, ceiling, texture lines left out where plain (not in map_lines, samples)
+  size_t plain_floor_samples = 0;    // with plain_floor_by_sample: floor and ceiling samples left out (not in samples)
   size_t plain_texture_samples = 0;  // texture lines' samples left out where the image is plain (not in samples)
   double overlay_agreement = 0.0;    // share of the samples on an edge
   double overlay_chance = 0.0;       // share 4 px beside the lines

@@ -245,6 +245,9 @@ public:
   std::vector<double> latestMapLineSigmas() const;
 
 private:
+  // The final check's ceiling (ImageExplanationOptions::ceiling_height_m): the plane the keyframes' depth lines
+  // measured (measureCeilingHeight), none where they measured none.
+  void useSurveyCeiling(FixedCamera& camera) const;
   bool adjusting() const;
   void adjustMap() const;
   void cacheAdjustment(MapAdjustment adjustment) const;  // the cache's members are mutable

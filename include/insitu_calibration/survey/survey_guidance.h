@@ -19,14 +19,16 @@
 // With the Xtion's views known (XtionView per mount, from the survey's keyframes) the standpoint is chosen for the
 // region's structure instead: each ray's point is also given a height (where it meets the floor, or its height where
 // it leaves the map's extent: a wall), and the standpoint is the one from which the Xtion, at one of its mounts'
-// heights and pitches, has most of those points in its view within xtion_reach_m: standoffs from min_standoff_m to
+// heights and pitches, has most of those points in its view within xtion_reach_m (the survey's own depth lines' reach
+// for the map, depthLineReach, where the keyframes show one): standoffs from min_standoff_m to
 // max_standoff_m, from the camera's side or, where the robot has been, from any side (of the nearly best, the
 // closest to the fixed standpoint). A low Xtion tilted down sees a wall's upper part only from afar, and from
 // nowhere within its depth's reach when the wall is high: when most of a region's points are at heights no mount
 // of the survey has in view (xtionHeightShare() below min_xtion_share) the sentence says how high (low) the Xtion
 // sees and what to do for another drive: the mount (the pitch at the Xtion's height, else the nearest height within
 // limits with its pitch) that brings the region's heights (up to the camera's own, for a region above the Xtion) into
-// its view within reach (UnmappedRegion::mountToSee), else a mount beyond the limits, or CAD lines. The points are
+// its view within reach (UnmappedRegion::mountToSee; for a wall too high for that, the mount pitched to the limit
+// that adds a useful part of it), else a mount beyond the limits, or CAD lines. The points are
 // where the rays meet the floor or the map's extent: furniture in front of them is not known, so the heights are lower
 // bounds (a ray that descends meets a desk above the floor it would reach), and for a region below the Xtion the
 // sentence says "if".
@@ -95,6 +97,14 @@ std::vector<XtionView> xtionViewsOf(const std::vector<Keyframe>& keyframes, doub
 // Where the robot has been: the keyframes' Xtion positions (x, y), thinned to one per 0.25 m of the path.
 std::vector<Eigen::Vector2d> visitedPositions(const std::vector<Keyframe>& keyframes);
 
+// How far from the Xtion the survey's depth lines are precise enough for the map (Line3d::sigma_m within
+// max_sigma_m, LineMapOptions), as the survey itself shows it: their ranges in 0.25 m bands from 1 m out, the start
+// of the first band (of at least kMinReachBandLines lines) in which fewer than half are; none where every band up to
+// the farthest line is precise enough (the scene ends before the depth's precision does). The Xtion's noise grows
+// as z^2: on generated buildings most lines beyond about 3 m are too uncertain for the map (docs/measurements.md).
+constexpr size_t kMinReachBandLines = 10;
+std::optional<double> depthLineReach(const std::vector<Keyframe>& keyframes, double max_sigma_m);
+
 struct SurveyGuidanceOptions
 {
   int columns = 8;
@@ -117,7 +127,9 @@ struct SurveyGuidanceOptions
   // that one of them sees the region's structure (above), and a region is out of reach only when every mount misses
   // it. Empty: not known.
   std::vector<XtionView> xtions;
-  double xtion_reach_m = 4.0;  // its depth lines are precise enough for the map within about this range
+  // Its depth lines are precise enough for the map within about this range (surveyGuidanceOptions: the survey's own,
+  // depthLineReach, where it shows one).
+  double xtion_reach_m = 4.0;
   double min_standoff_m = 1.0;
   double max_standoff_m = 6.0;
   // Where the robot has been (visitedPositions): a standpoint off the line from the camera's foot must lie within
@@ -136,6 +148,11 @@ struct SurveyGuidanceOptions
   // The mounts a region out of reach may be advised (UnmappedRegion::mountToSee).
   XtionMountLimits mount_limits;
 };
+
+// The options with what the survey's keyframes tell of it: the Xtion's mounts (xtionViewsOf), where the robot has
+// been (visitedPositions) and its depth lines' reach (depthLineReach, where they show one); the rest as given.
+SurveyGuidanceOptions surveyGuidanceOptions(const std::vector<Keyframe>& keyframes, double floor_height_m,
+                                            double max_sigma_m, SurveyGuidanceOptions options = {});
 
 enum class GuidanceCell
 {
@@ -175,9 +192,18 @@ struct UnmappedRegion
   // tenths of a metre when it changes): for a region above it up to the camera's own height if a mount does that,
   // else up to the region's highest point; failing both, only the heights no mount of the survey has in view (its
   // recordings keep the rest). The Xtion's own height first, then the nearest heights within mount_limits (higher for
-  // a region above, lower below), pitches within them. None when no such mount does it or the view is unknown.
+  // a region above, lower below), pitches within them. Where none does, the first mount pitched to the limit that
+  // adds at least kMinAdvisedBandM of the heights no mount has in view (the rest stays out of reach: the sentence
+  // says what it then has in view). None when no such mount does it or the view is unknown.
   std::optional<XtionMount> mountToSee() const;
+
+private:
+  // The mount at height_m pitched to have low_m .. high_m in view within reach, when a pitch within the limits does.
+  std::optional<XtionMount> mountWithin(double height_m, double low_m, double high_m) const;
 };
+
+// A mount that adds less of a region's heights than this is not advised (mountToSee).
+constexpr double kMinAdvisedBandM = 0.5;
 
 struct SurveyGuidance
 {

@@ -68,8 +68,11 @@ Expected<SurveyHint> parseSurveyHint(const std::string& yaml_text, const std::st
 Expected<SurveyHint> readSurveyHint(const std::string& path);
 
 // The one mount for a survey that follows the mount advice of several hints (an operator re-mounts the Xtion once per
-// survey): the region's whose pitch is the middle of their regions' pitches (middleValue: one of them), with its
-// height when it advises one; none when no region carries a pitch.
+// survey): the advising region's mount that serves the most unmapped image lines, counting those of every advising
+// region whose mount is the same within kSameMountPitchDeg of pitch (and of the same height); with its height when
+// it advises one; the first of equals; none when no region carries a pitch. (The middle pitch chose before: on set
+// V's hall it served one image line where 23 wanted another mount, docs/measurements.md.)
+constexpr double kSameMountPitchDeg = 5.0;
 struct AdvisedMount
 {
   double pitch_deg = 0.0;

@@ -147,10 +147,14 @@ std::optional<AssessedLine> assessLine(const Gradients& g, const CameraModel& ca
   return a;
 }
 
-// A floor line the plain-floor test applies to.
+// A floor line the plain-floor test applies to, or a ceiling line (tested as floor lines are).
 bool isFloorLine(const Segment3d& line, const ImageExplanationOptions& o)
 {
-  return o.leave_out_plain_floor && segmentOnFloor(line.a, line.b, o.floor_height_m, o.floor_tolerance_m);
+  if (!o.leave_out_plain_floor)
+    return false;
+  return segmentOnFloor(line.a, line.b, o.floor_height_m, o.floor_tolerance_m) ||
+         (o.plain_ceiling && o.ceiling_height_m &&
+          segmentOnFloor(line.a, line.b, *o.ceiling_height_m, o.floor_tolerance_m));
 }
 
 // A floor line whose image shows hardly any edge on it or beside it: texture this camera does not resolve. With
@@ -251,9 +255,10 @@ std::string ImageExplanation::describe() const
       median_heldout_px);
   std::string out = buffer;
   if (plain_lines > 0)
-    out += "; " + std::to_string(plain_lines) + " floor or texture lines left out where the image looks plain";
+    out += "; " + std::to_string(plain_lines) + " floor, ceiling or texture lines left out where the image looks plain";
   if (plain_floor_samples > 0)
-    out += "; " + std::to_string(plain_floor_samples) + " samples of other floor lines left out where it looks plain";
+    out += "; " + std::to_string(plain_floor_samples) +
+           " samples of other floor or ceiling lines left out where it looks plain";
   if (plain_texture_samples > 0)
     out += "; " + std::to_string(plain_texture_samples) +
            " samples of wall texture (brick, tile or panel joints) left out where the image is plain";

@@ -498,6 +498,7 @@ Expected<FixedCameraResult> Survey::calibrate(const std::string& name, const std
   const LineMap& in_use = lineMap();  // adjusts the map (and the surfaces with it) if new keyframes came
   // The camera holds the voxels only while it calibrates: a holder makes the next keyframe copy them.
   camera(name).setOccluders(surfaces_);
+  useSurveyCeiling(camera(name));
   CalibrationMap used;
   auto result = calibrateWithExtendedRetry(
       camera(name), world_frame, calibrationMapOf(in_use),
@@ -509,6 +510,14 @@ Expected<FixedCameraResult> Survey::calibrate(const std::string& name, const std
   if (addMapPlacement(&*result, used.lines))
     camera(name).setCalibration(result->file);
   return result;
+}
+
+void Survey::useSurveyCeiling(FixedCamera& camera) const
+{
+  FixedCameraOptions options = camera.options();
+  const auto ceiling = measureCeilingHeight(keyframe_data_, options_.ceiling, options_.floor.floor_height_m);
+  options.explanation.ceiling_height_m = ceiling ? std::optional<double>(ceiling->height_m) : std::nullopt;
+  camera.setOptions(options);
 }
 
 CalibrationMap Survey::calibrationMapOf(const LineMap& map, bool extended) const

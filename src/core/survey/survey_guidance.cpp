@@ -19,6 +19,8 @@ namespace
 // A height counts as in the Xtion's view this far inside its vertical field of view (a line at the image border is
 // hardly extracted).
 constexpr double kXtionFovMarginDeg = 2.0;
+// An advised pitch stays this far inside the pitches that do (a mount is not set finer).
+constexpr double kPitchMarginDeg = 3.0;
 
 // The projected map lines drawn `half_width_px` wide: a non-zero pixel is within that distance of a map line.
 cv::Mat projectedMapMask(const CameraModel& camera, int width, int height, const std::vector<Segment3d>& map_lines,
@@ -475,7 +477,7 @@ std::optional<double> XtionView::pitchToSee(double low_m, double high_m, double 
   if (lowest_pitch > highest_pitch)
     return std::nullopt;
   // The least change of pitch that does it, kept up to 3 deg inside the pitches that do (a mount is not set finer).
-  const double margin = std::min(3.0, 0.5 * (highest_pitch - lowest_pitch));
+  const double margin = std::min(kPitchMarginDeg, 0.5 * (highest_pitch - lowest_pitch));
   return std::clamp(pitch_deg, lowest_pitch + margin, highest_pitch - margin);
 }
 
@@ -530,16 +532,36 @@ std::optional<XtionMount> UnmappedRegion::mountToSee() const
     bands.insert(bands.end(), {{seen_top, high}, {seen_top, top}});
   else
     bands.emplace_back(low, seen_bottom);
-  for (const double height : mountHeightsToTry(xtion.height_m, above, mount_limits))
+  const std::vector<double> heights = mountHeightsToTry(xtion.height_m, above, mount_limits);
+  for (const double height : heights)
     for (const auto& [band_low, band_high] : bands)
-    {
-      XtionView view = xtion;
-      view.height_m = height;
-      const std::optional<double> pitch = view.pitchToSee(band_low, band_high, xtion_reach_m);
-      if (pitch && std::abs(std::round(*pitch)) <= mount_limits.max_abs_pitch_deg)
-        return XtionMount{height, std::round(*pitch) + 0.0, height != xtion.height_m};  // + 0.0: no "-0"
-    }
+      if (const auto mount = mountWithin(height, band_low, band_high))
+        return mount;
+  // No mount within the limits has all of them in view within reach (a high wall, a short reach): the first that
+  // adds a useful part of the heights no mount has in view, pitched to the limit.
+  for (const double height : heights)
+  {
+    XtionView limit = xtion;
+    limit.height_m = height;
+    const double steepest = mount_limits.max_abs_pitch_deg - kPitchMarginDeg;  // pitchToSee keeps its margin
+    limit.pitch_deg = above ? steepest : -steepest;
+    const double band_low = above ? std::max(low, seen_top) : std::max(low, limit.lowestInReach(xtion_reach_m)),
+                 band_high = above ? std::min(high, limit.highestInReach(xtion_reach_m)) : std::min(top, seen_bottom);
+    if (band_high - band_low >= kMinAdvisedBandM)
+      if (const auto mount = mountWithin(height, band_low, band_high))
+        return mount;
+  }
   return std::nullopt;
+}
+
+std::optional<XtionMount> UnmappedRegion::mountWithin(double height_m, double low_m, double high_m) const
+{
+  XtionView view = xtion;
+  view.height_m = height_m;
+  const std::optional<double> pitch = view.pitchToSee(low_m, high_m, xtion_reach_m);
+  if (!pitch || std::abs(std::round(*pitch)) > mount_limits.max_abs_pitch_deg)
+    return std::nullopt;
+  return XtionMount{height_m, std::round(*pitch) + 0.0, height_m != xtion.height_m};  // + 0.0: no "-0"
 }
 
 namespace
@@ -613,13 +635,13 @@ std::string xtionAdvice(const UnmappedRegion& r)
   if (above)
     std::snprintf(what, sizeof(what),
                   " (but what it shows reaches at least %.1f m high (the camera hangs at %.1f m), and the Xtion, %s, "
-                  "has nothing above %.1f m in view within its depth's reach (%.0f m): ",
+                  "has nothing above %.1f m in view within its depth's reach (%.1f m): ",
                   r.structure_max_height_m, r.camera_height_m, mounts.c_str(), r.xtion.highestInReach(r.xtion_reach_m),
                   r.xtion_reach_m);
   else
     std::snprintf(what, sizeof(what),
                   " (but what it shows reaches down to %.1f m, and the Xtion, %s, has nothing below %.1f m in view "
-                  "within its depth's reach (%.0f m): if the region's lines are that low (not on furniture above the "
+                  "within its depth's reach (%.1f m): if the region's lines are that low (not on furniture above the "
                   "floor), ",
                   r.structure_min_height_m, mounts.c_str(), r.xtion.lowestInReach(r.xtion_reach_m), r.xtion_reach_m);
   const char* drive = r.xtions.size() > 1 ? " for another drive, keeping the recordings so far, "
@@ -718,6 +740,37 @@ std::vector<XtionView> xtionViewsOf(const std::vector<Keyframe>& keyframes, doub
   if (mounts.empty() && !all.empty())
     mounts.push_back(medianView(all));  // too few keyframes for any mount to count: their medians
   return mounts;
+}
+
+std::optional<double> depthLineReach(const std::vector<Keyframe>& keyframes, double max_sigma_m)
+{
+  constexpr double kFirstBandM = 1.0, kBandM = 0.25;
+  std::vector<size_t> lines, precise;
+  for (const Keyframe& k : keyframes)
+    for (const KeyframeLine& l : k.lines)
+    {
+      if (!(l.line.sigma_m > 0.0) || !(l.line.range_m >= kFirstBandM) || !(l.line.range_m < 100.0))
+        continue;
+      const auto band = static_cast<size_t>((l.line.range_m - kFirstBandM) / kBandM);
+      if (band >= lines.size())
+        lines.resize(band + 1, 0), precise.resize(band + 1, 0);
+      ++lines[band];
+      precise[band] += l.line.sigma_m <= max_sigma_m ? 1 : 0;
+    }
+  for (size_t band = 0; band < lines.size(); ++band)
+    if (lines[band] >= kMinReachBandLines && 2 * precise[band] < lines[band])
+      return kFirstBandM + kBandM * static_cast<double>(band);
+  return std::nullopt;
+}
+
+SurveyGuidanceOptions surveyGuidanceOptions(const std::vector<Keyframe>& keyframes, double floor_height_m,
+                                            double max_sigma_m, SurveyGuidanceOptions options)
+{
+  options.xtions = xtionViewsOf(keyframes, floor_height_m);
+  options.visited = visitedPositions(keyframes);
+  if (const auto reach = depthLineReach(keyframes, max_sigma_m))
+    options.xtion_reach_m = *reach;
+  return options;
 }
 
 SurveyGuidance computeSurveyGuidance(const CameraModel& camera, int width, int height,

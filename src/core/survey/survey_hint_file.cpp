@@ -7,7 +7,6 @@
 
 #include "../io/yaml_util.h"
 #include "insitu_calibration/io/atomic_file.h"
-#include "insitu_calibration/robust_statistics.h"
 
 namespace insitu_calibration
 {
@@ -216,15 +215,24 @@ std::optional<AdvisedMount> advisedXtionMount(const std::vector<SurveyHint>& hin
     for (const SurveyHintRegion& region : hint.regions)
       if (region.xtion_pitch_deg)
         advising.push_back(&region);
-  if (advising.empty())
+  const auto sameMount = [](const SurveyHintRegion& a, const SurveyHintRegion& b) {
+    const double height_a = a.xtion_height_m.value_or(-1.0), height_b = b.xtion_height_m.value_or(-1.0);
+    return std::abs(*a.xtion_pitch_deg - *b.xtion_pitch_deg) <= kSameMountPitchDeg &&
+           std::abs(height_a - height_b) < 0.05;
+  };
+  const SurveyHintRegion* chosen = nullptr;
+  size_t most = 0;
+  for (const SurveyHintRegion* candidate : advising)
+  {
+    size_t served = 0;
+    for (const SurveyHintRegion* region : advising)
+      served += sameMount(*candidate, *region) ? std::max<size_t>(region->image_lines, 1) : 0;
+    if (served > most)
+      chosen = candidate, most = served;
+  }
+  if (!chosen)
     return std::nullopt;
-  std::vector<double> pitches;
-  for (const SurveyHintRegion* region : advising)
-    pitches.push_back(*region->xtion_pitch_deg);
-  const double middle = middleValue(pitches);
-  const auto chosen = std::find_if(advising.begin(), advising.end(),
-                                   [&](const SurveyHintRegion* r) { return *r->xtion_pitch_deg == middle; });
-  return AdvisedMount{middle, (*chosen)->xtion_height_m};
+  return AdvisedMount{*chosen->xtion_pitch_deg, chosen->xtion_height_m};
 }
 
 }  // namespace insitu_calibration

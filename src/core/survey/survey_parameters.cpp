@@ -111,8 +111,11 @@ void readCameraParameters(ParameterSource& read, FixedCameraOptions& camera)
   camera.thin_line_sigma_m = read.number("thin_line_sigma", camera.thin_line_sigma_m, Range::closed(0.0, 0.1, "m"));
   camera.explanation.leave_out_plain_floor = read.flag("plain_floor_test", camera.explanation.leave_out_plain_floor);
   camera.explanation.plain_floor_by_sample = read.flag("plain_floor_samples", camera.explanation.plain_floor_by_sample);
+  camera.explanation.plain_ceiling = read.flag("plain_ceiling_samples", camera.explanation.plain_ceiling);
   camera.explanation.texture.min_neighbours = static_cast<size_t>(read.integer(
       "texture_min_neighbours", static_cast<int>(camera.explanation.texture.min_neighbours), Range::integers(0, 100)));
+  camera.explanation.min_gradient =
+      read.number("overlay_min_gradient", camera.explanation.min_gradient, Range::closed(0.1, 255.0));
   camera.unresolved_joints.enabled = read.flag("unresolved_joints", camera.unresolved_joints.enabled);
   camera.ambiguity.neighbourhood_share =
       read.number("ambiguity/neighbourhood_share", camera.ambiguity.neighbourhood_share, Range::closed(0.0, 0.5));
