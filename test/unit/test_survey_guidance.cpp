@@ -290,6 +290,13 @@ TEST_F(SurveyGuidanceTest, FixedCameraFromItsPriorAndTheRefusalMessage)
   EXPECT_FALSE(camera.focalIsPlausible(absurd));
   absurd.intrinsics().fx = absurd.intrinsics().fy = std::nan("");
   EXPECT_FALSE(camera.focalIsPlausible(absurd));
+  // Nor far from its prior (one line matched put a hall's camera 1.5 km up: a region "1475 m high").
+  EXPECT_TRUE(camera.isPlausible(r.camera->camera));
+  EXPECT_FALSE(camera.isPlausible(absurd));
+  ic::CameraModel aloft = r.camera->camera;
+  aloft.pose().translation -= aloft.pose().rotation * Eigen::Vector3d(0.0, 0.0, 1470.0);  // centre 1470 m higher
+  EXPECT_TRUE(camera.focalIsPlausible(aloft));
+  EXPECT_FALSE(camera.isPlausible(aloft));
   EXPECT_FALSE(ic::guideSurvey(camera, segmentsOf(r.edges), {}));  // no image yet
   ASSERT_TRUE(camera.addImage(r.grey));
   const auto full = ic::guideSurvey(camera, segmentsOf(r.edges), {});

@@ -145,6 +145,9 @@ public:
   // Whether a camera's focal lengths are within the plausible range (FixedCameraOptions::min_focal_ratio and
   // max_focal_ratio times the image width): a result outside it is not a camera to project anything through.
   bool focalIsPlausible(const CameraModel& camera) const;
+  // And its position within the prior's distance limit (FixedCameraOptions::max_prior_distance_sigmas; any without
+  // a prior): a result the check refuses for either is no view of the building to guide a survey by.
+  bool isPlausible(const CameraModel& camera) const;
   void setCalibration(const CalibrationFile& calibration) { calibration_ = calibration; }
   const FixedCameraOptions& options() const { return options_; }
   // Survey::setCameraOptions (median_images as at construction).

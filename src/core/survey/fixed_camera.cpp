@@ -132,6 +132,12 @@ bool FixedCamera::focalIsPlausible(const CameraModel& camera) const
   return k.fx >= low && k.fx <= high && k.fy >= low && k.fy <= high;
 }
 
+bool FixedCamera::isPlausible(const CameraModel& camera) const
+{
+  return focalIsPlausible(camera) && !(config_.prior && beyondPriorDistance(camera.pose().center(), *config_.prior,
+                                                                            options_.max_prior_distance_sigmas));
+}
+
 Status FixedCamera::check(const CameraCalibration& c, size_t matched_lines, bool check_prior) const
 {
   const Intrinsics& k = c.camera.intrinsics();

@@ -820,8 +820,9 @@ Expected<SurveyGuidance> guideSurvey(const FixedCamera& camera, const std::vecto
     return Error(ErrorCode::kNotEnoughData, "no image has arrived from " + config.image_topic + " yet");
   std::optional<CameraModel> model;
   double tolerance_px = options.tolerance_px;
-  // A refused result shows where its matches put the view, unless its focal length is absurd (no camera at all).
-  if (camera.lastRefused() && camera.focalIsPlausible(camera.lastRefused()->calibration.camera))
+  // A refused result shows where its matches put the view, unless its focal length or position is absurd (a result
+  // of one line matched was 1.5 km above a hall's floor).
+  if (camera.lastRefused() && camera.isPlausible(camera.lastRefused()->calibration.camera))
     model = camera.lastRefused()->calibration.camera;
   else if (camera.calibration())
     model = camera.calibration()->camera;
