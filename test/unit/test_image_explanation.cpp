@@ -25,6 +25,18 @@ ic::CameraModel moved(ic::CameraModel c, const Eigen::Vector3d& shift_world)
   pose.translation -= pose.rotation * shift_world;  // centre + shift
   return c;
 }
+// The centre lines of square tiles of side tile_m covering the default world's 8 x 6 m room at height z_m: lines
+// where the image of a tile is plain.
+std::vector<ic::Segment3d> tileCentreLines(double tile_m, double z_m)
+{
+  std::vector<ic::Segment3d> lines;
+  for (double y = 0.5 * tile_m; y < 6.0; y += tile_m)
+    lines.push_back({Eigen::Vector3d(0.0, y, z_m), Eigen::Vector3d(8.0, y, z_m)});
+  for (double x = 0.5 * tile_m; x < 8.0; x += tile_m)
+    lines.push_back({Eigen::Vector3d(x, 0.0, z_m), Eigen::Vector3d(x, 6.0, z_m)});
+  return lines;
+}
+
 // What the report's overlay draws is what the test counted: the left-out lines and samples, the counted samples'
 // share on an edge, each sample the image of its map point.
 void expectCheckedLinesAsCounted(const cv::Mat& image, const sim::SimulatedFixedCamera& cam,
@@ -122,11 +134,7 @@ TEST(ImageExplanation, UnresolvedFloorJointsDoNotRefuseTheTrueCamera)
   options.texture.min_neighbours = 0;  // the floor rule alone (texture lines: their own test)
   ic::ImageExplanationOptions every_floor_line = options;
   every_floor_line.leave_out_plain_floor = false;
-  std::vector<ic::Segment3d> joints;  // 0.5 m tiles on the 8 x 6 m floor: their centre lines
-  for (double y = 0.25; y < 6.0; y += 0.5)
-    joints.push_back({Eigen::Vector3d(0.0, y, 0.0), Eigen::Vector3d(8.0, y, 0.0)});
-  for (double x = 0.25; x < 8.0; x += 0.5)
-    joints.push_back({Eigen::Vector3d(x, 0.0, 0.0), Eigen::Vector3d(x, 6.0, 0.0)});
+  const std::vector<ic::Segment3d> joints = tileCentreLines(0.5, 0.0);  // 0.5 m floor tiles
   int refused_with_every_floor_line = 0;
   for (const auto& cam : world->fixed_cameras)
   {
@@ -321,11 +329,7 @@ TEST(ImageExplanation, UnresolvedCeilingJointsAreTestedAsFloorJoints)
   off.plain_ceiling = false;
   ic::ImageExplanationOptions elsewhere = known;
   elsewhere.ceiling_height_m = 2.5;
-  std::vector<ic::Segment3d> joints;
-  for (double y = 0.15; y < 6.0; y += 0.3)
-    joints.push_back({Eigen::Vector3d(0.0, y, 3.0), Eigen::Vector3d(8.0, y, 3.0)});
-  for (double x = 0.15; x < 8.0; x += 0.3)
-    joints.push_back({Eigen::Vector3d(x, 0.0, 3.0), Eigen::Vector3d(x, 6.0, 3.0)});
+  const std::vector<ic::Segment3d> joints = tileCentreLines(0.3, 3.0);  // 0.3 m ceiling tiles
   int seeing_the_ceiling = 0;
   for (const auto& cam : world->fixed_cameras)
   {
