@@ -638,6 +638,7 @@ void CalibrationServer::calibrateOne(const std::string& name, const std::functio
     std::lock_guard<std::mutex> lock(mutex_);
     camera.emplace(survey_->camera(name));
     camera->setOccluders(survey_->surfaces());
+    survey_->useSurveyCeiling(*camera);
     keyframes = survey_->stats().keyframes;
     in_use = survey_->calibrationMapOf(survey_->latestLineMap());
     generation = reset_generation_;

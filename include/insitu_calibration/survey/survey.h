@@ -192,6 +192,10 @@ public:
   // refusal tried again on the extended map when options().extended_retry is on: calibrateWithExtendedRetry) and
   // adds the map's placement uncertainty to the result's pose sigmas. Errors as FixedCamera::calibrate.
   Expected<FixedCameraResult> calibrate(const std::string& name, const std::string& world_frame);
+  // Sets a camera's final-check ceiling (ImageExplanationOptions::ceiling_height_m) to the plane the keyframes' depth
+  // lines measured (measureCeilingHeight), none where they measured none: calibrate() does it, and the node for the
+  // copy it calibrates.
+  void useSurveyCeiling(FixedCamera& camera) const;
   // The map lines a calibration uses of a map (usedMapLines' selection), with their segments and sigmas.
   CalibrationMap calibrationMapOf(const LineMap& map, bool extended = false) const;
   // The extended map (extendedMapOptions) of the keyframes at the corrected poses (corrections: one per keyframe or
@@ -245,9 +249,6 @@ public:
   std::vector<double> latestMapLineSigmas() const;
 
 private:
-  // The final check's ceiling (ImageExplanationOptions::ceiling_height_m): the plane the keyframes' depth lines
-  // measured (measureCeilingHeight), none where they measured none.
-  void useSurveyCeiling(FixedCamera& camera) const;
   bool adjusting() const;
   void adjustMap() const;
   void cacheAdjustment(MapAdjustment adjustment) const;  // the cache's members are mutable
