@@ -751,9 +751,11 @@ std::string describeError(const ic::CameraModel& camera, const ic::CameraModel& 
 // The final check's numbers of one camera and its verdict.
 std::string describeAgreement(const ic::ImageExplanation& e, const ic::ImageExplanationOptions& o)
 {
-  char buffer[160];
-  std::snprintf(buffer, sizeof(buffer), "%.1f %% on edges (chance %.1f %%, excess %.2f, %zu samples): %s",
+  char buffer[200];
+  std::snprintf(buffer, sizeof(buffer),
+                "%.1f %% on edges (chance %.1f %%, excess %.2f, %zu samples; isolated %.1f %% of %zu): %s",
                 100 * e.overlay_agreement, 100 * e.overlay_chance, e.overlayExcess(), e.samples,
+                100 * e.isolated_agreement, e.isolated_samples,
                 ic::acceptExplanation(e, o) ? "passes" : "fails");
   return buffer;
 }
@@ -774,9 +776,10 @@ void diagnoseFinalCheck(const ic::simulation::World& world, const ic::FixedCamer
   const double on_visible =
       static_cast<double>(c.on_edge - c.hidden_on_edge) / std::max(1.0, n - c.hidden - c.hidden_on_edge);
   std::printf(
-      "truth-check %s true camera: %s (%s); of its %zu counted samples %.1f %% on an edge, without one: hidden from it "
+      "truth-check %s true camera: %s; isolated %.1f %% of %zu (%s); of its %zu counted samples %.1f %% on an edge, without one: hidden from it "
       "%.1f %%, in view on a true edge %.1f %%, on none %.1f %%; on an edge where not hidden %.1f %%\n",
-      name.c_str(), e.describe().c_str(), ic::acceptExplanation(e, camera.options().explanation) ? "passes" : "fails",
+      name.c_str(), e.describe().c_str(), 100 * e.isolated_agreement, e.isolated_samples,
+      ic::acceptExplanation(e, camera.options().explanation) ? "passes" : "fails",
       c.samples, 100.0 * c.on_edge / n, 100.0 * c.hidden / n, 100.0 * c.faint / n, 100.0 * c.off / n,
       100.0 * on_visible);
   const ic::ImageExplanationOptions& o = camera.options().explanation;

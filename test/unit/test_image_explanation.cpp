@@ -102,16 +102,20 @@ TEST(ImageExplanation, TrueCameraAcceptedWrongCamerasRefused)
     const auto view = renderer.render(sim::ViewCamera::fromModel(cam.camera, cam.width, cam.height));
     const auto map = ic::edgesSeenInView(*world, cam.camera, view);
     const auto truth = ic::explainImage(view.rgb, cam.camera, cam.width, cam.height, map, nullptr, options);
-    std::printf("%s true camera: %s\n", cam.name.c_str(), truth.describe().c_str());
+    std::printf("%s true camera: %s; isolated %.3f of %zu\n", cam.name.c_str(), truth.describe().c_str(),
+                truth.isolated_agreement, truth.isolated_samples);
     EXPECT_TRUE(ic::acceptExplanation(truth, options)) << cam.name;
     EXPECT_GT(truth.map_lines, 20u);
+    EXPECT_GT(truth.isolated_agreement, 0.6) << cam.name;  // where nothing is beside them, its lines are on edges
 
     for (const auto& [what, camera] : wrongCameras(cam.camera))
     {
       const auto e = ic::explainImage(view.rgb, camera, cam.width, cam.height, map, nullptr, options);
       const ic::Status accepted = ic::acceptExplanation(e, options);
-      std::printf("%s %s: %s\n", cam.name.c_str(), what.c_str(), e.describe().c_str());
+      std::printf("%s %s: %s; isolated %.3f of %zu\n", cam.name.c_str(), what.c_str(), e.describe().c_str(),
+                  e.isolated_agreement, e.isolated_samples);
       EXPECT_FALSE(accepted) << cam.name << " " << what;
+      EXPECT_LT(e.isolated_agreement, truth.isolated_agreement - 0.3) << cam.name << " " << what;
       if (!accepted)
       {
         EXPECT_NE(accepted.error().message().find("does not explain the image"), std::string::npos);
@@ -362,4 +366,51 @@ TEST(ImageExplanation, UnresolvedCeilingJointsAreTestedAsFloorJoints)
           << cam.name;
   }
   EXPECT_GE(seeing_the_ceiling, 1);
+}
+
+// A line along one of the default world's walls (x = 0 or 8, y = 0 or 6).
+bool onRoomBorder(const ic::Segment3d& line)
+{
+  const auto along = [&](int axis, double at) {
+    return std::abs(line.a[axis] - at) < 0.01 && std::abs(line.b[axis] - at) < 0.01;
+  };
+  return along(0, 0.0) || along(0, 8.0) || along(1, 0.0) || along(1, 6.0);
+}
+
+// Only a grid of ceiling lines is tested as floor joints: the ceiling's borders with the walls and a lone line across
+// plain ceiling (here through the middle of the room, where a wrong camera's stray line could fall) count in full,
+// with the ceiling known as without it.
+TEST(ImageExplanation, LoneCeilingLinesAlwaysCount)
+{
+  const auto world = sim::loadWorldFile(kWorld);
+  ASSERT_TRUE(world) << world.error().describe();
+  const sim::Renderer renderer(*world);
+  ic::ImageExplanationOptions known = ic::FixedCameraOptions{}.explanation;
+  known.ceiling_height_m = 3.0;
+  ic::ImageExplanationOptions off = known;
+  off.plain_ceiling = false;
+  const ic::Segment3d lone{Eigen::Vector3d(0.5, 3.15, 3.0), Eigen::Vector3d(7.5, 3.15, 3.0)};
+  int seeing_it = 0;
+  for (const auto& cam : world->fixed_cameras)
+  {
+    const auto view = renderer.render(sim::ViewCamera::fromModel(cam.camera, cam.width, cam.height));
+    std::vector<ic::Segment3d> map;  // the ceiling's checker joints left out: its borders alone on the ceiling
+    for (const ic::Segment3d& edge : ic::edgesSeenInView(*world, cam.camera, view))
+      if (std::min(edge.a.z(), edge.b.z()) < 2.95 || onRoomBorder(edge))
+        map.push_back(edge);
+    const auto borders = ic::explainImage(view.rgb, cam.camera, cam.width, cam.height, map, nullptr, known);
+    EXPECT_EQ(borders.samples, ic::explainImage(view.rgb, cam.camera, cam.width, cam.height, map, nullptr, off).samples)
+        << cam.name;
+    map.push_back(lone);
+    const auto with_lone = ic::explainImage(view.rgb, cam.camera, cam.width, cam.height, map, nullptr, known);
+    if (with_lone.samples < borders.samples + 20)
+      continue;  // the line is not in its view
+    ++seeing_it;
+    EXPECT_EQ(with_lone.samples,
+              ic::explainImage(view.rgb, cam.camera, cam.width, cam.height, map, nullptr, off).samples)
+        << cam.name;
+    EXPECT_EQ(with_lone.plain_floor_samples, borders.plain_floor_samples) << cam.name;
+    EXPECT_LT(with_lone.overlay_agreement, borders.overlay_agreement) << cam.name;  // it finds hardly any edge
+  }
+  EXPECT_GE(seeing_it, 1);
 }

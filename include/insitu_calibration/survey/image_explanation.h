@@ -66,6 +66,10 @@ struct ImageExplanationOptions
   // against the world (docs/measurements.md, "The depth lines' reach"); parameter plain_ceiling_samples.
   std::optional<double> ceiling_height_m;
   bool plain_ceiling = true;
+  // Only ceiling lines inside a grid are tested so (at least two parallel ceiling lines within this spacing on
+  // either side: tile and panel joints); a lone ceiling line, such as the ceiling's border with a wall, always counts,
+  // so that a wrong camera's projection of it onto plain wall or ceiling speaks against it.
+  TextureLineOptions ceiling_grid = {2, 1.25, 3.0, 0.3, 0.005};
   // Texture lines (map/joint_lines.h: joints of bricks, tiles, planks or panelling, four or more parallel map lines
   // side by side) are left out sample by sample where the image shows no edge on or beside them, as plain floor
   // samples are: such joints the Xtion mapped from 1-2 m are often below a fixed camera's resolution from 3-10 m (a
@@ -100,6 +104,10 @@ struct ImageExplanation
   size_t plain_texture_samples = 0;  // texture lines' samples left out where the image is plain (not in samples)
   double overlay_agreement = 0.0;    // share of the samples on an edge
   double overlay_chance = 0.0;       // share 4 px beside the lines
+  // Of the counted samples with no edge beside them on either side (plain surroundings; lines whose plain samples are
+  // left out excepted), the share on an edge: texture beside a line does not raise it, as it raises the chance level.
+  size_t isolated_samples = 0;
+  double isolated_agreement = 0.0;
   double overlayExcess() const
   {
     return overlay_chance < 1.0 ? (overlay_agreement - overlay_chance) / (1.0 - overlay_chance) : 0.0;

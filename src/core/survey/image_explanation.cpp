@@ -98,6 +98,7 @@ struct LineSupport
 {
   size_t samples = 0, on = 0, beside = 0;
   size_t left_out = 0;  // plain floor samples left out one by one (not in on, beside: they have no edge)
+  size_t isolated = 0, isolated_on = 0;  // samples with no edge beside on either side, and of those on an edge
 };
 
 // One map line as the final check sees it: its counts, and (when asked for) its samples for the report's overlay.
@@ -122,6 +123,11 @@ void assessSample(const Gradients& g, const Eigen::Vector2d& p, const Eigen::Vec
   a.support.on += on ? 1 : 0;
   a.support.beside += beside;
   a.support.left_out += left_out ? 1 : 0;
+  if (!leave_out_plain && beside == 0)  // where plain samples are left out, the isolated ones all have an edge
+  {
+    ++a.support.isolated;
+    a.support.isolated_on += on ? 1 : 0;
+  }
   if (!keep_samples)
     return;
   a.samples.points.push_back(p);
@@ -147,27 +153,45 @@ std::optional<AssessedLine> assessLine(const Gradients& g, const CameraModel& ca
   return a;
 }
 
-// A floor line the plain-floor test applies to, or a ceiling line (tested as floor lines are).
-bool isFloorLine(const Segment3d& line, const ImageExplanationOptions& o)
+bool onCeiling(const Segment3d& line, const ImageExplanationOptions& o)
 {
+  return o.plain_ceiling && o.ceiling_height_m &&
+         segmentOnFloor(line.a, line.b, *o.ceiling_height_m, o.floor_tolerance_m);
+}
+
+// Per line in view, whether the plain-floor test applies to it: a floor line, or a ceiling line inside a grid of
+// parallel ceiling lines (tile or panel joints; a ceiling's border with a wall, a grid on one side only, is not one).
+std::vector<bool> plainTestedLines(const std::vector<Segment3d>& lines, const ImageExplanationOptions& o)
+{
+  std::vector<bool> tested(lines.size(), false);
   if (!o.leave_out_plain_floor)
-    return false;
-  return segmentOnFloor(line.a, line.b, o.floor_height_m, o.floor_tolerance_m) ||
-         (o.plain_ceiling && o.ceiling_height_m &&
-          segmentOnFloor(line.a, line.b, *o.ceiling_height_m, o.floor_tolerance_m));
+    return tested;
+  std::vector<Segment3d> ceiling;
+  std::vector<size_t> ceiling_index;
+  for (size_t i = 0; i < lines.size(); ++i)
+  {
+    tested[i] = segmentOnFloor(lines[i].a, lines[i].b, o.floor_height_m, o.floor_tolerance_m);
+    if (!tested[i] && onCeiling(lines[i], o))
+    {
+      ceiling.push_back(lines[i]);
+      ceiling_index.push_back(i);
+    }
+  }
+  const std::vector<bool> grid = textureLines(ceiling, o.ceiling_grid);
+  for (size_t k = 0; k < ceiling.size(); ++k)
+    tested[ceiling_index[k]] = grid[k];
+  return tested;
 }
 
 // A floor line whose image shows hardly any edge on it or beside it: texture this camera does not resolve. With
 // plain_floor_by_sample, one whose every sample was left out; a texture line too.
-bool onPlainFloor(const Segment3d& line, const LineSupport& s, const ImageExplanationOptions& o)
+bool onPlainFloor(bool floor_line, const LineSupport& s, const ImageExplanationOptions& o)
 {
   if (s.samples == 0)
     return false;
   if (s.left_out == s.samples)
     return true;
-  if (!isFloorLine(line, o))
-    return false;
-  if (o.plain_floor_by_sample)
+  if (!floor_line || o.plain_floor_by_sample)
     return false;
   const double n = static_cast<double>(s.samples);
   return s.on < o.plain_floor_on_edge * n && 0.5 * s.beside < o.plain_floor_beside * n;
@@ -198,18 +222,19 @@ std::vector<AssessedLine> assessOverlay(const cv::Mat& image, const CameraModel&
       intervals.push_back(*interval);
     }
   const std::vector<bool> texture = textureLines(in_view, options.texture);
+  const std::vector<bool> floor = plainTestedLines(in_view, options);
   std::vector<AssessedLine> lines;
   size_t plain_count = 0;
   for (size_t i = 0; i < in_view.size(); ++i)
   {
     const Segment3d& line = in_view[i];
-    const bool floor_by_sample = options.plain_floor_by_sample && isFloorLine(line, options);
+    const bool floor_by_sample = options.plain_floor_by_sample && floor[i];
     auto assessed =
         assessLine(g, camera, line, intervals[i], width, height, options, keep_samples, floor_by_sample || texture[i]);
     if (!assessed || assessed->support.samples == 0)  // not assessed, or only at the border
       continue;
     assessed->is_floor = floor_by_sample;
-    assessed->samples.counted = !onPlainFloor(line, assessed->support, options);
+    assessed->samples.counted = !onPlainFloor(floor[i], assessed->support, options);
     plain_count += assessed->samples.counted ? 0 : 1;
     lines.push_back(std::move(*assessed));
   }
@@ -222,7 +247,7 @@ std::vector<AssessedLine> assessOverlay(const cv::Mat& image, const CameraModel&
 // The overlay agreement and its chance level over the lines that count.
 void measureOverlay(const std::vector<AssessedLine>& lines, ImageExplanation& out)
 {
-  size_t on = 0, beside = 0;
+  size_t on = 0, beside = 0, isolated_on = 0;
   for (const AssessedLine& a : lines)
   {
     if (!a.samples.counted)
@@ -235,12 +260,16 @@ void measureOverlay(const std::vector<AssessedLine>& lines, ImageExplanation& ou
     (a.is_floor ? out.plain_floor_samples : out.plain_texture_samples) += a.support.left_out;
     on += a.support.on;
     beside += a.support.beside;
+    out.isolated_samples += a.support.isolated;
+    isolated_on += a.support.isolated_on;
   }
   if (out.samples > 0)
   {
     out.overlay_agreement = static_cast<double>(on) / out.samples;
     out.overlay_chance = 0.5 * static_cast<double>(beside) / out.samples;
   }
+  if (out.isolated_samples > 0)
+    out.isolated_agreement = static_cast<double>(isolated_on) / out.isolated_samples;
 }
 }  // namespace
 
