@@ -755,8 +755,7 @@ std::string describeAgreement(const ic::ImageExplanation& e, const ic::ImageExpl
   std::snprintf(buffer, sizeof(buffer),
                 "%.1f %% on edges (chance %.1f %%, excess %.2f, %zu samples; isolated %.1f %% of %zu): %s",
                 100 * e.overlay_agreement, 100 * e.overlay_chance, e.overlayExcess(), e.samples,
-                100 * e.isolated_agreement, e.isolated_samples,
-                ic::acceptExplanation(e, o) ? "passes" : "fails");
+                100 * e.isolated_agreement, e.isolated_samples, ic::acceptExplanation(e, o) ? "passes" : "fails");
   return buffer;
 }
 
@@ -776,12 +775,12 @@ void diagnoseFinalCheck(const ic::simulation::World& world, const ic::FixedCamer
   const double on_visible =
       static_cast<double>(c.on_edge - c.hidden_on_edge) / std::max(1.0, n - c.hidden - c.hidden_on_edge);
   std::printf(
-      "truth-check %s true camera: %s; isolated %.1f %% of %zu (%s); of its %zu counted samples %.1f %% on an edge, without one: hidden from it "
+      "truth-check %s true camera: %s; isolated %.1f %% of %zu (%s); of its %zu counted samples %.1f %% on an edge, "
+      "without one: hidden from it "
       "%.1f %%, in view on a true edge %.1f %%, on none %.1f %%; on an edge where not hidden %.1f %%\n",
       name.c_str(), e.describe().c_str(), 100 * e.isolated_agreement, e.isolated_samples,
-      ic::acceptExplanation(e, camera.options().explanation) ? "passes" : "fails",
-      c.samples, 100.0 * c.on_edge / n, 100.0 * c.hidden / n, 100.0 * c.faint / n, 100.0 * c.off / n,
-      100.0 * on_visible);
+      ic::acceptExplanation(e, camera.options().explanation) ? "passes" : "fails", c.samples, 100.0 * c.on_edge / n,
+      100.0 * c.hidden / n, 100.0 * c.faint / n, 100.0 * c.off / n, 100.0 * on_visible);
   const ic::ImageExplanationOptions& o = camera.options().explanation;
   const bool accepted = camera.calibration().has_value() && camera.lastResult();
   const auto& result = accepted ? camera.lastResult() : camera.lastRefused();
