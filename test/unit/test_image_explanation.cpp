@@ -273,6 +273,35 @@ TEST(ImageExplanation, NoMapLineToCheckIsRefused)
   EXPECT_TRUE(ic::acceptExplanation(unchecked, options));
 }
 
+// A camera whose lines meet edges often (here 85 %, where floor and ceiling rules left out the samples that would
+// speak against it) but miss them where the image beside them is plain is refused, given enough such samples.
+TEST(ImageExplanation, LinesMissingEdgesWherePlainAroundAreRefused)
+{
+  const ic::ImageExplanationOptions options = ic::FixedCameraOptions{}.explanation;
+  ic::ImageExplanation e;
+  e.image_checked = true;
+  e.map_lines = 120;
+  e.samples = 4000;
+  e.overlay_agreement = 0.85;
+  e.overlay_chance = 0.1;
+  e.isolated_samples = options.min_isolated_samples + 100;
+  e.isolated_agreement = 0.1;
+  const ic::Status refused = ic::acceptExplanation(e, options);
+  ASSERT_FALSE(refused);
+  EXPECT_NE(refused.error().message().find("where the image beside them is plain"), std::string::npos)
+      << refused.error().message();
+  EXPECT_NE(refused.error().message().find("10 % of 300 samples"), std::string::npos) << refused.error().message();
+  ic::ImageExplanation plain_around = e;  // a right camera's lines lie on edges there
+  plain_around.isolated_agreement = 0.5;
+  EXPECT_TRUE(ic::acceptExplanation(plain_around, options));
+  ic::ImageExplanation few = e;  // too few such samples to judge on
+  few.isolated_samples = options.min_isolated_samples - 1;
+  EXPECT_TRUE(ic::acceptExplanation(few, options));
+  ic::ImageExplanationOptions off = options;
+  off.min_isolated_agreement = 0.0;
+  EXPECT_TRUE(ic::acceptExplanation(e, off));
+}
+
 // Floor samples left out one by one where the floor looks plain there (plain_floor_by_sample): the true cameras are
 // still accepted and the wrong ones still refused; what is left out is exactly the floor lines' samples without an
 // edge on or beside them (the samples on an edge are those of every floor line counted).

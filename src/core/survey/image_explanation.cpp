@@ -271,6 +271,12 @@ void measureOverlay(const std::vector<AssessedLine>& lines, ImageExplanation& ou
   if (out.isolated_samples > 0)
     out.isolated_agreement = static_cast<double>(isolated_on) / out.isolated_samples;
 }
+std::string percent(double share)
+{
+  char buffer[32];
+  std::snprintf(buffer, sizeof(buffer), "%.0f %%", 100.0 * share);
+  return buffer;
+}
 }  // namespace
 
 std::string ImageExplanation::describe() const
@@ -278,10 +284,10 @@ std::string ImageExplanation::describe() const
   char buffer[320];
   std::snprintf(
       buffer, sizeof(buffer),
-      "%zu map lines in view, %.0f %% of their length on image edges (%.0f %% 4 px beside them, excess %.2f); "
-      "%zu matched lines: median residual %.3f px, held out %.3f px",
-      map_lines, 100.0 * overlay_agreement, 100.0 * overlay_chance, overlayExcess(), matched_lines, median_rms_px,
-      median_heldout_px);
+      "%zu map lines in view, %.0f %% of their length on image edges (%.0f %% 4 px beside them, excess %.2f; %.0f %% "
+      "where nothing is beside them); %zu matched lines: median residual %.3f px, held out %.3f px",
+      map_lines, 100.0 * overlay_agreement, 100.0 * overlay_chance, overlayExcess(), 100.0 * isolated_agreement,
+      matched_lines, median_rms_px, median_heldout_px);
   std::string out = buffer;
   if (plain_lines > 0)
     out += "; " + std::to_string(plain_lines) + " floor, ceiling or texture lines left out where the image looks plain";
@@ -353,6 +359,13 @@ Status acceptExplanation(const ImageExplanation& e, const ImageExplanationOption
     return Error(ErrorCode::kNoSolution,
                  "the camera does not explain the image: the map lines it sees meet image edges hardly more often "
                  "than lines beside them" +
+                     numbers + "; the matches are probably wrong: check the prior, or survey more of the view");
+  if (o.min_isolated_agreement > 0.0 && e.isolated_samples >= std::max<size_t>(1, o.min_isolated_samples) &&
+      e.isolated_agreement < o.min_isolated_agreement)
+    return Error(ErrorCode::kNoSolution,
+                 "the camera does not explain the image: where the image beside them is plain, the map lines it sees "
+                 "mostly miss image edges (" +
+                     percent(e.isolated_agreement) + " of " + std::to_string(e.isolated_samples) + " samples on one)" +
                      numbers + "; the matches are probably wrong: check the prior, or survey more of the view");
   if (o.max_heldout_ratio > 0.0 && e.matched_lines > 0 && e.median_heldout_px > o.max_heldout_ratio * e.median_rms_px)
     return Error(ErrorCode::kNoSolution, "the camera predicts its own lines badly when each is held out" + numbers +
