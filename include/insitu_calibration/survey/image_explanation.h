@@ -8,6 +8,8 @@
 //    saw from 1-2 m are often below a fixed camera's resolution from 3-10 m, so a right camera's floor lines find no
 //    edge there; floor lines that fall within 4 px of edges parallel to them (joints the camera resolves) still
 //    count.
+//  - Where the image beside a line is plain, the line itself must mostly lie on an edge (the isolated agreement):
+//    texture beside the lines raises the chance level for right and wrong cameras alike, plain surroundings do not.
 //  - Held-out lines: each matched line's residual had it been left out of the fit (the refinement's linearised
 //    leave-one-out), against the residual level of the fit: a camera pulled onto a few wrong matches predicts its
 //    other lines badly.
