@@ -96,7 +96,7 @@ struct ImageExplanationOptions
   // isolated_agreement; lines whose plain samples are left out do not count) must reach min_isolated_agreement when
   // there are at least min_isolated_samples of them. It guards where the floor and ceiling rules leave out what would
   // speak against a wrong camera: on generated buildings' surveys against the world (docs/measurements.md, "The
-  // isolated agreement") right results had 43-77 % (the default world's true cameras 76-86 %), while 8 of the 17 fitted
+  // isolated agreement") right results had 43-77 % (the default world's true cameras 76-86 %), while 7 of the 15 fitted
   // wrong alternatives that passed the other tests had 5-24 %. 0 disables.
   double min_isolated_agreement = 0.25;
   size_t min_isolated_samples = 200;
