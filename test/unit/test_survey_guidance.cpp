@@ -394,6 +394,21 @@ double shareInXtionView(const std::vector<SeenEdge>& edges, const ic::UnmappedRe
   return edges.empty() ? 0.0 : static_cast<double>(seen) / edges.size();
 }
 
+// The share of the edges one of the guidance's standpoints has in the Xtion's view.
+double shareInAnyStandpointsView(const std::vector<SeenEdge>& edges, const ic::SurveyGuidance& g,
+                                 const ic::XtionView& xtion, double sweep_deg, double reach_m)
+{
+  size_t seen = 0;
+  for (const SeenEdge& e : edges)
+    seen += std::any_of(g.regions.begin(), g.regions.end(),
+                        [&](const ic::UnmappedRegion& region) {
+                          return shareInXtionView({e}, region, xtion, sweep_deg, reach_m) > 0.0;
+                        })
+                ? 1
+                : 0;
+  return edges.empty() ? 0.0 : static_cast<double>(seen) / edges.size();
+}
+
 struct HalfSurvey
 {
   std::vector<ic::Segment3d> kept;
@@ -432,7 +447,7 @@ TEST_F(SurveyGuidanceTest, TheStandpointBringsTheMissingStructureIntoTheXtionsVi
                                                  aware.tolerance_px, aware);
     ASSERT_FALSE(before.regions.empty() || after.regions.empty()) << r.camera->name;
     const double share_before = shareInXtionView(h.dropped, before.regions.front(), level, aware.look_sweep_deg, 4.0);
-    const double share_after = shareInXtionView(h.dropped, after.regions.front(), level, aware.look_sweep_deg, 4.0);
+    const double share_after = shareInAnyStandpointsView(h.dropped, after, level, aware.look_sweep_deg, 4.0);
     const auto& region = after.regions.front();
     std::printf(
         "%s: dropped edges in the Xtion's view %.0f %% at 2 m, %.0f %% at (%.2f, %.2f) (predicted %.0f %%, "
@@ -777,4 +792,55 @@ TEST(XtionViewTest, APartOfAHighWallWhereNoMountHasItAll)
   EXPECT_NE(g.sentence().find(advised), std::string::npos) << g.sentence();
   hall.structure_min_height_m = 4.2;  // all above what a mount within the limits reaches within 3 m
   EXPECT_FALSE(hall.mountToSee());
+}
+
+// A whole view unmapped, from under the camera to the far wall, is more than one standpoint of an Xtion with a short
+// reach has in view: the region is cut in parts, each with its own standpoint, and together they have more of the
+// view's edges in view than the one standpoint had; the parts hold the region's cells and image lines.
+TEST_F(SurveyGuidanceTest, AWholeViewBeyondOneStandpointGetsOnePerPart)
+{
+  const ic::XtionView level{1.0, 0.0, 22.5, 29.0};
+  double gained = 0.0;
+  int cut_views = 0;
+  for (const RenderedCamera& r : *cameras_)
+  {
+    const auto nothing = outOfView(*world_, r.camera->camera, r.camera->width, r.camera->height);
+    ic::SurveyGuidanceOptions one, parts;
+    one.xtions.push_back(level);
+    one.xtion_reach_m = 2.75;
+    one.max_region_parts = 1;
+    parts = one;
+    parts.max_region_parts = 4;
+    const auto& c = *r.camera;
+    const auto whole = ic::computeSurveyGuidance(c.camera, c.width, c.height, r.lines, nothing, one.tolerance_px, one);
+    const auto cut =
+        ic::computeSurveyGuidance(c.camera, c.width, c.height, r.lines, nothing, parts.tolerance_px, parts);
+    ASSERT_EQ(whole.regions.size(), 1u) << c.name;
+    ASSERT_GE(cut.regions.size(), 1u) << c.name;
+    ASSERT_LE(cut.regions.size(), 4u) << c.name;
+    std::vector<int> cells;
+    size_t lines = 0;
+    for (const auto& region : cut.regions)
+    {
+      cells.insert(cells.end(), region.cells.begin(), region.cells.end());
+      lines += region.image_lines;
+      EXPECT_GT(region.image_lines, 0u) << c.name;
+    }
+    std::sort(cells.begin(), cells.end());
+    EXPECT_EQ(cells, whole.regions.front().cells) << c.name;
+    EXPECT_EQ(lines, whole.regions.front().image_lines) << c.name;
+    const double before = shareInAnyStandpointsView(r.edges, whole, level, one.look_sweep_deg, 2.75);
+    const double after = shareInAnyStandpointsView(r.edges, cut, level, one.look_sweep_deg, 2.75);
+    std::printf(
+        "%s: %zu part(s); the view's edges in the Xtion's view %.0f %% from one standpoint (predicted %.0f %%), "
+        "%.0f %% from the parts'\n",
+        c.name.c_str(), cut.regions.size(), 100.0 * before, 100.0 * whole.regions.front().xtion_share, 100.0 * after);
+    if (whole.regions.front().xtion_share >= parts.split_below_share)
+      EXPECT_EQ(cut.regions.size(), 1u) << c.name;
+    EXPECT_GE(after, before - 0.02) << c.name;
+    gained += after - before;
+    cut_views += cut.regions.size() > 1 ? 1 : 0;
+  }
+  EXPECT_GE(cut_views, 1);
+  EXPECT_GE(gained, 0.05);  // cam_wide: 7 % of its view's edges from one standpoint, 16 % from two
 }

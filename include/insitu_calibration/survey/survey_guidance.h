@@ -22,16 +22,18 @@
 // heights and pitches, has most of those points in its view within xtion_reach_m (the survey's own depth lines' reach
 // for the map, depthLineReach, where the keyframes show one): standoffs from min_standoff_m to
 // max_standoff_m, from the camera's side or, where the robot has been, from any side (of the nearly best, the
-// closest to the fixed standpoint). A low Xtion tilted down sees a wall's upper part only from afar, and from
-// nowhere within its depth's reach when the wall is high: when most of a region's points are at heights no mount
-// of the survey has in view (xtionHeightShare() below min_xtion_share) the sentence says how high (low) the Xtion
-// sees and what to do for another drive: the mount (the pitch at the Xtion's height, else the nearest height within
-// limits with its pitch) that brings the region's heights (up to the camera's own, for a region above the Xtion) into
-// its view within reach (UnmappedRegion::mountToSee; for a wall too high for that, the mount pitched to the limit
-// that adds a useful part of it), else a mount beyond the limits, or CAD lines. The points are
-// where the rays meet the floor or the map's extent: furniture in front of them is not known, so the heights are lower
-// bounds (a ray that descends meets a desk above the floor it would reach), and for a region below the Xtion the
-// sentence says "if".
+// closest to the fixed standpoint). A region no one standpoint has mostly in view (a whole view placed by the prior,
+// from under the camera to its far wall, against a depth reach of under 3 m) is cut in halves of its cells, each
+// with its own standpoint, while that brings more of its lines into view (split_below_share). A low Xtion tilted down
+// sees a wall's upper part only from afar, and from nowhere within its depth's reach when the wall is high: when most
+// of a region's points are at heights no mount of the survey has in view (xtionHeightShare() below min_xtion_share) the
+// sentence says how high (low) the Xtion sees and what to do for another drive: the mount (the pitch at the Xtion's
+// height, else the nearest height within limits with its pitch) that brings the region's heights (up to the camera's
+// own, for a region above the Xtion) into its view within reach (UnmappedRegion::mountToSee; for a wall too high for
+// that, the mount pitched to the limit that adds a useful part of it), else a mount beyond the limits, or CAD lines.
+// The points are where the rays meet the floor or the map's extent: furniture in front of them is not known, so the
+// heights are lower bounds (a ray that descends meets a desk above the floor it would reach), and for a region below
+// the Xtion the sentence says "if".
 #ifndef INSITU_CALIBRATION_SURVEY_SURVEY_GUIDANCE_H
 #define INSITU_CALIBRATION_SURVEY_SURVEY_GUIDANCE_H
 
@@ -147,6 +149,14 @@ struct SurveyGuidanceOptions
   double min_xtion_share = 0.5;
   // The mounts a region out of reach may be advised (UnmappedRegion::mountToSee).
   XtionMountLimits mount_limits;
+  // With the Xtion's views known, a region whose standpoint has less than split_below_share of its points in the
+  // Xtion's view (a whole view placed by a prior, from under the camera to the far wall) is cut in two halves of its
+  // cells, across the image's rows or its columns (the cut with the larger gain), each half with its own standpoint,
+  // when the halves' shares, weighted by their image lines, exceed the region's by at least min_split_gain; at most
+  // max_region_parts parts of one region.
+  double split_below_share = 0.5;
+  double min_split_gain = 0.15;
+  int max_region_parts = 4;
 };
 
 // The options with what the survey's keyframes tell of it: the Xtion's mounts (xtionViewsOf), where the robot has

@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <limits>
 #include <map>
+#include <optional>
+#include <utility>
 
 #include <opencv2/imgproc.hpp>
 
@@ -417,6 +419,79 @@ void placeOnFloor(const CameraModel& camera, const SurveyGuidance& g, const Floo
   region->look_direction = look.norm() > 1e-6 ? Eigen::Vector2d(look.normalized()) : toward;
 }
 
+// Regions of unmapped cells placed on the floor, split where one standpoint cannot have most of a region in view.
+struct RegionPlacer
+{
+  const CameraModel& camera;
+  const SurveyGuidance& g;
+  const FloorBox& box;
+  const SurveyGuidanceOptions& options;
+  const std::vector<size_t>& lines_per_cell;
+
+  // None when the cells hold no image line of their own (a few unexplained pieces of lines that count elsewhere).
+  std::optional<UnmappedRegion> place(std::vector<int> cells) const
+  {
+    UnmappedRegion region;
+    region.cells = std::move(cells);
+    for (int c : region.cells)
+      region.image_lines += lines_per_cell[c];
+    if (region.image_lines == 0)
+      return std::nullopt;
+    region.where = describePlace(g, region.cells);
+    placeOnFloor(camera, g, box, options, &region);
+    return region;
+  }
+
+  // The region's two halves across rows (by_rows) or columns: the cells before and after the median row (column).
+  std::optional<std::pair<UnmappedRegion, UnmappedRegion>> halves(const UnmappedRegion& region, bool by_rows) const
+  {
+    std::vector<int> keys;
+    for (int c : region.cells)
+      keys.push_back(by_rows ? c / g.columns : c % g.columns);
+    std::vector<int> sorted = keys;
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+    const int cut = sorted[sorted.size() / 2];
+    std::vector<int> first, second;
+    for (size_t k = 0; k < keys.size(); ++k)
+      (keys[k] < cut ? first : second).push_back(region.cells[k]);
+    auto a = place(std::move(first)), b = place(std::move(second));
+    if (!a || !b)
+      return std::nullopt;
+    return std::make_pair(std::move(*a), std::move(*b));
+  }
+
+  // The region into out, cut in halves (recursively, at most `parts` parts) while a cut gains enough of its lines'
+  // points in the Xtion's view.
+  void splitForStandpoints(UnmappedRegion region, int parts, std::vector<UnmappedRegion>* out) const
+  {
+    const bool split = !options.xtions.empty() && parts >= 2 && region.cells.size() >= 2 && region.xtion_share >= 0.0 &&
+                       region.xtion_share < options.split_below_share;
+    std::optional<std::pair<UnmappedRegion, UnmappedRegion>> best;
+    double best_share = region.xtion_share + options.min_split_gain;
+    for (const bool by_rows : {true, false})
+    {
+      auto h = split ? halves(region, by_rows) : std::nullopt;
+      if (!h)
+        continue;
+      const double lines = static_cast<double>(h->first.image_lines + h->second.image_lines);
+      const double share =
+          (h->first.image_lines * h->first.xtion_share + h->second.image_lines * h->second.xtion_share) / lines;
+      if (share >= best_share)
+      {
+        best_share = share;
+        best = std::move(h);
+      }
+    }
+    if (!best)
+    {
+      out->push_back(std::move(region));
+      return;
+    }
+    splitForStandpoints(std::move(best->first), parts / 2, out);
+    splitForStandpoints(std::move(best->second), parts - parts / 2, out);
+  }
+};
+
 void classifyCells(const CellSamples& s, const cv::Mat& map_presence, const SurveyGuidanceOptions& options,
                    SurveyGuidance* g)
 {
@@ -793,18 +868,10 @@ SurveyGuidance computeSurveyGuidance(const CameraModel& camera, int width, int h
   classifyCells(samples, map_presence, options, &g);
   const std::vector<size_t> lines_per_cell = unexplainedLinesPerCell(samples, options, g.cells.size());
   const FloorBox box = mapExtent(map_lines, options.map_margin_m);
+  const RegionPlacer placer{camera, g, box, options, lines_per_cell};
   for (auto& cells : unmappedComponents(g))
-  {
-    UnmappedRegion region;
-    region.cells = std::move(cells);
-    for (int c : region.cells)
-      region.image_lines += lines_per_cell[c];
-    if (region.image_lines == 0)
-      continue;  // a few unexplained pieces of lines that count elsewhere: nothing to survey for
-    region.where = describePlace(g, region.cells);
-    placeOnFloor(camera, g, box, options, &region);
-    g.regions.push_back(std::move(region));
-  }
+    if (auto region = placer.place(std::move(cells)))
+      placer.splitForStandpoints(std::move(*region), std::max(1, options.max_region_parts), &g.regions);
   std::stable_sort(g.regions.begin(), g.regions.end(),
                    [](const UnmappedRegion& a, const UnmappedRegion& b) { return a.image_lines > b.image_lines; });
   if (g.regions.size() > options.max_regions)
