@@ -153,6 +153,7 @@ std::optional<AssessedLine> assessLine(const Gradients& g, const CameraModel& ca
   return a;
 }
 
+// A line on the ceiling the survey measured, when the ceiling rule is on.
 bool onCeiling(const Segment3d& line, const ImageExplanationOptions& o)
 {
   return o.plain_ceiling && o.ceiling_height_m &&
@@ -222,19 +223,19 @@ std::vector<AssessedLine> assessOverlay(const cv::Mat& image, const CameraModel&
       intervals.push_back(*interval);
     }
   const std::vector<bool> texture = textureLines(in_view, options.texture);
-  const std::vector<bool> floor = plainTestedLines(in_view, options);
+  const std::vector<bool> plain_tested = plainTestedLines(in_view, options);
   std::vector<AssessedLine> lines;
   size_t plain_count = 0;
   for (size_t i = 0; i < in_view.size(); ++i)
   {
     const Segment3d& line = in_view[i];
-    const bool floor_by_sample = options.plain_floor_by_sample && floor[i];
+    const bool floor_by_sample = options.plain_floor_by_sample && plain_tested[i];
     auto assessed =
         assessLine(g, camera, line, intervals[i], width, height, options, keep_samples, floor_by_sample || texture[i]);
     if (!assessed || assessed->support.samples == 0)  // not assessed, or only at the border
       continue;
     assessed->is_floor = floor_by_sample;
-    assessed->samples.counted = !onPlainFloor(floor[i], assessed->support, options);
+    assessed->samples.counted = !onPlainFloor(plain_tested[i], assessed->support, options);
     plain_count += assessed->samples.counted ? 0 : 1;
     lines.push_back(std::move(*assessed));
   }
@@ -271,6 +272,8 @@ void measureOverlay(const std::vector<AssessedLine>& lines, ImageExplanation& ou
   if (out.isolated_samples > 0)
     out.isolated_agreement = static_cast<double>(isolated_on) / out.isolated_samples;
 }
+
+// "43 %".
 std::string percent(double share)
 {
   char buffer[32];
