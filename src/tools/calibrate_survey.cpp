@@ -190,6 +190,10 @@ Options:
                         roll stays true) and its field of view scaled by 1 +- F
                         (sign random); the sigmas stay as configured. Tests the matching from other priors.
   --prior-sigmas P,D,F  with --prior-from-truth: the priors' position, direction and field-of-view sigmas
+  --principal-point-from-truth SIGMA_PX[,SEED]
+                        with --truth-dir: every prior knows its camera's principal point (prior.principal_point),
+                        the true one moved by a normal error of SIGMA_PX px per axis, with that sigma: how much a
+                        principal point known from a lab calibration helps (narrow views)
   --oracle              with --truth-dir: instead of the pipeline, calibrate on the matches the TRUE camera makes
                         (with the other long image lines as plumb lines, as the final calibration does): the
                         accuracy the map and image lines allow when matching is perfect; also with the map lines
@@ -1068,9 +1072,11 @@ void calibrateOracleVariants(const OracleData& d, const ic::FixedCameraOptions& 
 // Diagnostic: the image lines matched under the true camera (tight thresholds), calibrated like the pipeline does,
 // and the variants with true 3D lines, true image lines and both.
 void oracleCalibration(const std::string& truth_dir, const std::string& name, const ic::FixedCamera& camera,
-                       const std::vector<ic::Segment3d>& map, const ic::FixedCameraOptions& options,
+                       const std::vector<ic::Segment3d>& map, const ic::FixedCameraOptions& survey_options,
                        const std::vector<ic::MapLine>& map_lines, bool details)
 {
+  ic::FixedCameraOptions options = survey_options;
+  options.matcher = camera.matcherOptions();  // with the prior's principal point, as the camera calibrates
   const auto truth = ic::loadCalibrationFile(truth_dir + "/" + name + ".yaml");
   if (!truth)
     return;
@@ -1330,7 +1336,41 @@ bool parseSurveyOptions(ic::CommandLine& cli, ic::SurveyOptions* options, bool* 
   return true;
 }
 
-// The configured cameras, with --prior-from-truth's priors; false (after saying why) when one cannot be made.
+// --principal-point-from-truth SIGMA_PX[,SEED]: every prior knows its camera's principal point, the true one moved by
+// a normal error of SIGMA_PX per axis, with that sigma (as from a lab calibration of the camera).
+bool principalPointsFromTruth(const ic::CommandLine& cli, std::vector<ic::FixedCameraConfig>* cameras)
+{
+  const std::vector<double> values = numbers(cli.value("principal-point-from-truth"));
+  if (values.empty() || values.size() > 2 || !(values[0] > 0.0) || !cli.has("truth-dir"))
+  {
+    std::cerr << "calibrate_survey: --principal-point-from-truth needs SIGMA_PX[,SEED] (SIGMA_PX > 0) and "
+                 "--truth-dir\n";
+    return false;
+  }
+  std::mt19937 rng(values.size() == 2 ? static_cast<unsigned>(values[1]) : 0u);
+  std::normal_distribution<double> error(0.0, values[0]);
+  for (ic::FixedCameraConfig& camera : *cameras)
+  {
+    if (!camera.prior)
+      continue;
+    const auto truth = ic::loadCalibrationFile(truthDir(cli) + "/" + camera.name + ".yaml");
+    if (!truth)
+    {
+      std::cerr << "calibrate_survey: no truth for " << camera.name << "\n";
+      return false;
+    }
+    const ic::Intrinsics& k = truth->camera.intrinsics();
+    camera.prior->principal_point = Eigen::Vector2d(k.cx + error(rng), k.cy + error(rng));
+    camera.prior->principal_point_sigma_px = values[0];
+    if (!cli.flag("quiet"))
+      std::printf("%s: principal point known: %.1f %.1f px (true %.1f %.1f), sigma %.1f px\n", camera.name.c_str(),
+                  camera.prior->principal_point->x(), camera.prior->principal_point->y(), k.cx, k.cy, values[0]);
+  }
+  return true;
+}
+
+// The configured cameras, with --prior-from-truth's priors and --principal-point-from-truth's principal points;
+// false (after saying why) when one cannot be made.
 bool loadCameras(const ic::CommandLine& cli, std::vector<ic::FixedCameraConfig>* cameras,
                  std::map<std::string, std::string>* camera_of_topic)
 {
@@ -1373,7 +1413,7 @@ bool loadCameras(const ic::CommandLine& cli, std::vector<ic::FixedCameraConfig>*
                   prior->direction.x(), prior->direction.y(), prior->direction.z(), prior->roll_deg,
                   prior->horizontal_fov_deg);
   }
-  return true;
+  return !cli.has("principal-point-from-truth") || principalPointsFromTruth(cli, cameras);
 }
 
 void printSurveySummary(const ic::Survey& survey, size_t frames_without_pose, double survey_s)
@@ -1515,7 +1555,7 @@ bool calibrateAndSave(const ic::CommandLine& cli, ic::Survey& survey, const std:
   writeReport(cli, survey, name, map, *result, "");
   if (cli.has("truth-dir"))
   {
-    ic::RefinementOptions refinement = survey.options().cameras.matcher.calibration.refinement;
+    ic::RefinementOptions refinement = survey.camera(name).matcherOptions().calibration.refinement;
     refinement.estimate_distortion = result->calibration.distortion_estimated;
     reportAgainstTruth(truthDir(cli), name, *result, refinement);
   }
@@ -1585,6 +1625,7 @@ const std::set<std::string> kValueOptions = {"cameras",
                                              "coverage-diagnosis",
                                              "prior-from-truth",
                                              "prior-sigmas",
+                                             "principal-point-from-truth",
                                              "max-spread",
                                              "localization-sigma",
                                              "odom-frame",

@@ -69,3 +69,37 @@ TEST(CameraConfig, ErrorsNameTheEntryAndTheKey)
   ASSERT_FALSE(bad_prior);
   EXPECT_NE(bad_prior.error().message().find("cameras[0].prior"), std::string::npos) << bad_prior.error().message();
 }
+
+TEST(CameraConfig, APriorMayKnowThePrincipalPoint)
+{
+  const std::string head =
+      "cameras:\n  - {name: a, image_width: 640, image_height: 480,\n"
+      "     prior: {position: [0, 0, 2], direction: [1, 0, 0], horizontal_fov_deg: 40";
+  const auto unknown = ic::parseCameraConfig(head + "}}\n");
+  ASSERT_TRUE(unknown) << unknown.error().describe();
+  EXPECT_FALSE((*unknown)[0].camera.prior->principal_point.has_value());
+
+  const auto known = ic::parseCameraConfig(head + ", principal_point: [331.5, 228.0], principal_point_sigma_px: 2}}\n");
+  ASSERT_TRUE(known) << known.error().describe();
+  const ic::CameraPrior& prior = *(*known)[0].camera.prior;
+  ASSERT_TRUE(prior.principal_point.has_value());
+  EXPECT_DOUBLE_EQ(prior.principal_point->x(), 331.5);
+  EXPECT_DOUBLE_EQ(prior.principal_point->y(), 228.0);
+  EXPECT_DOUBLE_EQ(prior.principal_point_sigma_px, 2.0);
+  const ic::CameraModel from_prior = ic::cameraFromPrior(prior, 640, 480);
+  EXPECT_DOUBLE_EQ(from_prior.intrinsics().cx, 331.5);
+
+  const auto outside = ic::parseCameraConfig(head + ", principal_point: [700, 228]}}\n");
+  ASSERT_FALSE(outside);
+  EXPECT_NE(outside.error().message().find("principal_point lies outside the 640x480 image"), std::string::npos)
+      << outside.error().message();
+  const auto zero_sigma =
+      ic::parseCameraConfig(head + ", principal_point: [320, 240], principal_point_sigma_px: 0}}\n");
+  ASSERT_FALSE(zero_sigma);
+  EXPECT_NE(zero_sigma.error().message().find("cameras[0].prior.principal_point_sigma_px"), std::string::npos)
+      << zero_sigma.error().message();
+  const auto one_number = ic::parseCameraConfig(head + ", principal_point: [320]}}\n");
+  ASSERT_FALSE(one_number);
+  EXPECT_NE(one_number.error().message().find("cameras[0].prior.principal_point"), std::string::npos)
+      << one_number.error().message();
+}

@@ -10,6 +10,7 @@
 #define INSITU_CALIBRATION_MATCHING_LINE_MATCHER_H
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,11 @@ struct CameraPrior
   double roll_deg = 0.0;  // rotation about the optical axis; 0: the image x axis is horizontal (world z up)
   double horizontal_fov_deg = 60.0;
   double fov_sigma_relative = 0.2;
+  // The principal point when it is known (a lab calibration of this camera), px, with its sigma per axis. In a narrow
+  // view the lines hardly tell the principal point from the rotation (both shift the image); without it the
+  // calibration assumes it within 3 % of the width of the image centre (LineMatcherOptions::calibration).
+  std::optional<Eigen::Vector2d> principal_point;
+  double principal_point_sigma_px = 5.0;
 };
 
 // Whether a camera centre lies more than max_sigmas position sigmas from the prior's position (the final check's

@@ -62,6 +62,8 @@ struct RefinementOptions
   // with its uncertainty, instead of an arbitrary one.
   double aspect_prior_sigma = 0.0;
   double principal_point_prior_sigma = 0.0;
+  // The principal point prior's mean when it is known (a lab calibration of the camera); none: the image centre.
+  std::optional<Eigen::Vector2d> principal_point_prior_center;
   // How the priors are weighed against the residuals: true, by the fit's own noise level (solved again until the two
   // agree), so that they act with their own sigma in the estimate and the covariance alike; false, by the noise
   // level the start's residuals suggest (stiffer by the ratio: the line matcher's search uses it as a regulariser).

@@ -113,6 +113,12 @@ struct FixedCameraResult
   std::vector<EdgeSamples> checked_map_lines;
 };
 
+// Whether a result's own one-sigma uncertainty (the matched lines') is within the limits (max_sigma_*); else the
+// refusal (kDegenerate, beginning with kWeaklyDeterminedRefusal) with what would determine the camera: when its
+// rotation alone fails and mostly through its principal point, a principal point in the prior (unless it has one).
+Status checkDetermined(const CameraUncertainty& uncertainty, const Intrinsics& intrinsics, const CameraPrior* prior,
+                       const FixedCameraOptions& options);
+
 class FixedCamera
 {
 public:
@@ -148,6 +154,9 @@ public:
   // And its position within the prior's distance limit (FixedCameraOptions::max_prior_distance_sigmas; any without
   // a prior): a result the check refuses for either is no view of the building to guide a survey by.
   bool isPlausible(const CameraModel& camera) const;
+  // The line matcher's options for this camera: the survey's, with the principal point the prior knows (if any) as
+  // the refinement's principal point prior.
+  LineMatcherOptions matcherOptions() const;
   void setCalibration(const CalibrationFile& calibration) { calibration_ = calibration; }
   const FixedCameraOptions& options() const { return options_; }
   // Survey::setCameraOptions (median_images as at construction).

@@ -171,8 +171,8 @@ CameraModel cameraFromPrior(const CameraPrior& prior, int image_width, int image
   Intrinsics in;
   const double hfov = std::clamp(prior.horizontal_fov_deg * fov_scale, 1.0, 179.0) * kDegToRad;
   in.fx = in.fy = 0.5 * image_width / std::tan(0.5 * hfov);
-  in.cx = 0.5 * (image_width - 1);
-  in.cy = 0.5 * (image_height - 1);
+  in.cx = prior.principal_point ? prior.principal_point->x() : 0.5 * (image_width - 1);
+  in.cy = prior.principal_point ? prior.principal_point->y() : 0.5 * (image_height - 1);
   // Optical axis: the prior's direction turned by yaw about world z and pitched down/up about the camera's x axis.
   Eigen::Vector3d forward = prior.direction.normalized();
   forward = Eigen::AngleAxisd(yaw_deg * kDegToRad, Eigen::Vector3d::UnitZ()) * forward;

@@ -415,10 +415,10 @@ void addPriorsAndFixedBlocks(RefinementState& s, BuiltProblem* built)
   }
   if (options.estimate_principal_point && options.principal_point_prior_sigma > 0.0)
   {
-    problem.AddResidualBlock(
-        new ceres::AutoDiffCostFunction<PrincipalPointPrior, 2, 2>(new PrincipalPointPrior{
-            s.data.imageCenter(), noise / (options.principal_point_prior_sigma * s.data.image_width)}),
-        nullptr, p.principal);
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PrincipalPointPrior, 2, 2>(new PrincipalPointPrior{
+                                 options.principal_point_prior_center.value_or(s.data.imageCenter()),
+                                 noise / (options.principal_point_prior_sigma * s.data.image_width)}),
+                             nullptr, p.principal);
     built->row_group.push_back(std::numeric_limits<size_t>::max());
     built->row_group.push_back(std::numeric_limits<size_t>::max());
   }

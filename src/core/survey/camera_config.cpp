@@ -80,13 +80,23 @@ Expected<CameraPrior> readPrior(const yaml_util::YamlNode& p, const std::string&
   prior.position = *position;
   prior.direction = *direction;
   prior.horizontal_fov_deg = *fov;
-  for (const auto& [key, target] :
-       std::initializer_list<std::pair<const char*, double*>>{{"position_sigma_m", &prior.position_sigma_m},
-                                                              {"direction_sigma_deg", &prior.direction_sigma_deg},
-                                                              {"fov_sigma_relative", &prior.fov_sigma_relative},
-                                                              {"roll_deg", &prior.roll_deg}})
+  for (const auto& [key, target] : std::initializer_list<std::pair<const char*, double*>>{
+           {"position_sigma_m", &prior.position_sigma_m},
+           {"direction_sigma_deg", &prior.direction_sigma_deg},
+           {"fov_sigma_relative", &prior.fov_sigma_relative},
+           {"roll_deg", &prior.roll_deg},
+           {"principal_point_sigma_px", &prior.principal_point_sigma_px}})
     if (const Status s = readOptional(p, key, pw, target); !s)
       return s.error();
+  if (p["principal_point"])
+  {
+    const auto principal_point = yaml_util::toVector<2>(p["principal_point"], pw + ".principal_point");
+    if (!principal_point)
+      return principal_point.error();
+    prior.principal_point = *principal_point;
+  }
+  if (!(prior.principal_point_sigma_px > 0.0))
+    return Error(ErrorCode::kInvalidInput, pw + ".principal_point_sigma_px: must be positive");
   if (!(prior.direction.norm() > 0.0) || !(prior.horizontal_fov_deg > 0.0 && prior.horizontal_fov_deg < 180.0) ||
       !(prior.position_sigma_m > 0.0) || !(prior.direction_sigma_deg > 0.0) || !(prior.fov_sigma_relative > 0.0))
     return Error(ErrorCode::kInvalidInput, pw + ": the direction must be non-zero, the field of view between 0 "

@@ -37,6 +37,27 @@ std::string describeResult(const CameraCalibration& c, size_t matched)
   return out;
 }
 
+// When a weakly determined camera fails on its rotation alone and its principal point's uncertainty accounts for
+// most of it (a narrow view: a shifted principal point and a turned camera move the image alike, and more of the
+// same survey hardly separates them), what would: the principal point known from elsewhere. Empty otherwise.
+std::string principalPointNote(const CameraUncertainty& u, const Intrinsics& k, const CameraPrior* prior,
+                               const FixedCameraOptions& o)
+{
+  const double principal_px = std::hypot(u.cx, u.cy);
+  const double as_turn_deg = std::atan2(principal_px, k.fx) * 180.0 / M_PI;
+  if ((prior && prior->principal_point) || u.fx > o.max_sigma_focal_relative * k.fx ||
+      u.position_m > o.max_sigma_position_m || as_turn_deg < 0.5 * u.rotation_deg)
+    return "";
+  char buffer[512];
+  std::snprintf(buffer, sizeof(buffer),
+                "; its rotation is uncertain mostly because its principal point is (%.0f px at 1 sigma, as much as a "
+                "turn of %.2f deg): in a view this narrow the two move the image alike. A principal point known to a "
+                "few pixels (a lab calibration of this camera: principal_point and principal_point_sigma_px in its "
+                "prior) separates them",
+                principal_px, as_turn_deg);
+  return buffer;
+}
+
 // How far the division model moves the top-left image corner, px.
 double cornerDisplacement(const DivisionModel& d)
 {
@@ -55,6 +76,12 @@ Status FixedCameraConfig::validate() const
     return Error(ErrorCode::kInvalidInput, "camera '" + name +
                                                "': give either a prior (position, direction, field of view) or a "
                                                "correspondence_file");
+  if (prior && prior->principal_point &&
+      !(prior->principal_point->x() >= 0.0 && prior->principal_point->x() <= image_width &&
+        prior->principal_point->y() >= 0.0 && prior->principal_point->y() <= image_height))
+    return Error(ErrorCode::kInvalidInput, "camera '" + name + "': the prior's principal_point lies outside the " +
+                                               std::to_string(image_width) + "x" + std::to_string(image_height) +
+                                               " image (px, from the top left corner)");
   return Success{};
 }
 
@@ -132,6 +159,36 @@ bool FixedCamera::focalIsPlausible(const CameraModel& camera) const
   return k.fx >= low && k.fx <= high && k.fy >= low && k.fy <= high;
 }
 
+LineMatcherOptions FixedCamera::matcherOptions() const
+{
+  LineMatcherOptions matcher = options_.matcher;
+  if (config_.prior && config_.prior->principal_point)
+  {
+    RefinementOptions& refinement = matcher.calibration.refinement;
+    refinement.principal_point_prior_center = config_.prior->principal_point;
+    refinement.principal_point_prior_sigma = config_.prior->principal_point_sigma_px / config_.image_width;
+  }
+  return matcher;
+}
+
+Status checkDetermined(const CameraUncertainty& u, const Intrinsics& k, const CameraPrior* prior,
+                       const FixedCameraOptions& options)
+{
+  if (!u.available)
+    return Error(ErrorCode::kDegenerate, "the matched lines leave the camera under-constrained (" + u.reason +
+                                             "); survey more of the camera's view");
+  if (u.fx <= options.max_sigma_focal_relative * k.fx && u.position_m <= options.max_sigma_position_m &&
+      u.rotation_deg <= options.max_sigma_rotation_deg)
+    return Success{};
+  char buffer[256];
+  std::snprintf(buffer, sizeof(buffer), "1 sigma: focal length %.2f %%, position %.0f mm, rotation %.2f deg",
+                100.0 * u.fx / k.fx, 1000.0 * u.position_m, u.rotation_deg);
+  return Error(ErrorCode::kDegenerate, std::string(kWeaklyDeterminedRefusal) + " (" + buffer +
+                                           "): mostly coplanar or parallel lines, or too small a part of the view; "
+                                           "survey more of the camera's view" +
+                                           principalPointNote(u, k, prior, options));
+}
+
 bool FixedCamera::isPlausible(const CameraModel& camera) const
 {
   return focalIsPlausible(camera) && !(config_.prior && beyondPriorDistance(camera.pose().center(), *config_.prior,
@@ -165,20 +222,10 @@ Status FixedCamera::check(const CameraCalibration& c, size_t matched_lines, bool
                                              " m); the matches are probably wrong, or the prior is");
   }
   if (c.refinement)
-  {
-    const CameraUncertainty& u = c.uncertainty;
-    if (!u.available)
-      return Error(ErrorCode::kDegenerate, "the matched lines leave the camera under-constrained (" + u.reason +
-                                               "); survey more of the camera's view");
-    char buffer[256];
-    std::snprintf(buffer, sizeof(buffer), "1 sigma: focal length %.2f %%, position %.0f mm, rotation %.2f deg",
-                  100.0 * u.fx / k.fx, 1000.0 * u.position_m, u.rotation_deg);
-    if (u.fx > options_.max_sigma_focal_relative * k.fx || u.position_m > options_.max_sigma_position_m ||
-        u.rotation_deg > options_.max_sigma_rotation_deg)
-      return Error(ErrorCode::kDegenerate, std::string(kWeaklyDeterminedRefusal) + " (" + buffer +
-                                               "): mostly coplanar or parallel lines, or too small a part of the "
-                                               "view; survey more of the camera's view");
-  }
+    if (const Status determined =
+            checkDetermined(c.uncertainty, k, config_.prior ? &*config_.prior : nullptr, options_);
+        !determined)
+      return determined;
   if (!c.camera.pose().rotation.allFinite() || !c.camera.pose().translation.allFinite())
     return Error(ErrorCode::kNoSolution, "the pose is not finite");
   return Success{};
@@ -243,7 +290,7 @@ Status FixedCamera::checkAmbiguity(FixedCameraResult& result, const std::vector<
   const int w = config_.image_width, h = config_.image_height;
   result.ambiguity =
       findAlternativeCameras(map_lines, image_lines, result.calibration, result.matched_map_lines, w, h,
-                             options_.matcher, map_line_sigmas_m, finalSigmas(map_lines, map_line_sigmas_m), o);
+                             matcherOptions(), map_line_sigmas_m, finalSigmas(map_lines, map_line_sigmas_m), o);
   for (AlternativeCamera& alt : result.ambiguity.alternatives)
   {
     if (!alt.clearly_different)
@@ -403,7 +450,8 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
   // count the flanks of joints this camera does not resolve as known only to within the joint.
   const std::vector<double> final_sigmas = finalSigmas(map_lines, sigmas);
   const cv::Mat median = median_.median();
-  DivisionModel distortion{0.0, imageCenter(config_.image_width, config_.image_height)};
+  DivisionModel distortion{
+      0.0, config_.prior->principal_point.value_or(imageCenter(config_.image_width, config_.image_height))};
   std::optional<FixedCameraResult> best;
   for (int loop = 0; loop < options_.max_loops; ++loop)
   {
@@ -420,7 +468,7 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
     }
     // The prior search once; the later loops start from the camera found. The search ranks results the final check
     // would refuse for their distance to the prior behind the others.
-    LineMatcherOptions matcher = options_.matcher;
+    LineMatcherOptions matcher = matcherOptions();
     matcher.max_prior_distance_sigmas = options_.max_prior_distance_sigmas;
     auto matched =
         best ? matchAndCalibrateFrom(map_lines, polylines, best->calibration.camera, config_.image_width,

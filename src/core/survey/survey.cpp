@@ -727,7 +727,9 @@ bool Survey::addSharedMapErrors(FixedCameraResult* result, const std::vector<Map
       inliers.lines.push_back(result->correspondences.lines[k]);
       modes.push_back(line ? sharedErrorModes(*line, options_.min_map_line_sigma_m) : std::vector<Eigen::Vector3d>());
     }
-  RefinementOptions refinement = options_.cameras.matcher.calibration.refinement;
+  const std::string& name = result->correspondences.camera_name;
+  RefinementOptions refinement =
+      (hasCamera(name) ? camera(name).matcherOptions() : options_.cameras.matcher).calibration.refinement;
   refinement.estimate_distortion = c.distortion_estimated;
   const Expected<CameraUncertainty> shared = propagateWorldLineErrors(inliers, c.camera, refinement, modes);
   if (!shared)
