@@ -450,10 +450,17 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
   // count the flanks of joints this camera does not resolve as known only to within the joint.
   const std::vector<double> final_sigmas = finalSigmas(map_lines, sigmas);
   const cv::Mat median = median_.median();
-  DivisionModel distortion{
-      0.0, config_.prior->principal_point.value_or(imageCenter(config_.image_width, config_.image_height))};
+  DivisionModel distortion{0.0, imageCenter(config_.image_width, config_.image_height)};
+  // The prior search assumes every camera's principal point near the image centre (its results were measured so); a
+  // principal point the prior knows joins from the camera found on, in at least one more loop. Given to the search
+  // too, it sent the search to other cameras, worse as often as better (docs/measurements.md, "A known principal
+  // point").
+  const bool knows_principal_point = config_.prior->principal_point.has_value();
+  CameraPrior search_prior = *config_.prior;
+  search_prior.principal_point.reset();
+  const int loops = std::max(options_.max_loops, knows_principal_point ? 2 : 1);
   std::optional<FixedCameraResult> best;
-  for (int loop = 0; loop < options_.max_loops; ++loop)
+  for (int loop = 0; loop < loops; ++loop)
   {
     bool thin_lines = false;
     const auto lines = linesOfMedian(median, distortion, best.has_value(), &thin_lines);
@@ -468,12 +475,12 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
     }
     // The prior search once; the later loops start from the camera found. The search ranks results the final check
     // would refuse for their distance to the prior behind the others.
-    LineMatcherOptions matcher = matcherOptions();
+    LineMatcherOptions matcher = best ? matcherOptions() : options_.matcher;
     matcher.max_prior_distance_sigmas = options_.max_prior_distance_sigmas;
     auto matched =
         best ? matchAndCalibrateFrom(map_lines, polylines, best->calibration.camera, config_.image_width,
                                      config_.image_height, matcher, map_line_sigmas_m, image_line_sigmas, final_sigmas)
-             : matchAndCalibrate(map_lines, polylines, *config_.prior, config_.image_width, config_.image_height,
+             : matchAndCalibrate(map_lines, polylines, search_prior, config_.image_width, config_.image_height,
                                  matcher, map_line_sigmas_m, image_line_sigmas, final_sigmas);
     if (!matched)
     {
@@ -489,7 +496,8 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
                                   std::abs(cornerDisplacement(next) - cornerDisplacement(distortion)));
     best = std::move(result);
     distortion = next;
-    if (moved < options_.loop_tolerance_px && (thin_lines || !options_.image_lines.refiner.thin_lines))
+    if (moved < options_.loop_tolerance_px && (thin_lines || !options_.image_lines.refiner.thin_lines) &&
+        !(knows_principal_point && loop == 0))
       break;
   }
   return *best;
