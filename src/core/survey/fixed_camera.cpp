@@ -51,7 +51,7 @@ std::string principalPointNote(const CameraUncertainty& u, const Intrinsics& k, 
   char buffer[512];
   std::snprintf(buffer, sizeof(buffer),
                 "; its rotation is uncertain mostly because its principal point is (%.0f px at 1 sigma, as much as a "
-                "turn of %.2f deg): in a view this narrow the two move the image alike. A principal point known to a "
+                "turn of %.2f deg): over this view the two move the image nearly alike. A principal point known to a "
                 "few pixels (a lab calibration of this camera: principal_point and principal_point_sigma_px in its "
                 "prior) separates them",
                 principal_px, as_turn_deg);
@@ -480,8 +480,8 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
     auto matched =
         best ? matchAndCalibrateFrom(map_lines, polylines, best->calibration.camera, config_.image_width,
                                      config_.image_height, matcher, map_line_sigmas_m, image_line_sigmas, final_sigmas)
-             : matchAndCalibrate(map_lines, polylines, search_prior, config_.image_width, config_.image_height,
-                                 matcher, map_line_sigmas_m, image_line_sigmas, final_sigmas);
+             : matchAndCalibrate(map_lines, polylines, search_prior, config_.image_width, config_.image_height, matcher,
+                                 map_line_sigmas_m, image_line_sigmas, final_sigmas);
     if (!matched)
     {
       if (best)
