@@ -340,13 +340,14 @@ TEST(Refinement, ThePairJackknifeSeesTwoWrongMatchesThatAgree)
 
 namespace
 {
-// A narrow camera (38 deg across, as generated hall 919939's cam_b) whose principal point is `offset_px` from the
-// image centre: its rotation and principal point trade off, so the survey's principal-point prior matters.
-Scene makeNarrowScene(unsigned seed, const Eigen::Vector2d& offset_px, double noise_px)
+// A narrow camera (focal_px across a 1280 px wide image) whose principal point is `offset_px` from the image centre,
+// seeing `lines`: its rotation and principal point trade off, so the survey's principal-point prior matters.
+Scene makeNarrowScene(unsigned seed, const Eigen::Vector2d& offset_px, double focal_px,
+                      const ic::SyntheticLineOptions& lines)
 {
   std::mt19937 rng(seed);
   ic::SyntheticCameraOptions camera;
-  camera.focal_min_px = camera.focal_max_px = 1850.0;
+  camera.focal_min_px = camera.focal_max_px = focal_px;
   camera.aspect_jitter = 0.0;
   camera.principal_jitter_px = 0.0;
   Scene s;
@@ -354,13 +355,19 @@ Scene makeNarrowScene(unsigned seed, const Eigen::Vector2d& offset_px, double no
   s.truth.intrinsics().cx = 0.5 * (camera.image_width - 1) + offset_px.x();
   s.truth.intrinsics().cy = 0.5 * (camera.image_height - 1) + offset_px.y();
   s.truth.distortion().center = s.truth.intrinsics().principalPoint();
-  ic::SyntheticLineOptions options;
-  options.lines = 15;
-  options.image_points_per_line = 8;
-  options.image_noise_px = noise_px;
-  options.depth_min_m = 3.0;
-  s.lines = ic::makeSyntheticLines(s.truth, camera.image_width, camera.image_height, options, rng);
+  s.lines = ic::makeSyntheticLines(s.truth, camera.image_width, camera.image_height, lines, rng);
   return s;
+}
+
+// 38 deg across (as generated hall 919939's cam_b), 15 lines in any direction from 3 m on.
+Scene makeNarrowScene(unsigned seed, const Eigen::Vector2d& offset_px, double noise_px)
+{
+  ic::SyntheticLineOptions lines;
+  lines.lines = 15;
+  lines.image_points_per_line = 8;
+  lines.image_noise_px = noise_px;
+  lines.depth_min_m = 3.0;
+  return makeNarrowScene(seed, offset_px, 1850.0, lines);
 }
 }  // namespace
 
@@ -405,29 +412,18 @@ TEST(Refinement, PriorsActWithTheirOwnSigmaWhateverTheStart)
 
 namespace
 {
-// A narrow view of a building (30 deg across, 12 edges along the building's axes 5-9 m away) whose principal
-// point is `offset_px` from the image centre, as the generated buildings' weakly determined cameras.
+// A narrow view of a building (30 deg across, 12 edges along the building's axes 5-9 m away, 0.2 px noise), as the
+// generated buildings' weakly determined cameras.
 Scene makeNarrowBuildingScene(unsigned seed, const Eigen::Vector2d& offset_px)
 {
-  std::mt19937 rng(seed);
-  ic::SyntheticCameraOptions camera;
-  camera.focal_min_px = camera.focal_max_px = 2390.0;
-  camera.aspect_jitter = 0.0;
-  camera.principal_jitter_px = 0.0;
-  Scene s;
-  s.truth = ic::randomCamera(camera, rng);
-  s.truth.intrinsics().cx = 0.5 * (camera.image_width - 1) + offset_px.x();
-  s.truth.intrinsics().cy = 0.5 * (camera.image_height - 1) + offset_px.y();
-  s.truth.distortion().center = s.truth.intrinsics().principalPoint();
-  ic::SyntheticLineOptions options;
-  options.lines = 12;
-  options.image_points_per_line = 8;
-  options.image_noise_px = 0.2;
-  options.depth_min_m = 5.0;
-  options.depth_max_m = 9.0;
-  options.axis_aligned = true;
-  s.lines = ic::makeSyntheticLines(s.truth, camera.image_width, camera.image_height, options, rng);
-  return s;
+  ic::SyntheticLineOptions lines;
+  lines.lines = 12;
+  lines.image_points_per_line = 8;
+  lines.image_noise_px = 0.2;
+  lines.depth_min_m = 5.0;
+  lines.depth_max_m = 9.0;
+  lines.axis_aligned = true;
+  return makeNarrowScene(seed, offset_px, 2390.0, lines);
 }
 }  // namespace
 
