@@ -180,6 +180,13 @@ private:
   Expected<FixedCameraResult> calibrateFromFile(const std::string& world_frame);
   Expected<FixedCameraResult> calibrateFromMap(const std::vector<Segment3d>& map_lines, const std::string& world_frame,
                                                const std::vector<double>& map_line_sigmas_m);
+  // One loop's matching: the prior search when no camera is found yet, else the matching again from the camera found
+  // (with the principal point the prior knows, if any).
+  Expected<LineMatchResult> matchOnce(const std::vector<Segment3d>& map_lines,
+                                      const std::vector<std::vector<Eigen::Vector2d>>& polylines,
+                                      const std::vector<double>& map_line_sigmas_m,
+                                      const std::vector<double>& image_line_sigmas,
+                                      const std::vector<double>& final_sigmas, const CameraModel* found) const;
   // A matching's result as the camera's: its matched and unmatched image lines, correspondences and calibration file.
   FixedCameraResult resultOfMatching(LineMatchResult matched,
                                      const std::vector<std::vector<Eigen::Vector2d>>& polylines,

@@ -433,6 +433,29 @@ Expected<std::vector<ImageLine>> FixedCamera::linesOfMedian(const cv::Mat& media
   return Error(ErrorCode::kNotEnoughData, message);
 }
 
+Expected<LineMatchResult> FixedCamera::matchOnce(const std::vector<Segment3d>& map_lines,
+                                                 const std::vector<std::vector<Eigen::Vector2d>>& polylines,
+                                                 const std::vector<double>& map_line_sigmas_m,
+                                                 const std::vector<double>& image_line_sigmas,
+                                                 const std::vector<double>& final_sigmas,
+                                                 const CameraModel* found) const
+{
+  const int w = config_.image_width, h = config_.image_height;
+  // The search ranks results the final check would refuse for their distance to the prior behind the others.
+  LineMatcherOptions matcher = found ? matcherOptions() : options_.matcher;
+  matcher.max_prior_distance_sigmas = options_.max_prior_distance_sigmas;
+  if (found)
+    return matchAndCalibrateFrom(map_lines, polylines, *found, w, h, matcher, map_line_sigmas_m, image_line_sigmas,
+                                 final_sigmas);
+  // The prior search assumes every camera's principal point near the image centre (its results were measured so):
+  // given a known principal point too, it found other cameras, worse as often as better (docs/measurements.md, "A
+  // known principal point").
+  CameraPrior search_prior = *config_.prior;
+  search_prior.principal_point.reset();
+  return matchAndCalibrate(map_lines, polylines, search_prior, w, h, matcher, map_line_sigmas_m, image_line_sigmas,
+                           final_sigmas);
+}
+
 Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segment3d>& all_map_lines,
                                                           const std::string& world_frame,
                                                           const std::vector<double>& map_line_sigmas_all)
@@ -451,13 +474,8 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
   const std::vector<double> final_sigmas = finalSigmas(map_lines, sigmas);
   const cv::Mat median = median_.median();
   DivisionModel distortion{0.0, imageCenter(config_.image_width, config_.image_height)};
-  // The prior search assumes every camera's principal point near the image centre (its results were measured so); a
-  // principal point the prior knows joins from the camera found on, in at least one more loop. Given to the search
-  // too, it sent the search to other cameras, worse as often as better (docs/measurements.md, "A known principal
-  // point").
+  // A principal point the prior knows joins from the camera found on (matchOnce), so at least one more loop.
   const bool knows_principal_point = config_.prior->principal_point.has_value();
-  CameraPrior search_prior = *config_.prior;
-  search_prior.principal_point.reset();
   const int loops = std::max(options_.max_loops, knows_principal_point ? 2 : 1);
   std::optional<FixedCameraResult> best;
   for (int loop = 0; loop < loops; ++loop)
@@ -473,15 +491,8 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromMap(const std::vector<Segm
       polylines.push_back(l.points);
       image_line_sigmas.push_back(l.thin() ? options_.thin_line_sigma_m : 0.0);
     }
-    // The prior search once; the later loops start from the camera found. The search ranks results the final check
-    // would refuse for their distance to the prior behind the others.
-    LineMatcherOptions matcher = best ? matcherOptions() : options_.matcher;
-    matcher.max_prior_distance_sigmas = options_.max_prior_distance_sigmas;
-    auto matched =
-        best ? matchAndCalibrateFrom(map_lines, polylines, best->calibration.camera, config_.image_width,
-                                     config_.image_height, matcher, map_line_sigmas_m, image_line_sigmas, final_sigmas)
-             : matchAndCalibrate(map_lines, polylines, search_prior, config_.image_width, config_.image_height, matcher,
-                                 map_line_sigmas_m, image_line_sigmas, final_sigmas);
+    auto matched = matchOnce(map_lines, polylines, map_line_sigmas_m, image_line_sigmas, final_sigmas,
+                             best ? &best->calibration.camera : nullptr);
     if (!matched)
     {
       if (best)
