@@ -891,11 +891,53 @@ struct OracleData
   OracleData(const ic::CalibrationFile& truth, const std::vector<ic::Segment3d>& map) : truth(truth), map(map) {}
 };
 
+// The signed distances (px) of image points to the image of a 3D line under the true camera (empty when the line
+// does not project).
+std::vector<double> distancesToLineImage(const ic::CameraModel& t, const ic::Segment3d& e,
+                                         const std::vector<Eigen::Vector2d>& points)
+{
+  std::vector<double> out;
+  const auto ua = t.projectUndistorted(e.a), ub = t.projectUndistorted(e.b);
+  if (!ua || !ub)
+    return out;
+  const Eigen::Vector2d ud = (*ub - *ua).normalized();
+  const Eigen::Vector2d n(-ud.y(), ud.x());
+  for (const auto& m2 : points)
+  {
+    const auto u = t.distortion().undistort(m2);
+    const auto back = u ? t.distortion().distort(*ua + ud * ud.dot(*u - *ua)) : std::nullopt;
+    out.push_back(back ? n.dot(m2 - *back) : 0.0);
+  }
+  return out;
+}
+
+// Drops the matches whose image line does not lie on the map line's true edge (within 1 px under the true camera):
+// a neighbouring parallel edge can project within the matching threshold, and such a match is not the truth's.
+void dropMatchesOffTheirEdge(OracleData& d)
+{
+  if (d.edges.empty())
+    return;
+  const size_t before = d.matches.size();
+  const auto off = [&](const ic::LineMatch& m) {
+    const ic::Segment3d& s = d.map[m.map_line];
+    const int edge = ic::measureLine3d(s.a, s.b, d.edges, 0.1, 5.0).edge;
+    if (edge < 0)
+      return false;  // a map line off every edge: the map's error, which the oracle keeps
+    const auto x = distancesToLineImage(d.truth.camera, d.edges[edge], d.polylines[m.image_line]);
+    return std::any_of(x.begin(), x.end(), [](double v) { return std::abs(v) > 1.0; });
+  };
+  d.matches.erase(std::remove_if(d.matches.begin(), d.matches.end(), off), d.matches.end());
+  if (d.matches.size() < before)
+    std::printf("  oracle: %zu matches dropped, their image line off the map line's true edge\n",
+                before - d.matches.size());
+}
+
 // The correspondences of the matches the true camera makes (tight thresholds), as the pipeline forms them.
 ic::CorrespondenceSet oracleCorrespondences(OracleData& d, const ic::FixedCameraOptions& options)
 {
   const int w = d.truth.image_width, h = d.truth.image_height;
   d.matches = ic::matchLines(d.map, d.polylines, d.truth.camera, w, h, 2.0, 3.0, options.matcher);
+  dropMatchesOffTheirEdge(d);
   ic::CorrespondenceSet set;
   set.image_width = w;
   set.image_height = h;
@@ -913,21 +955,11 @@ ic::CorrespondenceSet oracleCorrespondences(OracleData& d, const ic::FixedCamera
 }
 
 // Prints the signed distances (px) of line i's image points to its true edge's image.
-void printImagePointDistances(const OracleData& d, size_t i, int edge, const Eigen::Vector2d& ua,
-                              const Eigen::Vector2d& ud)
+void printImagePointDistances(const OracleData& d, size_t i, int edge)
 {
-  const ic::CameraModel& t = d.truth.camera;
   std::printf("    line %zu (image %zu, edge %d):", i, d.matches[i].image_line, edge);
-  for (const auto& m2 : d.set.lines[i].image)
-  {
-    const auto u = t.distortion().undistort(m2);
-    if (!u)
-      continue;
-    const Eigen::Vector2d foot = ua + ud * ud.dot(*u - ua);
-    const auto back = t.distortion().distort(foot);
-    const Eigen::Vector2d n(-ud.y(), ud.x());
-    std::printf(" %+.3f", back ? n.dot(m2 - *back) : 0.0);
-  }
+  for (const double x : distancesToLineImage(d.truth.camera, d.edges[edge], d.set.lines[i].image))
+    std::printf(" %+.3f", x);
   std::printf("\n");
 }
 
@@ -952,7 +984,7 @@ void replaceByTruth(OracleData& d, bool details)
       continue;
     const Eigen::Vector2d ud = (*ub - *ua).normalized();
     if (details)
-      printImagePointDistances(d, i, err.edge, *ua, ud);
+      printImagePointDistances(d, i, err.edge);
     for (auto& m2 : d.true_image.lines[i].image)
     {
       const auto u = t.distortion().undistort(m2);
@@ -1086,10 +1118,10 @@ void oracleCalibration(const std::string& truth_dir, const std::string& name, co
   OracleData d(*truth, map);
   for (const auto& l : *lines)
     d.polylines.push_back(l.points);
-  d.set = oracleCorrespondences(d, options);
   if (const auto edges = ic::simulation::loadTrueEdges(truth_dir + "/edges.yaml"))
     for (const auto& e : *edges)
       d.edges.push_back({e.start, e.end});
+  d.set = oracleCorrespondences(d, options);
   replaceByTruth(d, details);
   addPlumbLinesAndBothTrue(d, details);
   if (details)
