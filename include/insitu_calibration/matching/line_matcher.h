@@ -63,6 +63,14 @@ struct LineMatcherOptions
   // Unmatched image lines of 3 or more points whose chord is at least this long join the final calibration as plumb
   // lines (CorrespondenceSet::straight_lines): they constrain the distortion. 0: none.
   double min_straight_line_px = 100.0;
+  // Unmatched image lines whose chord is at least this long and that pass through the vanishing point of a known
+  // direction under the matched camera (within RefinementOptions::max_direction_line_px) join it instead as images
+  // of edges of that direction (CorrespondenceSet::direction_lines): they constrain the rotation and the intrinsics,
+  // not the position. Known: the map's vertical and, with horizontal_direction_lines, the building's main horizontal
+  // directions along which at least min_direction_support matched map lines run. 0: none.
+  double min_direction_line_px = 60.0;
+  bool horizontal_direction_lines = true;
+  size_t min_direction_support = 3;
   // Ambiguity: an image line whose second-best 3D line is not worse by max(50 %, min_separation_px) is not matched,
   // unless both are within near_duplicate_px and lie within max(near_duplicate_m, 3 times their combined sigma) of
   // each other in 3D (the map holding one edge twice). Distinct edges that project onto one image line (a post's two

@@ -82,6 +82,11 @@ struct RefinementOptions
   // max_straight_line_px from straight under the initial camera is left out.
   bool use_straight_lines = true;
   double max_straight_line_px = 0.5;
+  // Direction lines (CorrespondenceSet::direction_lines) join the refinement: each point's distance to the line
+  // through its direction's vanishing point (and one free angle per line). A line farther than
+  // max_direction_line_px from such a line under the initial camera is left out.
+  bool use_direction_lines = true;
+  double max_direction_line_px = 1.5;
   // Weight each line by its 3D uncertainty (LineCorrespondence::world_sigma_m; lines without one keep weight 1).
   bool weight_by_world_sigma = true;
   double world_sigma_image_noise_px = 0.1;  // the image noise the 3D uncertainty is weighed against

@@ -38,6 +38,16 @@ struct PointCorrespondence
   Eigen::Vector3d world;  // metres
 };
 
+// The image of an edge whose direction in the world is known but not its position (a vertical edge: the map's z axis,
+// REP 103): it must pass through that direction's vanishing point. That constrains the rotation, the focal length and
+// the principal point (never the position), and it separates a turned camera from a shifted principal point where
+// the matched lines' view alone moves the image nearly alike for both (the vanishing point moves more than the view).
+struct DirectionLine
+{
+  std::vector<Eigen::Vector2d> image;  // >= 2 distorted pixels along the edge
+  Eigen::Vector3d direction = Eigen::Vector3d::UnitZ();  // world frame, unit
+};
+
 struct CorrespondenceSet
 {
   std::string camera_name;
@@ -48,13 +58,15 @@ struct CorrespondenceSet
   // Image polylines of edges known to be straight in the world but without a 3D line (plumb lines): they constrain
   // only the distortion (and weakly the principal point), through the refinement; the DLT does not use them.
   std::vector<std::vector<Eigen::Vector2d>> straight_lines;
+  // Image polylines of edges of a known direction (DirectionLine), through the refinement only, as plumb lines.
+  std::vector<DirectionLine> direction_lines;
 
   Eigen::Vector2d imageCenter() const { return insitu_calibration::imageCenter(image_width, image_height); }
   size_t lineConstraintCount() const;
   // True when a line has 3 or more image points or point correspondences exist: the data that identify lambda.
   bool canIdentifyDistortion() const;
   // Rejects NaN/infinite values, lines with fewer than 2 image points or no world point, coincident image points of
-  // a part, and non-positive image sizes.
+  // a part, direction lines without a direction or with fewer than 2 image points, and non-positive image sizes.
   Status validate() const;
 };
 

@@ -11,21 +11,118 @@ namespace insitu_calibration
 {
 namespace matching
 {
+namespace
+{
+std::vector<bool> matchedImageLines(const std::vector<LineMatch>& matches, size_t count)
+{
+  std::vector<bool> matched(count, false);
+  for (const auto& m : matches)
+    matched[m.image_line] = true;
+  return matched;
+}
+
+// Whether every point of a polyline lies within max_px (undistorted) of the line through the vanishing point of
+// direction d under `camera` and the polyline's middle.
+bool passesThroughVanishingPoint(const std::vector<Eigen::Vector2d>& polyline, const CameraModel& camera,
+                                 const Eigen::Vector3d& d, double max_px)
+{
+  std::vector<Eigen::Vector3d> u;
+  Eigen::Vector3d middle = Eigen::Vector3d::Zero();
+  for (const auto& m : polyline)
+  {
+    const auto x = camera.distortion().undistort(m);
+    if (!x)
+      return false;
+    u.emplace_back(x->x(), x->y(), 1.0);
+    middle += u.back() / static_cast<double>(polyline.size());
+  }
+  const Eigen::Vector3d vanishing = camera.intrinsics().matrix() * camera.pose().rotation * d;
+  const Eigen::Vector3d l = vanishing.cross(middle);
+  const double norm = l.head<2>().norm();
+  return norm > 0.0 && std::all_of(u.begin(), u.end(), [&](const Eigen::Vector3d& x) {
+           return std::abs(l.dot(x)) / norm <= max_px;
+         });
+}
+}  // namespace
+
 std::vector<std::vector<Eigen::Vector2d>> straightLinesOf(const std::vector<LineMatch>& matches,
                                                           const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
-                                                          double min_length_px)
+                                                          double min_length_px, const std::vector<bool>& taken)
 {
   std::vector<std::vector<Eigen::Vector2d>> out;
   if (!(min_length_px > 0.0))
     return out;
-  std::vector<bool> matched(image_lines.size(), false);
-  for (const auto& m : matches)
-    matched[m.image_line] = true;
+  const std::vector<bool> matched = matchedImageLines(matches, image_lines.size());
   for (size_t i = 0; i < image_lines.size(); ++i)
   {
     const auto& l = image_lines[i];
-    if (!matched[i] && l.size() >= 3 && (l.back() - l.front()).norm() >= min_length_px)
+    if (!matched[i] && (taken.empty() || !taken[i]) && l.size() >= 3 && (l.back() - l.front()).norm() >= min_length_px)
       out.push_back(l);
+  }
+  return out;
+}
+
+std::vector<Eigen::Vector3d> knownDirectionsOf(const std::vector<Segment3d>& matched_map_lines, bool horizontal,
+                                               size_t min_support)
+{
+  std::vector<Eigen::Vector3d> out = {Eigen::Vector3d::UnitZ()};
+  if (!horizontal)
+    return out;
+  struct Cluster
+  {
+    Eigen::Vector2d doubled = Eigen::Vector2d::Zero();  // sum of length x (cos 2a, sin 2a): directions, not signs
+    double weight = 0.0;
+    size_t support = 0;
+    double azimuth() const { return 0.5 * std::atan2(doubled.y(), doubled.x()); }
+  };
+  std::vector<Segment3d> level;
+  for (const auto& s : matched_map_lines)
+    if (std::abs((s.b - s.a).normalized().z()) < std::sin(3.0 * M_PI / 180.0))
+      level.push_back(s);
+  std::sort(level.begin(), level.end(), [](const Segment3d& a, const Segment3d& b) { return a.length() > b.length(); });
+  std::vector<Cluster> clusters;
+  for (const auto& s : level)
+  {
+    const double a = std::atan2(s.b.y() - s.a.y(), s.b.x() - s.a.x());
+    auto near = std::find_if(clusters.begin(), clusters.end(), [&](const Cluster& c) {
+      return std::abs(std::remainder(a - c.azimuth(), M_PI)) < 2.0 * M_PI / 180.0;
+    });
+    if (near == clusters.end())
+      near = clusters.insert(clusters.end(), Cluster{});
+    near->doubled += s.length() * Eigen::Vector2d(std::cos(2.0 * a), std::sin(2.0 * a));
+    near->weight += s.length();
+    ++near->support;
+  }
+  std::sort(clusters.begin(), clusters.end(), [](const Cluster& a, const Cluster& b) { return a.weight > b.weight; });
+  for (size_t k = 0; k < clusters.size() && out.size() < 3; ++k)
+    if (clusters[k].support >= min_support)
+      out.emplace_back(std::cos(clusters[k].azimuth()), std::sin(clusters[k].azimuth()), 0.0);
+  return out;
+}
+
+std::vector<DirectionLine> directionLinesOf(const std::vector<LineMatch>& matches,
+                                            const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
+                                            const CameraModel& camera, const std::vector<Eigen::Vector3d>& directions,
+                                            double min_length_px, double max_px, std::vector<bool>* taken)
+{
+  std::vector<DirectionLine> out;
+  taken->assign(image_lines.size(), false);
+  if (!(min_length_px > 0.0))
+    return out;
+  const std::vector<bool> matched = matchedImageLines(matches, image_lines.size());
+  for (size_t i = 0; i < image_lines.size(); ++i)
+  {
+    const auto& l = image_lines[i];
+    if (matched[i] || l.size() < 2 || (l.back() - l.front()).norm() < min_length_px)
+      continue;
+    std::vector<Eigen::Vector3d> through;
+    for (const auto& d : directions)
+      if (passesThroughVanishingPoint(l, camera, d, max_px))
+        through.push_back(d);
+    if (through.size() != 1)
+      continue;
+    out.push_back({l, through.front()});
+    (*taken)[i] = true;
   }
   return out;
 }

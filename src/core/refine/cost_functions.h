@@ -208,6 +208,34 @@ struct WorldPointToLineResidual
   }
 };
 
+// A direction line (CorrespondenceSet::direction_lines): an image point to the distorted image of the 3D line of
+// direction d through the point C + cos(phi) e1 + sin(phi) e2 (C the optical centre, e1, e2 across d): a line in the
+// plane through C that holds d, which phi, its only parameter, turns about d. The line's image passes through d's
+// vanishing point whatever phi; its position in the world does not enter (C cancels).
+struct DirectionLineResidual
+{
+  Projector projector;
+  Eigen::Vector3d direction;
+  Eigen::Vector3d e1;
+  Eigen::Vector3d e2;
+  Eigen::Vector2d image;
+
+  template <typename T>
+  bool operator()(const T* focal, const T* principal, const T* skew, const T* distortion, const T* delta,
+                  const T* center, const T* phi, T* residual) const
+  {
+    T a[3], b[3], ua[3], ub[3];
+    for (int i = 0; i < 3; ++i)
+    {
+      a[i] = center[i] + cos(phi[0]) * T(e1(i)) + sin(phi[0]) * T(e2(i));
+      b[i] = center[i] + T(direction(i));  // projects to the vanishing point
+    }
+    projector.undistortedHomogeneous(focal, skew, delta, center, a, ua);
+    projector.undistortedHomogeneous(focal, skew, delta, center, b, ub);
+    return ImagePointToLineResidual::distance(ua, ub, image, 1.0, principal, distortion, projector.r_ref2, residual);
+  }
+};
+
 // A plumb line: an image point, undistorted about the principal point, to the straight line (normal angle theta,
 // offset rho, undistorted px about the principal point) that its polyline must be; scaled back by the local scale.
 struct StraightLineResidual

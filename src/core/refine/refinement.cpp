@@ -163,6 +163,15 @@ struct StraightLines
   std::vector<bool> used;
 };
 
+// Direction lines: each one's angle phi about its direction (DirectionLineResidual), its frame across the direction
+// and whether it takes part.
+struct DirectionLines
+{
+  std::vector<std::array<double, 1>> phi;
+  std::vector<std::array<Eigen::Vector3d, 3>> frames;  // direction, e1, e2
+  std::vector<bool> used;
+};
+
 // Everything one refinement works on: the data, the parameters solved for and the per-line state that the rounds of
 // pairing and outlier rejection update.
 struct RefinementState
@@ -179,6 +188,7 @@ struct RefinementState
   std::vector<double> line_weight;
   std::vector<LineModel> models;
   StraightLines straight;
+  DirectionLines direction;
   std::vector<std::vector<size_t>> assignment;  // per line and world point: its nearest image part
   std::vector<std::vector<bool>> vertex_used;   // per line and image point: false once left out as an outlier
 
@@ -293,6 +303,40 @@ StraightLines fitStraightLines(const RefinementState& s)
   return out;
 }
 
+// Direction lines whose image is not a line through their vanishing point under the initial camera (within
+// max_direction_line_px: an edge of another direction, or a wrong start) are left out.
+DirectionLines fitDirectionLines(const RefinementState& s)
+{
+  DirectionLines out;
+  const size_t count = s.options.use_direction_lines ? s.data.direction_lines.size() : 0;
+  const CameraModel camera = s.camera();
+  for (size_t k = 0; k < count; ++k)
+  {
+    const auto& line = s.data.direction_lines[k];
+    const Eigen::Vector3d d = line.direction.normalized();
+    const Eigen::Vector3d e1 = d.unitOrthogonal(), e2 = d.cross(e1);
+    out.frames.push_back({d, e1, e2});
+    // phi: the plane through the centre that holds d and the ray of the polyline's middle.
+    Eigen::Vector3d ray = Eigen::Vector3d::Zero();
+    for (const auto& m : line.image)
+      if (const auto r = camera.backProject(m))
+        ray += *r;
+    const Eigen::Vector3d u = d.cross(camera.pose().rotation.transpose() * ray).cross(d);
+    out.phi.push_back({std::atan2(u.dot(e2), u.dot(e1))});
+    bool used = line.image.size() >= 2 && u.norm() > 1e-9;
+    for (const auto& m : line.image)
+    {
+      const DirectionLineResidual f{s.projector, d, e1, e2, m};
+      double r = 0.0;
+      used = used && f(s.p.focal, s.p.principal, s.p.skew, s.p.distortion, s.p.delta, s.p.center, out.phi[k].data(),
+                       &r) &&
+             std::abs(r) <= s.options.max_direction_line_px;
+    }
+    out.used.push_back(used);
+  }
+  return out;
+}
+
 // Pairs each world point with its nearest image part under the current camera; true when a pairing changed.
 bool pairWorldPointsWithParts(RefinementState& s)
 {
@@ -369,6 +413,24 @@ void addWorldPointResiduals(RefinementState& s, size_t i, BuiltProblem* built)
   }
 }
 
+// Direction lines (after the plumb lines in the row groups).
+void addDirectionLineResiduals(RefinementState& s, BuiltProblem* built)
+{
+  const size_t first_group = s.data.lines.size() + s.data.points.size() + s.straight.params.size();
+  Parameters& p = s.p;
+  for (size_t k = 0; k < s.direction.phi.size(); ++k)
+    for (const auto& m : s.direction.used[k] ? s.data.direction_lines[k].image : std::vector<Eigen::Vector2d>{})
+    {
+      const auto& [d, e1, e2] = s.direction.frames[k];
+      built->problem->AddResidualBlock(new ceres::AutoDiffCostFunction<DirectionLineResidual, 1, 2, 2, 1, 1, 3, 3, 1>(
+                                           new DirectionLineResidual{s.projector, d, e1, e2, m}),
+                                       makeLoss(s.options.loss, s.loss_scale_px).release(), p.focal, p.principal,
+                                       p.skew, p.distortion, p.delta, p.center, s.direction.phi[k].data());
+      ++built->residual_count;
+      built->row_group.push_back(first_group + k);
+    }
+}
+
 // Point correspondences and plumb lines.
 void addPointAndPlumbLineResiduals(RefinementState& s, BuiltProblem* built)
 {
@@ -395,6 +457,7 @@ void addPointAndPlumbLineResiduals(RefinementState& s, BuiltProblem* built)
       ++built->residual_count;
       built->row_group.push_back(lines + s.data.points.size() + k);
     }
+  addDirectionLineResiduals(s, built);
 }
 
 // Weak priors on the aspect ratio and the principal point, in the residuals' units (scaled by the residuals' noise
@@ -532,7 +595,7 @@ bool leaveOutImagePointOutliers(RefinementState& s)
   return changed;
 }
 
-// The free blocks of the Jacobian. The plumb lines' own parameters are nuisance parameters: in the normal equations
+// The free blocks of the Jacobian. The plumb and direction lines' own parameters are nuisance parameters: in the normal equations
 // (so that the camera's uncertainty accounts for them), not in the reported covariance.
 FreeBlocks freeBlocksOf(RefinementState& s)
 {
@@ -549,10 +612,13 @@ FreeBlocks freeBlocksOf(RefinementState& s)
   for (size_t k = 0; k < s.straight.params.size(); ++k)
     if (s.straight.used[k])
       free.add(s.straight.params[k].data(), 2);
+  for (size_t k = 0; k < s.direction.phi.size(); ++k)
+    if (s.direction.used[k])
+      free.add(s.direction.phi[k].data(), 1);
   return free;
 }
 
-// Every parameter the solve moved: the camera's, each kJoint line's 4 and each plumb line's 2.
+// Every parameter the solve moved: the camera's, each kJoint line's 4, each plumb line's 2, each direction line's 1.
 size_t freeParameterCount(const RefinementState& s)
 {
   size_t joint_lines = 0;
@@ -560,6 +626,7 @@ size_t freeParameterCount(const RefinementState& s)
     joint_lines += s.selected(i) && s.models[i].joint ? 1 : 0;
   const RefinementOptions& o = s.options;
   return 4 * joint_lines + 2 * std::count(s.straight.used.begin(), s.straight.used.end(), true) +
+         std::count(s.direction.used.begin(), s.direction.used.end(), true) +
          (o.single_focal ? 1 : 2) + (o.estimate_principal_point ? 2 : 0) + (o.estimate_skew ? 1 : 0) +
          (o.estimate_distortion ? 1 : 0) + 6;
 }
@@ -645,7 +712,8 @@ void analyseSolution(RefinementState& s, BuiltProblem& built, RefinementResult* 
   const size_t lines = s.data.lines.size();
   const FreeBlocks free = freeBlocksOf(s);
   const GroupDiagnostics groups = analyseGroups(
-      *built.problem, free, built.row_group, lines + s.data.points.size() + s.straight.params.size(),
+      *built.problem, free, built.row_group,
+      lines + s.data.points.size() + s.straight.params.size() + s.direction.phi.size(),
       s.options.compute_uncertainty && s.options.per_line_uncertainty && s.options.pair_uncertainty ? lines : 0);
   result->line_rms_px.assign(groups.rms_px.begin(), groups.rms_px.begin() + lines);
   result->line_loo_rms_px.assign(groups.loo_rms_px.begin(), groups.loo_rms_px.begin() + lines);
@@ -723,6 +791,7 @@ std::vector<Eigen::MatrixXd> cameraShiftsOfLineMoves(const CorrespondenceSet& da
   s.line_weight = worldSigmaWeights(s);
   s.models = makeLineModels(data, options, NoiseLevels());
   s.straight = fitStraightLines(s);
+  s.direction = fitDirectionLines(s);
   s.assignment.resize(data.lines.size());
   for (const auto& line : data.lines)
     s.vertex_used.emplace_back(line.image.size(), true);
@@ -839,6 +908,7 @@ Expected<RefinementResult> refineCamera(const CorrespondenceSet& data, const Cam
   }
   s.models = makeLineModels(data, options, noise);
   s.straight = fitStraightLines(s);
+  s.direction = fitDirectionLines(s);
   s.assignment.resize(data.lines.size());
   for (const auto& line : data.lines)
     s.vertex_used.emplace_back(line.image.size(), true);

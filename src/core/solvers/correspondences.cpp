@@ -1,5 +1,6 @@
 #include "insitu_calibration/solvers/correspondences.h"
 
+#include <algorithm>
 #include <string>
 
 namespace insitu_calibration
@@ -51,6 +52,14 @@ Status CorrespondenceSet::validate() const
   for (size_t i = 0; i < points.size(); ++i)
     if (!points[i].image.allFinite() || !points[i].world.allFinite())
       return Error(ErrorCode::kInvalidInput, "point " + std::to_string(i) + " is NaN or infinite");
+  for (size_t i = 0; i < direction_lines.size(); ++i)
+  {
+    const auto& line = direction_lines[i];
+    const bool finite = std::all_of(line.image.begin(), line.image.end(), [](const auto& p) { return p.allFinite(); });
+    if (line.image.size() < 2 || !finite || !line.direction.allFinite() || !(line.direction.norm() > 1e-9))
+      return Error(ErrorCode::kInvalidInput, "direction line " + std::to_string(i) +
+                                                 ": it needs 2 or more finite image points and a non-zero direction");
+  }
   return Success{};
 }
 

@@ -104,6 +104,12 @@ void readCameraParameters(ParameterSource& read, FixedCameraOptions& camera)
   camera.matcher.local_search_starts =
       read.integer("local_search_starts", camera.matcher.local_search_starts, Range::integers(1, 32));
   camera.matcher.prior_start = read.flag("prior_start", camera.matcher.prior_start);
+  // Unmatched images of edges of known directions in the final calibration (LineMatcherOptions::
+  // min_direction_line_px, 0: none; horizontal_direction_lines).
+  camera.matcher.min_direction_line_px = read.number("direction_lines/min_length", camera.matcher.min_direction_line_px,
+                                                     Range::closed(0.0, 10000.0, "px"));
+  camera.matcher.horizontal_direction_lines =
+      read.flag("direction_lines/horizontal", camera.matcher.horizontal_direction_lines);
   CalibrationOptions& calibration = camera.matcher.calibration;
   calibration.refine = read.flag("refine", calibration.refine);
   calibration.ransac = read.flag("ransac", calibration.ransac);
