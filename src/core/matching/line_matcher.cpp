@@ -100,29 +100,37 @@ bool improveLocally(const MatchingProblem& problem, bool hop, const std::vector<
   return false;
 }
 
-// The chosen result calibrated once more, with its priors weighed by the fit (the search's were stiffer), the
-// unmatched images of edges of known directions (the vertical, the building's main horizontal ones) as direction
-// lines and the other unmatched image lines as plumb lines (only here: each adds parameters, too many for the
-// exploration; none when min_direction_line_px, min_straight_line_px are 0).
+// The unmatched image lines under `camera`: images of edges of known directions (the vertical, the building's main
+// horizontal ones along the matched map lines) as direction lines, the other long ones as plumb lines.
+void addUnmatchedLines(const MatchingProblem& problem, const LineMatchResult& result, const CameraModel& camera,
+                       CorrespondenceSet* set)
+{
+  const LineMatcherOptions& options = problem.options;
+  std::vector<Segment3d> matched_map_lines;
+  for (const auto& m : result.candidate_matches)
+    matched_map_lines.push_back(problem.map_lines[m.map_line]);
+  const std::vector<Eigen::Vector3d> directions =
+      knownDirectionsOf(matched_map_lines, options.horizontal_direction_lines, options.min_direction_support);
+  std::vector<bool> taken;
+  set->direction_lines =
+      directionLinesOf(result.candidate_matches, problem.image_lines, camera, directions, options.min_direction_line_px,
+                       options.calibration.refinement.max_direction_line_px, &taken);
+  set->straight_lines =
+      straightLinesOf(result.candidate_matches, problem.image_lines, options.min_straight_line_px, taken);
+  for (const auto& l : set->direction_lines)
+    trace(options, "direction line %.1f %.1f -> %.1f %.1f (%zu points), direction %.3f %.3f %.3f", l.image.front().x(),
+          l.image.front().y(), l.image.back().x(), l.image.back().y(), l.image.size(), l.direction.x(),
+          l.direction.y(), l.direction.z());
+}
+
+// The chosen result calibrated once more, with its priors weighed by the fit (the search's were stiffer) and the
+// unmatched image lines as direction and plumb lines (only here: each adds parameters, too many for the exploration;
+// none when min_direction_line_px, min_straight_line_px are 0).
 void calibrateFinally(const MatchingProblem& problem, LineMatchResult* best)
 {
   const LineMatcherOptions& options = problem.options;
   CorrespondenceSet set = best->correspondences;
-  std::vector<Segment3d> matched_map_lines;
-  for (const auto& m : best->candidate_matches)
-    matched_map_lines.push_back(problem.map_lines[m.map_line]);
-  const std::vector<Eigen::Vector3d> directions = knownDirectionsOf(
-      matched_map_lines, options.horizontal_direction_lines, options.min_direction_support);
-  std::vector<bool> taken;
-  set.direction_lines =
-      directionLinesOf(best->candidate_matches, problem.image_lines, best->calibration.camera, directions,
-                       options.min_direction_line_px, options.calibration.refinement.max_direction_line_px, &taken);
-  set.straight_lines =
-      straightLinesOf(best->candidate_matches, problem.image_lines, options.min_straight_line_px, taken);
-  for (const auto& l : set.direction_lines)
-    trace(options, "direction line %.1f %.1f -> %.1f %.1f (%zu points), direction %.3f %.3f %.3f", l.image.front().x(),
-          l.image.front().y(), l.image.back().x(), l.image.back().y(), l.image.size(), l.direction.x(),
-          l.direction.y(), l.direction.z());
+  addUnmatchedLines(problem, *best, best->calibration.camera, &set);
   if (problem.final_map_sigmas &&
       problem.final_map_sigmas->size() == problem.map_lines.size())  // k-th line: k-th match
     for (size_t k = 0; k < set.lines.size() && k < best->candidate_matches.size(); ++k)
@@ -131,8 +139,9 @@ void calibrateFinally(const MatchingProblem& problem, LineMatchResult* best)
   if (!polished)
     return;
   trace(options, "with %zu plumb lines and %zu direction lines: %zu -> %zu inlier lines, lambda %.4g -> %.4g, %s",
-        set.straight_lines.size(), set.direction_lines.size(), best->calibration.inlier_count, polished->inlier_count, best->calibration.camera.distortion().lambda,
-        polished->camera.distortion().lambda, describeCamera(polished->camera).c_str());
+        set.straight_lines.size(), set.direction_lines.size(), best->calibration.inlier_count,
+        polished->inlier_count, best->calibration.camera.distortion().lambda, polished->camera.distortion().lambda,
+        describeCamera(polished->camera).c_str());
   best->calibration = *polished;
   best->correspondences = set;
   best->matches.clear();
