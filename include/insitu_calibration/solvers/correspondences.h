@@ -46,6 +46,10 @@ struct DirectionLine
 {
   std::vector<Eigen::Vector2d> image;  // >= 2 distorted pixels along the edge
   Eigen::Vector3d direction = Eigen::Vector3d::UnitZ();  // world frame, unit
+  // Lines of one group >= 0 share an unknown turn of their directions about the world's z axis, estimated with the
+  // camera (a building's horizontal directions as the map's lines give them, a fraction of a degree off: their
+  // error then enters the camera's uncertainty instead of biasing it). -1: the direction is exact (the vertical).
+  int azimuth_group = -1;
 };
 
 struct CorrespondenceSet

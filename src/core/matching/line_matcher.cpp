@@ -109,7 +109,7 @@ void addUnmatchedLines(const MatchingProblem& problem, const LineMatchResult& re
   std::vector<Segment3d> matched_map_lines;
   for (const auto& m : result.candidate_matches)
     matched_map_lines.push_back(problem.map_lines[m.map_line]);
-  const std::vector<Eigen::Vector3d> directions =
+  const std::vector<DirectionLine> directions =
       knownDirectionsOf(matched_map_lines, options.horizontal_direction_lines, options.min_direction_support);
   std::vector<bool> taken;
   set->direction_lines =
@@ -118,9 +118,9 @@ void addUnmatchedLines(const MatchingProblem& problem, const LineMatchResult& re
   set->straight_lines =
       straightLinesOf(result.candidate_matches, problem.image_lines, options.min_straight_line_px, taken);
   for (const auto& l : set->direction_lines)
-    trace(options, "direction line %.1f %.1f -> %.1f %.1f (%zu points), direction %.3f %.3f %.3f", l.image.front().x(),
-          l.image.front().y(), l.image.back().x(), l.image.back().y(), l.image.size(), l.direction.x(),
-          l.direction.y(), l.direction.z());
+    trace(options, "direction line %.1f %.1f -> %.1f %.1f (%zu points), direction %.4f %.4f %.4f (group %d)",
+          l.image.front().x(), l.image.front().y(), l.image.back().x(), l.image.back().y(), l.image.size(),
+          l.direction.x(), l.direction.y(), l.direction.z(), l.azimuth_group);
 }
 
 // The chosen result calibrated once more, with its priors weighed by the fit (the search's were stiffer) and the

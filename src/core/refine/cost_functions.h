@@ -210,8 +210,9 @@ struct WorldPointToLineResidual
 
 // A direction line (CorrespondenceSet::direction_lines): an image point to the distorted image of the 3D line of
 // direction d through the point C + cos(phi) e1 + sin(phi) e2 (C the optical centre, e1, e2 across d): a line in the
-// plane through C that holds d, which phi, its only parameter, turns about d. The line's image passes through d's
-// vanishing point whatever phi; its position in the world does not enter (C cancels).
+// plane through C that holds d, which phi turns about d. The line's image passes through d's vanishing point whatever
+// phi; its position in the world does not enter (C cancels). d, e1 and e2 are turned about the world's z axis by the
+// line's group's azimuth correction (a constant zero for an exact direction).
 struct DirectionLineResidual
 {
   Projector projector;
@@ -221,14 +222,26 @@ struct DirectionLineResidual
   Eigen::Vector2d image;
 
   template <typename T>
-  bool operator()(const T* focal, const T* principal, const T* skew, const T* distortion, const T* delta,
-                  const T* center, const T* phi, T* residual) const
+  static void turnAboutZ(const T* azimuth, const Eigen::Vector3d& v, T* out)
   {
+    out[0] = cos(azimuth[0]) * T(v.x()) - sin(azimuth[0]) * T(v.y());
+    out[1] = sin(azimuth[0]) * T(v.x()) + cos(azimuth[0]) * T(v.y());
+    out[2] = T(v.z());
+  }
+
+  template <typename T>
+  bool operator()(const T* focal, const T* principal, const T* skew, const T* distortion, const T* delta,
+                  const T* center, const T* phi, const T* azimuth, T* residual) const
+  {
+    T d[3], u1[3], u2[3];
+    turnAboutZ(azimuth, direction, d);
+    turnAboutZ(azimuth, e1, u1);
+    turnAboutZ(azimuth, e2, u2);
     T a[3], b[3], ua[3], ub[3];
     for (int i = 0; i < 3; ++i)
     {
-      a[i] = center[i] + cos(phi[0]) * T(e1(i)) + sin(phi[0]) * T(e2(i));
-      b[i] = center[i] + T(direction(i));  // projects to the vanishing point
+      a[i] = center[i] + cos(phi[0]) * u1[i] + sin(phi[0]) * u2[i];
+      b[i] = center[i] + d[i];  // projects to the vanishing point
     }
     projector.undistortedHomogeneous(focal, skew, delta, center, a, ua);
     projector.undistortedHomogeneous(focal, skew, delta, center, b, ub);

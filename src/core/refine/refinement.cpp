@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <memory>
 #include <numeric>
 
@@ -170,6 +171,24 @@ struct DirectionLines
   std::vector<std::array<double, 1>> phi;
   std::vector<std::array<Eigen::Vector3d, 3>> frames;  // direction, e1, e2
   std::vector<bool> used;
+  // Per azimuth group (DirectionLine::azimuth_group) its correction, free when a used line has it; and the constant
+  // zero of exact directions.
+  std::map<int, std::array<double, 1>> azimuth;
+  std::array<double, 1> exact = {0.0};
+
+  double* azimuthOf(int group) { return group < 0 ? exact.data() : azimuth.at(group).data(); }
+  std::vector<int> usedAzimuthGroups(const CorrespondenceSet& data) const
+  {
+    std::vector<int> out;
+    for (const auto& [group, value] : azimuth)
+      for (size_t k = 0; k < used.size(); ++k)
+        if (used[k] && data.direction_lines[k].azimuth_group == group)
+        {
+          out.push_back(group);
+          break;
+        }
+    return out;
+  }
 };
 
 // Everything one refinement works on: the data, the parameters solved for and the per-line state that the rounds of
@@ -316,6 +335,8 @@ DirectionLines fitDirectionLines(const RefinementState& s)
     const Eigen::Vector3d d = line.direction.normalized();
     const Eigen::Vector3d e1 = d.unitOrthogonal(), e2 = d.cross(e1);
     out.frames.push_back({d, e1, e2});
+    if (line.azimuth_group >= 0)
+      out.azimuth[line.azimuth_group] = {0.0};
     // phi: the plane through the centre that holds d and the ray of the polyline's middle.
     Eigen::Vector3d ray = Eigen::Vector3d::Zero();
     for (const auto& m : line.image)
@@ -329,7 +350,7 @@ DirectionLines fitDirectionLines(const RefinementState& s)
       const DirectionLineResidual f{s.projector, d, e1, e2, m};
       double r = 0.0;
       used = used && f(s.p.focal, s.p.principal, s.p.skew, s.p.distortion, s.p.delta, s.p.center, out.phi[k].data(),
-                       &r) &&
+                       out.exact.data(), &r) &&
              std::abs(r) <= s.options.max_direction_line_px;
     }
     out.used.push_back(used);
@@ -422,13 +443,16 @@ void addDirectionLineResiduals(RefinementState& s, BuiltProblem* built)
     for (const auto& m : s.direction.used[k] ? s.data.direction_lines[k].image : std::vector<Eigen::Vector2d>{})
     {
       const auto& [d, e1, e2] = s.direction.frames[k];
-      built->problem->AddResidualBlock(new ceres::AutoDiffCostFunction<DirectionLineResidual, 1, 2, 2, 1, 1, 3, 3, 1>(
-                                           new DirectionLineResidual{s.projector, d, e1, e2, m}),
-                                       makeLoss(s.options.loss, s.loss_scale_px).release(), p.focal, p.principal,
-                                       p.skew, p.distortion, p.delta, p.center, s.direction.phi[k].data());
+      built->problem->AddResidualBlock(
+          new ceres::AutoDiffCostFunction<DirectionLineResidual, 1, 2, 2, 1, 1, 3, 3, 1, 1>(
+              new DirectionLineResidual{s.projector, d, e1, e2, m}),
+          makeLoss(s.options.loss, s.loss_scale_px).release(), p.focal, p.principal, p.skew, p.distortion, p.delta,
+          p.center, s.direction.phi[k].data(), s.direction.azimuthOf(s.data.direction_lines[k].azimuth_group));
       ++built->residual_count;
       built->row_group.push_back(first_group + k);
     }
+  if (built->problem->HasParameterBlock(s.direction.exact.data()))
+    built->problem->SetParameterBlockConstant(s.direction.exact.data());
 }
 
 // Point correspondences and plumb lines.
@@ -615,10 +639,13 @@ FreeBlocks freeBlocksOf(RefinementState& s)
   for (size_t k = 0; k < s.direction.phi.size(); ++k)
     if (s.direction.used[k])
       free.add(s.direction.phi[k].data(), 1);
+  for (const int group : s.direction.usedAzimuthGroups(s.data))
+    free.add(s.direction.azimuthOf(group), 1);
   return free;
 }
 
-// Every parameter the solve moved: the camera's, each kJoint line's 4, each plumb line's 2, each direction line's 1.
+// Every parameter the solve moved: the camera's, each kJoint line's 4, each plumb line's 2, each direction line's 1
+// and each used azimuth group's 1.
 size_t freeParameterCount(const RefinementState& s)
 {
   size_t joint_lines = 0;
@@ -627,6 +654,7 @@ size_t freeParameterCount(const RefinementState& s)
   const RefinementOptions& o = s.options;
   return 4 * joint_lines + 2 * std::count(s.straight.used.begin(), s.straight.used.end(), true) +
          std::count(s.direction.used.begin(), s.direction.used.end(), true) +
+         s.direction.usedAzimuthGroups(s.data).size() +
          (o.single_focal ? 1 : 2) + (o.estimate_principal_point ? 2 : 0) + (o.estimate_skew ? 1 : 0) +
          (o.estimate_distortion ? 1 : 0) + 6;
 }
