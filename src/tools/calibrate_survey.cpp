@@ -18,6 +18,7 @@
 #include "insitu_calibration/refine/refinement.h"
 #include "insitu_calibration/lines/depth_registration.h"
 #include "insitu_calibration/lines/line_evaluation.h"
+#include "insitu_calibration/matching/direction_lines.h"
 #include "insitu_calibration/metrics.h"
 #include "insitu_calibration/ros/survey_bag_reader.h"
 #include "insitu_calibration/simulation/edge_sightings.h"
@@ -997,18 +998,31 @@ void replaceByTruth(OracleData& d, bool details)
   }
 }
 
-// The long unmatched image lines as plumb lines, as the final calibration uses them; then the both-true variant.
-void addPlumbLinesAndBothTrue(OracleData& d, bool details)
+// The unmatched image lines as the final calibration uses them (direction lines, the other long ones plumb lines,
+// found under the true camera); then the both-true variant.
+void addUnmatchedLinesAndBothTrue(OracleData& d, const ic::LineMatcherOptions& matcher, bool details)
 {
+  std::vector<ic::Segment3d> matched_map_lines;
+  for (const auto& m : d.matches)
+    matched_map_lines.push_back(d.map[m.map_line]);
+  const auto directions =
+      ic::knownDirectionsOf(matched_map_lines, matcher.horizontal_direction_lines, matcher.min_direction_support);
+  std::vector<bool> taken;
+  const auto direction_lines =
+      ic::directionLinesOf(d.matches, d.polylines, d.truth.camera, directions, matcher.min_direction_line_px,
+                           matcher.calibration.refinement.max_direction_line_px, &taken);
   std::vector<bool> matched(d.polylines.size(), false);
   for (const auto& m : d.matches)
     matched[m.image_line] = true;
+  for (auto* s2 : {&d.set, &d.true_world, &d.true_image, &d.true_both})
+    s2->direction_lines = direction_lines;
   for (size_t i = 0; i < d.polylines.size(); ++i)
-    if (!matched[i] && d.polylines[i].size() >= 3 && (d.polylines[i].back() - d.polylines[i].front()).norm() >= 100.0)
+    if (!matched[i] && !taken[i] && d.polylines[i].size() >= 3 &&
+        (d.polylines[i].back() - d.polylines[i].front()).norm() >= matcher.min_straight_line_px)
       for (auto* s2 : {&d.set, &d.true_world, &d.true_image, &d.true_both})
         s2->straight_lines.push_back(d.polylines[i]);
   if (details)
-    std::printf("    %zu plumb lines\n", d.set.straight_lines.size());
+    std::printf("    %zu plumb lines, %zu direction lines\n", d.set.straight_lines.size(), direction_lines.size());
   for (size_t i = 0; i < d.set.lines.size(); ++i)
   {
     d.true_both.lines[i].world = d.true_world.lines[i].world;
@@ -1123,7 +1137,7 @@ void oracleCalibration(const std::string& truth_dir, const std::string& name, co
       d.edges.push_back({e.start, e.end});
   d.set = oracleCorrespondences(d, options);
   replaceByTruth(d, details);
-  addPlumbLinesAndBothTrue(d, details);
+  addUnmatchedLinesAndBothTrue(d, options.matcher, details);
   if (details)
   {
     printImageLineDetails(d);

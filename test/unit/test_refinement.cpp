@@ -501,8 +501,8 @@ TEST(Refinement, DirectionLinesAreExactAtTheTruth)
   Scene exact = s;
   for (auto& line : exact.lines.data.lines)
     for (size_t k = 0; k < line.image.size(); ++k)
-      line.image[k] = *s.truth.project(line.world.front() + (line.world.back() - line.world.front()) * k /
-                                                                 (line.image.size() - 1.0));
+      line.image[k] = *s.truth.project(line.world.front() +
+                                       (line.world.back() - line.world.front()) * k / (line.image.size() - 1.0));
   std::vector<ic::DirectionLine> vertical = axisEdgeImages(s, 6, 4701, true);
   ASSERT_GE(vertical.size(), 4u);
   for (auto& line : vertical)  // noise-free: the images of the lines through their end points' rays
@@ -621,9 +621,10 @@ TEST(Refinement, AHorizontalDirectionsAzimuthIsEstimatedWithTheCamera)
                    ? 1
                    : 0;
   }
-  std::printf("mean focal error with horizontal directions %.2f deg off: taken as exact %.4f %%, azimuth estimated %.4f %%; "
-              "focal and rotation within 2 sigma %d of %d\n",
-              azimuth_error_deg, 100.0 * focal_fixed, 100.0 * focal_estimated, covered, trials);
+  std::printf(
+      "mean focal error with horizontal directions %.2f deg off: taken as exact %.4f %%, azimuth estimated %.4f %%; "
+      "focal and rotation within 2 sigma %d of %d\n",
+      azimuth_error_deg, 100.0 * focal_fixed, 100.0 * focal_estimated, covered, trials);
   EXPECT_LT(focal_estimated, 0.5 * focal_fixed);
   EXPECT_GE(covered, 17);
 }

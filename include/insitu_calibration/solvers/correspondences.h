@@ -44,7 +44,7 @@ struct PointCorrespondence
 // the matched lines' view alone moves the image nearly alike for both (the vanishing point moves more than the view).
 struct DirectionLine
 {
-  std::vector<Eigen::Vector2d> image;  // >= 2 distorted pixels along the edge
+  std::vector<Eigen::Vector2d> image;                    // >= 2 distorted pixels along the edge
   Eigen::Vector3d direction = Eigen::Vector3d::UnitZ();  // world frame, unit
   // Lines of one group >= 0 share an unknown turn of their directions about the world's z axis, estimated with the
   // camera (a building's horizontal directions as the map's lines give them, a fraction of a degree off: their

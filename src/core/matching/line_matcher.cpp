@@ -9,6 +9,7 @@
 #include <optional>
 #include <string>
 
+#include "insitu_calibration/matching/direction_lines.h"
 #include "matching/local_moves.h"
 #include "matching/match_refinement.h"
 #include "matching/matcher_trace.h"
@@ -139,8 +140,8 @@ void calibrateFinally(const MatchingProblem& problem, LineMatchResult* best)
   if (!polished)
     return;
   trace(options, "with %zu plumb lines and %zu direction lines: %zu -> %zu inlier lines, lambda %.4g -> %.4g, %s",
-        set.straight_lines.size(), set.direction_lines.size(), best->calibration.inlier_count,
-        polished->inlier_count, best->calibration.camera.distortion().lambda, polished->camera.distortion().lambda,
+        set.straight_lines.size(), set.direction_lines.size(), best->calibration.inlier_count, polished->inlier_count,
+        best->calibration.camera.distortion().lambda, polished->camera.distortion().lambda,
         describeCamera(polished->camera).c_str());
   best->calibration = *polished;
   best->correspondences = set;

@@ -349,8 +349,9 @@ DirectionLines fitDirectionLines(const RefinementState& s)
     {
       const DirectionLineResidual f{s.projector, d, e1, e2, m};
       double r = 0.0;
-      used = used && f(s.p.focal, s.p.principal, s.p.skew, s.p.distortion, s.p.delta, s.p.center, out.phi[k].data(),
-                       out.exact.data(), &r) &&
+      used = used &&
+             f(s.p.focal, s.p.principal, s.p.skew, s.p.distortion, s.p.delta, s.p.center, out.phi[k].data(),
+               out.exact.data(), &r) &&
              std::abs(r) <= s.options.max_direction_line_px;
     }
     out.used.push_back(used);
@@ -619,8 +620,8 @@ bool leaveOutImagePointOutliers(RefinementState& s)
   return changed;
 }
 
-// The free blocks of the Jacobian. The plumb and direction lines' own parameters are nuisance parameters: in the normal equations
-// (so that the camera's uncertainty accounts for them), not in the reported covariance.
+// The free blocks of the Jacobian. The plumb and direction lines' own parameters are nuisance parameters: in the normal
+// equations (so that the camera's uncertainty accounts for them), not in the reported covariance.
 FreeBlocks freeBlocksOf(RefinementState& s)
 {
   FreeBlocks free;
@@ -654,9 +655,8 @@ size_t freeParameterCount(const RefinementState& s)
   const RefinementOptions& o = s.options;
   return 4 * joint_lines + 2 * std::count(s.straight.used.begin(), s.straight.used.end(), true) +
          std::count(s.direction.used.begin(), s.direction.used.end(), true) +
-         s.direction.usedAzimuthGroups(s.data).size() +
-         (o.single_focal ? 1 : 2) + (o.estimate_principal_point ? 2 : 0) + (o.estimate_skew ? 1 : 0) +
-         (o.estimate_distortion ? 1 : 0) + 6;
+         s.direction.usedAzimuthGroups(s.data).size() + (o.single_focal ? 1 : 2) +
+         (o.estimate_principal_point ? 2 : 0) + (o.estimate_skew ? 1 : 0) + (o.estimate_distortion ? 1 : 0) + 6;
 }
 
 // The robust schedule: pair, solve, leave out image-point outliers, and again while the pairing (which matters only
