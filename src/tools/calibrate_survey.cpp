@@ -1011,9 +1011,7 @@ void addUnmatchedLinesAndBothTrue(OracleData& d, const ic::LineMatcherOptions& m
   const auto direction_lines =
       ic::directionLinesOf(d.matches, d.polylines, d.truth.camera, directions, matcher.min_direction_line_px,
                            matcher.calibration.refinement.max_direction_line_px, &taken);
-  std::vector<bool> matched(d.polylines.size(), false);
-  for (const auto& m : d.matches)
-    matched[m.image_line] = true;
+  const std::vector<bool> matched = ic::matchedImageLines(d.matches, d.polylines.size());
   for (auto* s2 : {&d.set, &d.true_world, &d.true_image, &d.true_both})
     s2->direction_lines = direction_lines;
   for (size_t i = 0; i < d.polylines.size(); ++i)

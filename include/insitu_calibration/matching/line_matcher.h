@@ -194,6 +194,9 @@ double explanationScore(const std::vector<Segment3d>& map_lines,
                         const std::vector<std::vector<Eigen::Vector2d>>& image_lines, const CameraModel& camera,
                         int image_width, int image_height, const LineMatcherOptions& options = {});
 
+// Per image line (of image_line_count), whether one of the matches has it.
+std::vector<bool> matchedImageLines(const std::vector<LineMatch>& matches, size_t image_line_count);
+
 // Step 2 alone: matches under a given camera.
 std::vector<LineMatch> matchLines(const std::vector<Segment3d>& map_lines,
                                   const std::vector<std::vector<Eigen::Vector2d>>& image_lines,

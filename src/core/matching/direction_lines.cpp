@@ -105,9 +105,7 @@ std::vector<DirectionLine> directionLinesOf(const std::vector<LineMatch>& matche
   taken->assign(image_lines.size(), false);
   if (!(min_length_px > 0.0))
     return out;
-  std::vector<bool> matched(image_lines.size(), false);
-  for (const auto& m : matches)
-    matched[m.image_line] = true;
+  const std::vector<bool> matched = matchedImageLines(matches, image_lines.size());
   for (size_t i = 0; i < image_lines.size(); ++i)
   {
     const auto& l = image_lines[i];

@@ -103,6 +103,15 @@ std::vector<LineMatch> matchLinesExcept(const MatchingProblem& problem, const Ca
 }
 }  // namespace matching
 
+std::vector<bool> matchedImageLines(const std::vector<LineMatch>& matches, size_t image_line_count)
+{
+  std::vector<bool> matched(image_line_count, false);
+  for (const auto& m : matches)
+    if (m.image_line < image_line_count)
+      matched[m.image_line] = true;
+  return matched;
+}
+
 std::vector<LineMatch> matchLines(const std::vector<Segment3d>& map_lines,
                                   const std::vector<std::vector<Eigen::Vector2d>>& image_lines,
                                   const CameraModel& camera, int image_width, int image_height, double max_angle_deg,
