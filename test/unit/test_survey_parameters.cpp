@@ -112,6 +112,7 @@ min_matched_lines: 12
 search_starts: 6
 hypothesis_starts: 3
 hypothesis_centres: 7
+hypothesis_distortion: {max_corner_px: 30, steps: 2, starts: 1}
 local_search_starts: 2
 prior_start: false
 ransac_threshold_px: 4.5
@@ -138,6 +139,8 @@ cameras: []
   EXPECT_EQ(o.matcher.search_starts, 6);
   EXPECT_EQ(o.matcher.hypothesis_starts, 3);
   EXPECT_EQ(o.matcher.hypothesis_centres, 7);
+  EXPECT_EQ(o.matcher.hypothesis_corner_px, (std::vector<double>{0.0, -15.0, -30.0}));
+  EXPECT_EQ(o.matcher.hypothesis_distortion_starts, 1);
   EXPECT_EQ(o.matcher.local_search_starts, 2);
   EXPECT_EQ(o.matcher.calibration.ransac_options.inlier_threshold_px, 4.5);
   EXPECT_FALSE(o.matcher.calibration.ransac);

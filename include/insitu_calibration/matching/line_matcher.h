@@ -97,6 +97,11 @@ struct LineMatcherOptions
   int hypothesis_starts = 4;
   int hypothesis_centres = 3;
   int hypothesis_iterations = 4000;
+  // Barrel distortions the hypotheses also try (px at the image corner, negative: inwards; 0 first: the lines as
+  // they are): taken as straight, a wide camera's bent lines put the vanishing points and planes off. The best
+  // hypothesis_distortion_starts distinct distorted ones join the straight lines' hypothesis_starts.
+  std::vector<double> hypothesis_corner_px = {0.0, -20.0, -40.0, -60.0};
+  int hypothesis_distortion_starts = 2;
   // The explanation score that picks among results: per image line its squared mean distance to the nearest
   // compatible projected 3D line, capped at this (px), summed.
   double explanation_cap_px = 1.0;

@@ -130,6 +130,16 @@ bool distinctFrom(const CameraModel& c, const std::vector<Scored>& chosen)
            std::abs(c.intrinsics().fx / s.camera.intrinsics().fx - 1.0) > 0.05;
   });
 }
+// The best `count` of `scored` (sorted here, best first) distinct from those already chosen, appended to them.
+void chooseDistinct(std::vector<Scored>* scored, int count, std::vector<Scored>* chosen)
+{
+  std::sort(scored->begin(), scored->end(), [](const Scored& a, const Scored& b) { return a.score < b.score; });
+  int added = 0;
+  for (const Scored& s : *scored)
+    if (added < count && distinctFrom(s.camera, *chosen))
+      chosen->push_back(s), ++added;
+}
+
 // A horizontal direction's azimuth, deg in [0, 180) (a line has no sense), and its length; none for a short or
 // steep line.
 std::optional<std::pair<double, double>> horizontalAzimuth(const Segment3d& s)
@@ -383,6 +393,57 @@ std::vector<Eigen::Vector3d> centreHypotheses(const std::vector<PlanePair>& pair
   }
   return centres;
 }
+
+// The image lines undistorted by a division model of `lambda` about the image centre (a hypothesis's camera has its
+// principal point there): the stages' planes and vanishing points take straight lines.
+std::vector<std::vector<Eigen::Vector2d>> undistortedLines(const std::vector<std::vector<Eigen::Vector2d>>& lines,
+                                                           const DivisionModel& model)
+{
+  std::vector<std::vector<Eigen::Vector2d>> out;
+  out.reserve(lines.size());
+  for (const auto& line : lines)
+  {
+    std::vector<Eigen::Vector2d> points;
+    points.reserve(line.size());
+    for (const Eigen::Vector2d& p : line)
+      points.push_back(model.undistort(p).value_or(p));
+    out.push_back(std::move(points));
+  }
+  return out;
+}
+
+// One distortion's hypotheses (stages 1 and 2 on the image lines undistorted by it), scored on the distorted lines.
+void addHypotheses(const MatchingProblem& problem, const Cone& cone, const DivisionModel& distortion,
+                   const std::vector<MapCandidate>& maps, const std::vector<Eigen::Vector3d>& directions,
+                   std::mt19937& rng, std::vector<Scored>* scored)
+{
+  const LineMatcherOptions& o = problem.options;
+  const std::vector<std::vector<Eigen::Vector2d>> lines = undistortedLines(problem.image_lines, distortion);
+  const MatchingProblem straight(problem.map_lines, problem.map_sigmas, lines, problem.width, problem.height, o);
+  std::vector<size_t> vertical, other;
+  for (size_t i = 0; i < straight.image.size(); ++i)
+    if (straight.image[i].length >= std::max(30.0, o.min_image_length_px))
+      (mayBeVertical(cone, straight.image[i], straight.width, straight.height) ? vertical : other).push_back(i);
+  const std::vector<Rotation> rotations = rotationHypotheses(straight, cone, vertical, other, directions, rng);
+  const Eigen::Vector2d pp = imageCenter(problem.width, problem.height);
+  const double cap = 0.04 * std::hypot(problem.width, problem.height);
+  for (const Rotation& r : rotations)
+  {
+    const std::vector<PlanePair> pairs = planePairs(straight, cone, r.value, maps);
+    const std::vector<Eigen::Vector3d> centres =
+        centreHypotheses(pairs, cone, kCentreSamples, static_cast<size_t>(std::max(1, o.hypothesis_centres)), rng);
+    trace(o, "hypotheses: lambda %.3g, rotation supported by %.0f px of lines, fx %.1f, %zu plane pairs, %zu centres",
+          distortion.lambda, r.support, r.value.focal_px, pairs.size(), centres.size());
+    for (const Eigen::Vector3d& centre : centres)
+    {
+      const CameraModel c(Intrinsics{r.value.focal_px, r.value.focal_px, 0.0, pp.x(), pp.y()}, distortion,
+                          CameraPose{r.value.rotation, -r.value.rotation * centre});
+      scored->push_back({searchScore(c, problem, 5.0, cap), c});
+    }
+  }
+  trace(o, "hypotheses: lambda %.3g: %zu vertical and %zu other image lines, %zu map directions, %zu rotations",
+        distortion.lambda, vertical.size(), other.size(), directions.size(), rotations.size());
+}
 }  // namespace
 
 std::vector<CameraModel> lineHypotheses(const MatchingProblem& problem, const CameraPrior& prior)
@@ -390,39 +451,22 @@ std::vector<CameraModel> lineHypotheses(const MatchingProblem& problem, const Ca
   const LineMatcherOptions& o = problem.options;
   const auto started = std::chrono::steady_clock::now();
   const Cone cone(prior, problem.width, problem.height);
-  std::vector<size_t> vertical, other;
-  for (size_t i = 0; i < problem.image.size(); ++i)
-    if (problem.image[i].length >= std::max(30.0, o.min_image_length_px))
-      (mayBeVertical(cone, problem.image[i], problem.width, problem.height) ? vertical : other).push_back(i);
   const std::vector<Eigen::Vector3d> directions = dominantDirections(problem.map_lines);
   std::mt19937 rng(12);
-  const std::vector<Rotation> rotations = rotationHypotheses(problem, cone, vertical, other, directions, rng);
   const std::vector<MapCandidate> maps = mapCandidates(cone, problem.map_lines);
   const Eigen::Vector2d pp = imageCenter(problem.width, problem.height);
-  const double cap = 0.04 * std::hypot(problem.width, problem.height);
-  std::vector<Scored> scored;
-  for (const Rotation& r : rotations)
-  {
-    const std::vector<PlanePair> pairs = planePairs(problem, cone, r.value, maps);
-    const std::vector<Eigen::Vector3d> centres =
-        centreHypotheses(pairs, cone, kCentreSamples, static_cast<size_t>(std::max(1, o.hypothesis_centres)), rng);
-    trace(o, "hypotheses: rotation supported by %.0f px of lines, fx %.1f, %zu plane pairs, %zu centres", r.support,
-          r.value.focal_px, pairs.size(), centres.size());
-    for (const Eigen::Vector3d& centre : centres)
-    {
-      const CameraModel c(Intrinsics{r.value.focal_px, r.value.focal_px, 0.0, pp.x(), pp.y()}, DivisionModel{0.0, pp},
-                          CameraPose{r.value.rotation, -r.value.rotation * centre});
-      scored.push_back({searchScore(c, problem, 5.0, cap), c});
-    }
-  }
-  std::sort(scored.begin(), scored.end(), [](const Scored& a, const Scored& b) { return a.score < b.score; });
+  // The straight lines' hypotheses keep their starts; the distortions' best add theirs (ranked together, a
+  // distorted hypothesis displaced the start that found an undistorted camera: docs/measurements.md).
+  std::vector<Scored> straight, distorted;
+  for (double corner_px : o.hypothesis_corner_px)
+    addHypotheses(problem, cone,
+                  DivisionModel{lambdaForCornerDisplacement(pp, problem.width, problem.height, corner_px), pp}, maps,
+                  directions, rng, corner_px == 0.0 ? &straight : &distorted);
   std::vector<Scored> chosen;
-  for (const Scored& s : scored)
-    if (static_cast<int>(chosen.size()) < o.hypothesis_starts && distinctFrom(s.camera, chosen))
-      chosen.push_back(s);
+  chooseDistinct(&straight, o.hypothesis_starts, &chosen);
+  chooseDistinct(&distorted, o.hypothesis_distortion_starts, &chosen);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-  trace(o, "hypotheses: %zu vertical and %zu other image lines, %zu map directions, %zu rotations, %.2f s",
-        vertical.size(), other.size(), directions.size(), rotations.size(), seconds);
+  trace(o, "hypotheses: %zu straight and %zu distorted scored in %.2f s", straight.size(), distorted.size(), seconds);
   std::vector<CameraModel> cameras;
   for (const Scored& s : chosen)
   {

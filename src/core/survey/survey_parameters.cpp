@@ -92,6 +92,22 @@ void readTriangulationParameters(ParameterSource& read, TriangulatedLineOptions&
 
 // A fixed camera's calibration options set once at start-up (its median image, the prior search, the robust
 // estimation's switches); its thresholds are the table's (readFieldThresholds).
+// The distortions the hypotheses try (LineMatcherOptions::hypothesis_corner_px): none, then `steps` barrel
+// distortions evenly up to max_corner_px at the image corner.
+void readHypothesisDistortions(ParameterSource& read, LineMatcherOptions& matcher)
+{
+  const double largest = matcher.hypothesis_corner_px.empty() ? 0.0 : -matcher.hypothesis_corner_px.back();
+  const int given_steps = static_cast<int>(matcher.hypothesis_corner_px.size()) - 1;
+  const double max_corner_px =
+      read.number("hypothesis_distortion/max_corner_px", largest, Range::closed(0.0, 500.0, "px"));
+  const int steps = read.integer("hypothesis_distortion/steps", given_steps, Range::integers(0, 10));
+  matcher.hypothesis_corner_px = {0.0};
+  for (int k = 1; k <= steps && max_corner_px > 0.0; ++k)
+    matcher.hypothesis_corner_px.push_back(-max_corner_px * k / steps);
+  matcher.hypothesis_distortion_starts =
+      read.integer("hypothesis_distortion/starts", matcher.hypothesis_distortion_starts, Range::integers(0, 64));
+}
+
 void readCameraParameters(ParameterSource& read, FixedCameraOptions& camera)
 {
   camera.median_images = static_cast<size_t>(
@@ -101,6 +117,7 @@ void readCameraParameters(ParameterSource& read, FixedCameraOptions& camera)
       read.integer("hypothesis_starts", camera.matcher.hypothesis_starts, Range::integers(0, 64));
   camera.matcher.hypothesis_centres =
       read.integer("hypothesis_centres", camera.matcher.hypothesis_centres, Range::integers(1, 200));
+  readHypothesisDistortions(read, camera.matcher);
   camera.matcher.local_search_starts =
       read.integer("local_search_starts", camera.matcher.local_search_starts, Range::integers(1, 32));
   camera.matcher.prior_start = read.flag("prior_start", camera.matcher.prior_start);
