@@ -394,8 +394,8 @@ std::vector<Eigen::Vector3d> centreHypotheses(const std::vector<PlanePair>& pair
   return centres;
 }
 
-// The image lines undistorted by a division model of `lambda` about the image centre (a hypothesis's camera has its
-// principal point there): the stages' planes and vanishing points take straight lines.
+// The image lines undistorted by `model` (about the image centre, where a hypothesis's camera has its principal
+// point): the stages' planes and vanishing points take straight lines.
 std::vector<std::vector<Eigen::Vector2d>> undistortedLines(const std::vector<std::vector<Eigen::Vector2d>>& lines,
                                                            const DivisionModel& model)
 {

@@ -90,8 +90,6 @@ void readTriangulationParameters(ParameterSource& read, TriangulatedLineOptions&
   t.repetition_px = read.number("triangulated/repetition_px", t.repetition_px, Range::closed(0.0, 100.0, "px"));
 }
 
-// A fixed camera's calibration options set once at start-up (its median image, the prior search, the robust
-// estimation's switches); its thresholds are the table's (readFieldThresholds).
 // The distortions the hypotheses try (LineMatcherOptions::hypothesis_corner_px): none, then `steps` barrel
 // distortions evenly up to max_corner_px at the image corner.
 void readHypothesisDistortions(ParameterSource& read, LineMatcherOptions& matcher)
@@ -108,6 +106,8 @@ void readHypothesisDistortions(ParameterSource& read, LineMatcherOptions& matche
       read.integer("hypothesis_distortion/starts", matcher.hypothesis_distortion_starts, Range::integers(0, 64));
 }
 
+// A fixed camera's calibration options set once at start-up (its median image, the prior search, the robust
+// estimation's switches); its thresholds are the table's (readFieldThresholds).
 void readCameraParameters(ParameterSource& read, FixedCameraOptions& camera)
 {
   camera.median_images = static_cast<size_t>(
