@@ -162,6 +162,10 @@ Options:
                         the ambiguity test also redoes the matching from the accepted camera moved by SHARE of the
                         scene's depth towards the faces and corners of a cube around it (params
                         ambiguity/neighbourhood_share; default 0.05; 0: only the map's repetitions are tried)
+  --ambiguity-better-score MARGIN
+                        a start of the ambiguity test that ends at the same camera and explains the image better by
+                        at least MARGIN (capped lines, with as many matched lines) replaces the result when it
+                        passes every check (params ambiguity/better_score_margin; default 0.5; 0: never)
   --truth-dir DIR[,DIR ...]
                         the simulator's truth folder (<bag>_truth); with several bags, one per bag in their order,
                         or one of them (the building and cameras are the same; then without the localiser's lines
@@ -1302,6 +1306,8 @@ void parseCameraOptions(ic::CommandLine& cli, ic::FixedCameraOptions* cameras)
   matcher.prior_start = onOff(cli, "prior-start", matcher.prior_start);
   cameras->ambiguity.neighbourhood_share =
       cli.number("ambiguity-neighbourhood", cameras->ambiguity.neighbourhood_share, 0.0, 0.5);
+  cameras->ambiguity.better_score_margin =
+      cli.number("ambiguity-better-score", cameras->ambiguity.better_score_margin, 0.0, 100.0);
   if (cli.flag("trace"))
     matcher.trace = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
 }

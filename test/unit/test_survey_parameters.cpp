@@ -53,6 +53,7 @@ TEST(SurveyParameters, UnsetParametersKeepTheStructsDefaults)
   EXPECT_EQ(read.cameras.explanation.min_gradient, 4.0);
   EXPECT_TRUE(read.cameras.explanation.plain_ceiling);
   EXPECT_EQ(read.cameras.ambiguity.neighbourhood_share, 0.05);
+  EXPECT_EQ(read.cameras.ambiguity.better_score_margin, 0.5);
   EXPECT_EQ(read.ceiling.min_height_m, 2.2);
   EXPECT_FALSE(read.extended_retry.enabled);
   EXPECT_EQ(read.extended_retry.max_fusion_sigma_m, 0.012);
@@ -126,7 +127,7 @@ plain_ceiling_samples: false
 texture_min_neighbours: 6
 overlay_min_gradient: 2.5
 unresolved_joints: false
-ambiguity: {neighbourhood_share: 0}
+ambiguity: {neighbourhood_share: 0, better_score_margin: 0}
 cameras: []
 )");
   const ic::FixedCameraOptions o = ic::readSurveyParameters(source).cameras;
@@ -155,6 +156,7 @@ cameras: []
   EXPECT_EQ(o.explanation.texture.min_neighbours, 6u);
   EXPECT_EQ(o.explanation.min_gradient, 2.5);
   EXPECT_EQ(o.ambiguity.neighbourhood_share, 0.0);
+  EXPECT_EQ(o.ambiguity.better_score_margin, 0.0);
 }
 
 TEST(SurveyParameters, TheExtendedRetryParametersAreTaken)

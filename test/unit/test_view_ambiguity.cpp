@@ -3,7 +3,7 @@
 // checks accept it, the ambiguity test refuses it with the reason. The true camera of a room that does not repeat is
 // accepted (the test does not refuse everything). An alternative is dismissed only by a check that says it is wrong,
 // not by one that says it is weakly determined (too few lines). A repetition not tried as one is still found by the
-// neighbourhood of starts.
+// neighbourhood of starts. A start ending at the same camera with a better explanation replaces the search's result.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -355,4 +355,79 @@ TEST(ViewAmbiguity, NeighbourhoodFindsARepetitionTheMapDoesNotShow)
   EXPECT_TRUE(std::any_of(alternatives.begin(), alternatives.end(), [&](const ic::AlternativeCamera& a) {
     return a.from_neighbourhood && (a.calibration.camera.pose().center() - truth.pose().center()).norm() < 0.02;
   })) << "no start of the neighbourhood reached the true camera";
+}
+
+namespace
+{
+// An alternative of `accepted` at a shift of its centre, with a score and matched lines, compared as the test does.
+ic::AlternativeCamera alternativeAt(const ic::CameraCalibration& accepted, const Eigen::Vector3d& shift, double score,
+                                    size_t matched_lines)
+{
+  ic::AlternativeCamera alt;
+  alt.calibration = accepted;
+  alt.calibration.camera = ic::shiftedCamera(accepted.camera, shift, false, 0.0);
+  alt.score = score;
+  alt.matched_lines = matched_lines;
+  alt.clearly_different = shift.norm() > ic::ViewAmbiguityOptions().min_position_m;
+  return alt;
+}
+}  // namespace
+
+// The search's result replaced by a start at the same camera explaining the image better: only one not clearly
+// different, with at least as many lines, better by the margin; the best of several.
+TEST(ViewAmbiguity, SameCameraExplainingBetterReplacesTheSearchsResult)
+{
+  ic::CameraCalibration accepted;
+  accepted.camera = cameraLookingAt({1.0, 2.0, 3.0}, {6.0, 4.0, 0.5});
+  ic::ViewAmbiguity ambiguity;
+  ambiguity.accepted_score = 50.0;
+  ambiguity.accepted_matched = 20;
+  const ic::ViewAmbiguityOptions options;
+  ambiguity.alternatives = {
+      alternativeAt(accepted, {0.4, 0.0, 0.0}, 40.0, 25),   // clearly different: the ambiguity test's, not this
+      alternativeAt(accepted, {0.01, 0.0, 0.0}, 45.0, 19),  // fewer lines
+      alternativeAt(accepted, {0.0, 0.01, 0.0}, 49.8, 22),  // better by less than the margin
+  };
+  EXPECT_FALSE(ic::sameCameraExplainingBetter(ambiguity, options));
+  ambiguity.alternatives.push_back(alternativeAt(accepted, {0.0, 0.0, 0.01}, 48.9, 21));
+  ambiguity.alternatives.push_back(alternativeAt(accepted, {0.0, 0.02, 0.0}, 48.2, 20));
+  const auto taken = ic::sameCameraExplainingBetter(ambiguity, options);
+  ASSERT_TRUE(taken);
+  EXPECT_EQ(*taken, 4u);
+  ic::ViewAmbiguityOptions never = options;
+  never.better_score_margin = 0.0;
+  EXPECT_FALSE(ic::sameCameraExplainingBetter(ambiguity, never));
+}
+
+// After the replacement the test reads as if the taken start had been accepted: the other alternatives compared with
+// it, the replaced camera one of them (a nearby optimum), and the replaced score kept for the summary.
+TEST(ViewAmbiguity, AfterTheReplacementTheAlternativesAreComparedWithTheTakenCamera)
+{
+  ic::CameraCalibration accepted;
+  accepted.camera = cameraLookingAt({1.0, 2.0, 3.0}, {6.0, 4.0, 0.5});
+  ic::ViewAmbiguity ambiguity;
+  ambiguity.accepted_score = 50.0;
+  ambiguity.accepted_matched = 20;
+  const ic::ViewAmbiguityOptions options;
+  ambiguity.alternatives = {alternativeAt(accepted, {0.4, 0.0, 0.0}, 60.0, 15),
+                            alternativeAt(accepted, {0.0, 0.03, 0.0}, 48.0, 22)};
+  ambiguity.alternatives[0].dismissed = "explains less";
+  const ic::ViewAmbiguity after = ic::withAcceptedAlternative(ambiguity, 1, accepted, options);
+  EXPECT_DOUBLE_EQ(after.accepted_score, 48.0);
+  EXPECT_EQ(after.accepted_matched, 22u);
+  EXPECT_DOUBLE_EQ(after.replaced_score, 50.0);
+  EXPECT_EQ(after.replaced_matched, 20u);
+  ASSERT_EQ(after.alternatives.size(), 2u);
+  // The one 0.4 m along x from the replaced camera: measured from the taken one, judged afresh.
+  EXPECT_NEAR(after.alternatives[0].position_difference_m, std::hypot(0.4, 0.03), 1e-9);
+  EXPECT_TRUE(after.alternatives[0].clearly_different);
+  EXPECT_TRUE(after.alternatives[0].dismissed.empty());
+  // The replaced camera, 3 cm away: the same camera, with its score and lines.
+  const ic::AlternativeCamera& replaced = after.alternatives[1];
+  EXPECT_NEAR(replaced.position_difference_m, 0.03, 1e-9);
+  EXPECT_FALSE(replaced.clearly_different);
+  EXPECT_TRUE(replaced.from_neighbourhood);
+  EXPECT_DOUBLE_EQ(replaced.score, 50.0);
+  EXPECT_EQ(replaced.matched_lines, 20u);
+  EXPECT_NE(after.describe().find("replaced by a start at the same camera"), std::string::npos) << after.describe();
 }

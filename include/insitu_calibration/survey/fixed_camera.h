@@ -210,6 +210,12 @@ private:
   bool priorRulesOut(const CameraModel& alternative, const CameraModel& accepted) const;
   Status checkAmbiguity(FixedCameraResult& result, const std::vector<Segment3d>& map_lines,
                         const std::vector<double>& map_line_sigmas_m) const;
+  // The test's verdict on the alternatives it found (each one's `dismissed`, or the refusal).
+  Status judgeAlternatives(FixedCameraResult& result, const std::vector<Segment3d>& map_lines) const;
+  // Replaces a result that passed the checks by the test's start at the same camera that explains the image better
+  // (ViewAmbiguityOptions::better_score_margin) when that one passes them all too.
+  void takeBetterExplanation(FixedCameraResult& result, const std::vector<Segment3d>& map_lines,
+                             const std::string& world_frame) const;
   // The median image's lines under a distortion for the calibration loop: thin lines (thin_lines) only once a camera
   // is known (camera_known), or from the start in a view with no edge line at all; thin_lines says whether they were
   // fine-tuned. No line: an error that says what the view shows.

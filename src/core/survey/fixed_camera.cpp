@@ -64,6 +64,15 @@ double cornerDisplacement(const DivisionModel& d)
   const auto u = d.undistort(Eigen::Vector2d(0.0, 0.0));
   return u ? u->norm() : 0.0;
 }
+
+// The image lines of a result in the order the ambiguity test takes them (and its alternatives' matches index):
+// the matched ones, then the others.
+std::vector<std::vector<Eigen::Vector2d>> imageLinesOf(const FixedCameraResult& result)
+{
+  std::vector<std::vector<Eigen::Vector2d>> lines = result.matched_image_lines;
+  lines.insert(lines.end(), result.unmatched_image_lines.begin(), result.unmatched_image_lines.end());
+  return lines;
+}
 }  // namespace
 
 Status FixedCameraConfig::validate() const
@@ -282,15 +291,18 @@ bool FixedCamera::priorRulesOut(const CameraModel& alternative, const CameraMode
 Status FixedCamera::checkAmbiguity(FixedCameraResult& result, const std::vector<Segment3d>& map_lines,
                                    const std::vector<double>& map_line_sigmas_m) const
 {
-  const ViewAmbiguityOptions& o = options_.ambiguity;
-  if (!o.enabled)
+  if (!options_.ambiguity.enabled)
     return Success{};
-  std::vector<std::vector<Eigen::Vector2d>> image_lines = result.matched_image_lines;
-  image_lines.insert(image_lines.end(), result.unmatched_image_lines.begin(), result.unmatched_image_lines.end());
-  const int w = config_.image_width, h = config_.image_height;
   result.ambiguity =
-      findAlternativeCameras(map_lines, image_lines, result.calibration, result.matched_map_lines, w, h,
-                             matcherOptions(), map_line_sigmas_m, finalSigmas(map_lines, map_line_sigmas_m), o);
+      findAlternativeCameras(map_lines, imageLinesOf(result), result.calibration, result.matched_map_lines,
+                             config_.image_width, config_.image_height, matcherOptions(), map_line_sigmas_m,
+                             finalSigmas(map_lines, map_line_sigmas_m), options_.ambiguity);
+  return judgeAlternatives(result, map_lines);
+}
+
+Status FixedCamera::judgeAlternatives(FixedCameraResult& result, const std::vector<Segment3d>& map_lines) const
+{
+  const ViewAmbiguityOptions& o = options_.ambiguity;
   for (AlternativeCamera& alt : result.ambiguity.alternatives)
   {
     if (!alt.clearly_different)
@@ -322,6 +334,26 @@ Status FixedCamera::checkAmbiguity(FixedCameraResult& result, const std::vector<
     return ambiguityError(result.calibration, alt, result.ambiguity);
   }
   return Success{};
+}
+
+void FixedCamera::takeBetterExplanation(FixedCameraResult& result, const std::vector<Segment3d>& map_lines,
+                                        const std::string& world_frame) const
+{
+  const std::optional<size_t> taken = sameCameraExplainingBetter(result.ambiguity, options_.ambiguity);
+  if (!taken)
+    return;
+  const AlternativeCamera& alt = result.ambiguity.alternatives[*taken];
+  LineMatchResult matched;
+  matched.matches = alt.matches;
+  matched.correspondences = alt.correspondences;
+  matched.calibration = alt.calibration;
+  FixedCameraResult candidate = resultOfMatching(std::move(matched), imageLinesOf(result), map_lines, world_frame);
+  candidate.loops = result.loops;
+  candidate.ambiguity = withAcceptedAlternative(result.ambiguity, *taken, result.calibration, options_.ambiguity);
+  // Every check the search's result passed, the ambiguity test against the replaced camera too; else it stays.
+  if (check(candidate.calibration, candidate.matched_image_lines.size()) && checkExplanation(candidate, map_lines) &&
+      judgeAlternatives(candidate, map_lines))
+    result = std::move(candidate);
 }
 
 Expected<FixedCameraResult> FixedCamera::calibrateFromFile(const std::string& world_frame)
@@ -530,6 +562,8 @@ Expected<FixedCameraResult> FixedCamera::calibrate(const std::vector<Segment3d>&
     ok = checkExplanation(*result, map_lines);
   if (ok && config_.correspondence_file.empty())
     ok = checkAmbiguity(*result, map_lines, map_line_sigmas_m);
+  if (ok && config_.correspondence_file.empty())
+    takeBetterExplanation(*result, map_lines, world_frame);
   if (!ok)
   {
     last_refused_ = *result;

@@ -142,6 +142,8 @@ void readCameraParameters(ParameterSource& read, FixedCameraOptions& camera)
   camera.unresolved_joints.enabled = read.flag("unresolved_joints", camera.unresolved_joints.enabled);
   camera.ambiguity.neighbourhood_share =
       read.number("ambiguity/neighbourhood_share", camera.ambiguity.neighbourhood_share, Range::closed(0.0, 0.5));
+  camera.ambiguity.better_score_margin =
+      read.number("ambiguity/better_score_margin", camera.ambiguity.better_score_margin, Range::closed(0.0, 100.0));
 }
 }  // namespace
 

@@ -244,6 +244,8 @@ ViewAmbiguity findAlternativeCameras(const std::vector<Segment3d>& map_lines,
     alt.focal_compensated = start.compensate;
     alt.from_neighbourhood = start.neighbourhood;
     alt.matched_lines = matched->matches.size();
+    alt.matches = matched->matches;
+    alt.correspondences = matched->correspondences;
     alt.score = explanationScore(map_lines, image_lines, alt.calibration.camera, image_width, image_height, matcher);
     compare(accepted, alt, o);
     out.alternatives.push_back(std::move(alt));
@@ -259,6 +261,52 @@ bool explainsAsWell(const AlternativeCamera& alt, const ViewAmbiguity& ambiguity
          static_cast<double>(alt.matched_lines) >= o.min_matched_share * ambiguity.accepted_matched;
 }
 
+std::optional<size_t> sameCameraExplainingBetter(const ViewAmbiguity& ambiguity, const ViewAmbiguityOptions& o)
+{
+  if (o.better_score_margin <= 0.0)
+    return std::nullopt;
+  std::optional<size_t> best;
+  double best_score = ambiguity.accepted_score - o.better_score_margin;
+  for (size_t i = 0; i < ambiguity.alternatives.size(); ++i)
+  {
+    const AlternativeCamera& alt = ambiguity.alternatives[i];
+    if (!alt.clearly_different && alt.matched_lines >= ambiguity.accepted_matched && alt.score <= best_score)
+    {
+      best = i;
+      best_score = alt.score;
+    }
+  }
+  return best;
+}
+
+ViewAmbiguity withAcceptedAlternative(const ViewAmbiguity& ambiguity, size_t taken, const CameraCalibration& replaced,
+                                      const ViewAmbiguityOptions& o)
+{
+  const AlternativeCamera& accepted = ambiguity.alternatives.at(taken);
+  ViewAmbiguity out = ambiguity;
+  out.accepted_score = accepted.score;
+  out.accepted_matched = accepted.matched_lines;
+  out.replaced_score = ambiguity.accepted_score;
+  out.replaced_matched = ambiguity.accepted_matched;
+  out.alternatives.clear();
+  for (size_t i = 0; i < ambiguity.alternatives.size(); ++i)
+    if (i != taken)
+    {
+      AlternativeCamera alt = ambiguity.alternatives[i];
+      alt.dismissed.clear();
+      compare(accepted.calibration, alt, o);
+      out.alternatives.push_back(std::move(alt));
+    }
+  AlternativeCamera before;
+  before.calibration = replaced;
+  before.from_neighbourhood = true;
+  before.matched_lines = ambiguity.accepted_matched;
+  before.score = ambiguity.accepted_score;
+  compare(accepted.calibration, before, o);
+  out.alternatives.push_back(std::move(before));
+  return out;
+}
+
 bool dismissedByOwnChecks(const Status& own_checks)
 {
   return !own_checks && own_checks.error().code() == ErrorCode::kNoSolution;
@@ -272,6 +320,14 @@ std::string ViewAmbiguity::describe() const
                 "explanation score %.2f",
                 periods, tried, seconds, accepted_score);
   std::string out = buffer;
+  if (replaced_score >= 0.0)
+  {
+    std::snprintf(buffer, sizeof(buffer),
+                  " (the search's result, %.2f with %zu lines, replaced by a start at the same camera that explains "
+                  "the image better)",
+                  replaced_score, replaced_matched);
+    out += buffer;
+  }
   for (const auto& a : alternatives)
     if (a.clearly_different)
     {
