@@ -371,17 +371,28 @@ ic::AlternativeCamera alternativeAt(const ic::CameraCalibration& accepted, const
   alt.clearly_different = shift.norm() > ic::ViewAmbiguityOptions().min_position_m;
   return alt;
 }
+
+// An accepted camera's test (score 50, 20 matched lines) with no alternative yet.
+struct AcceptedCamera
+{
+  ic::CameraCalibration calibration;
+  ic::ViewAmbiguity ambiguity;
+  AcceptedCamera()
+  {
+    calibration.camera = cameraLookingAt({1.0, 2.0, 3.0}, {6.0, 4.0, 0.5});
+    ambiguity.accepted_score = 50.0;
+    ambiguity.accepted_matched = 20;
+  }
+};
 }  // namespace
 
 // The search's result replaced by a start at the same camera explaining the image better: only one not clearly
 // different, with at least as many lines, better by the margin; the best of several.
 TEST(ViewAmbiguity, SameCameraExplainingBetterReplacesTheSearchsResult)
 {
-  ic::CameraCalibration accepted;
-  accepted.camera = cameraLookingAt({1.0, 2.0, 3.0}, {6.0, 4.0, 0.5});
-  ic::ViewAmbiguity ambiguity;
-  ambiguity.accepted_score = 50.0;
-  ambiguity.accepted_matched = 20;
+  AcceptedCamera test;
+  const ic::CameraCalibration& accepted = test.calibration;
+  ic::ViewAmbiguity& ambiguity = test.ambiguity;
   const ic::ViewAmbiguityOptions options;
   ambiguity.alternatives = {
       alternativeAt(accepted, {0.4, 0.0, 0.0}, 40.0, 25),   // clearly different: the ambiguity test's, not this
@@ -403,11 +414,9 @@ TEST(ViewAmbiguity, SameCameraExplainingBetterReplacesTheSearchsResult)
 // it, the replaced camera one of them (a nearby optimum), and the replaced score kept for the summary.
 TEST(ViewAmbiguity, AfterTheReplacementTheAlternativesAreComparedWithTheTakenCamera)
 {
-  ic::CameraCalibration accepted;
-  accepted.camera = cameraLookingAt({1.0, 2.0, 3.0}, {6.0, 4.0, 0.5});
-  ic::ViewAmbiguity ambiguity;
-  ambiguity.accepted_score = 50.0;
-  ambiguity.accepted_matched = 20;
+  AcceptedCamera test;
+  const ic::CameraCalibration& accepted = test.calibration;
+  ic::ViewAmbiguity& ambiguity = test.ambiguity;
   const ic::ViewAmbiguityOptions options;
   ambiguity.alternatives = {alternativeAt(accepted, {0.4, 0.0, 0.0}, 60.0, 15),
                             alternativeAt(accepted, {0.0, 0.03, 0.0}, 48.0, 22)};
