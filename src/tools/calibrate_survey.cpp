@@ -178,7 +178,8 @@ Options:
                         explain, all, wrong matches and right ones (linearised through the refinement: the
                         camera's change when the lines move onto their true edges, so an explained error has the
                         opposite sign; focal, lambda, rotation, position: "truth-line-shift" lines), and where
-                        each of the ambiguity test's alternatives ended ("truth-alternative" lines)
+                        each of the ambiguity test's alternatives ended ("truth-alternative" lines; the search's
+                        result, when a start explaining the image better replaced it: "truth-replaced")
   --coverage-diagnosis WORLD
                         with --truth-dir: per image line the map lacks, why (the simulator's WORLD file rendered
                         at each keyframe: never in the Xtion's view (-mount: at a height the mount has nowhere in
@@ -279,6 +280,15 @@ void reportAlternativesAgainstTruth(const ic::CameraModel& truth, const ic::View
   for (const ic::AlternativeCamera& alt : ambiguity.alternatives)
   {
     const ic::CameraErrors e = ic::compareCameras(truth, alt.calibration.camera);
+    if (alt.replaced_result)
+    {
+      std::printf(
+          "  truth-replaced: the search's result: focal %+.3f %%, rotation %.3f deg, position %.1f mm; score "
+          "%.2f (the result %.2f), %zu lines (the result %zu)\n",
+          100.0 * e.focal_relative, e.rotation_rad * 180.0 / M_PI, 1000.0 * e.center_m, alt.score,
+          ambiguity.accepted_score, alt.matched_lines, ambiguity.accepted_matched);
+      continue;
+    }
     std::printf(
         "  truth-alternative: start %s %.2f m%s: focal %+.3f %%, rotation %.3f deg, position %.1f mm; "
         "score %.2f (the result %.2f), %zu lines (the result %zu)%s%s\n",

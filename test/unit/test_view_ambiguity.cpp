@@ -436,6 +436,8 @@ TEST(ViewAmbiguity, AfterTheReplacementTheAlternativesAreComparedWithTheTakenCam
   EXPECT_NEAR(replaced.position_difference_m, 0.03, 1e-9);
   EXPECT_FALSE(replaced.clearly_different);
   EXPECT_TRUE(replaced.from_neighbourhood);
+  EXPECT_TRUE(replaced.replaced_result);
+  EXPECT_FALSE(after.alternatives[0].replaced_result);
   EXPECT_DOUBLE_EQ(replaced.score, 50.0);
   EXPECT_EQ(replaced.matched_lines, 20u);
   EXPECT_NE(after.describe().find("replaced by a start at the same camera"), std::string::npos) << after.describe();

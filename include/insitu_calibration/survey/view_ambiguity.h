@@ -97,6 +97,7 @@ struct AlternativeCamera
   Eigen::Vector3d shift = Eigen::Vector3d::Zero();  // the start's shift
   bool focal_compensated = false;
   bool from_neighbourhood = false;  // the shift is the neighbourhood's, not a repetition of the map
+  bool replaced_result = false;     // the search's own result, replaced (better_score_margin)
   size_t matched_lines = 0;
   std::vector<LineMatch> matches;     // into the image lines the test was given
   CorrespondenceSet correspondences;  // the lines calibrated on

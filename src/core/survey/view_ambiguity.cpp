@@ -300,6 +300,7 @@ ViewAmbiguity withAcceptedAlternative(const ViewAmbiguity& ambiguity, size_t tak
   AlternativeCamera before;
   before.calibration = replaced;
   before.from_neighbourhood = true;
+  before.replaced_result = true;
   before.matched_lines = ambiguity.accepted_matched;
   before.score = ambiguity.accepted_score;
   compare(accepted.calibration, before, o);
