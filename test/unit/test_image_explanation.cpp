@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <string>
 
+#include <opencv2/imgproc.hpp>
+
 #include "insitu_calibration/simulation/renderer.h"
 #include "insitu_calibration/simulation/true_edges.h"
 #include "insitu_calibration/simulation/world.h"
@@ -442,4 +444,39 @@ TEST(ImageExplanation, LoneCeilingLinesAlwaysCount)
     EXPECT_LT(with_lone.overlay_agreement, borders.overlay_agreement) << cam.name;  // it finds hardly any edge
   }
   EXPECT_GE(seeing_it, 1);
+}
+
+// A faint crease (two faces painted alike: a 6 grey-level step blurred over a few px, under the per-sample gradient
+// threshold, in image noise): averaged along the map line on it, the step counts its samples as on an edge; the same
+// line on plain image, on a smooth lighting gradient, or 10 px beside the crease finds none; off (0), none either.
+TEST(ImageExplanation, AFaintCreaseFoundByTheStepAveragedAlongTheLine)
+{
+  const int width = 640, height = 480;
+  const ic::CameraModel camera({500.0, 500.0, 0.0, 320.0, 240.0}, {0.0, {320.0, 240.0}}, {});
+  cv::Mat image(height, width, CV_32FC1);
+  for (int row = 0; row < height; ++row)
+    for (int col = 0; col < width; ++col)  // the crease at u = 320; a lighting gradient over the right half
+      image.at<float>(row, col) = 120.0f + (col >= 320 ? 6.0f : 0.0f) + (col > 480 ? 0.3f * (col - 480) : 0.0f);
+  cv::GaussianBlur(image, image, cv::Size(0, 0), 1.5);
+  cv::Mat noise(height, width, CV_32FC1);
+  cv::RNG(7).fill(noise, cv::RNG::NORMAL, 0.0, 2.0);
+  image += noise;
+  image.convertTo(image, CV_8UC1);
+  // A vertical map line 5 m in front of the camera at image column u (200 px long).
+  const auto line_at = [&](double u) {
+    const double x = 5.0 * (u - 320.0) / 500.0;
+    return std::vector<ic::Segment3d>{{Eigen::Vector3d(x, -1.0, 5.0), Eigen::Vector3d(x, 1.0, 5.0)}};
+  };
+  ic::ImageExplanationOptions options = ic::FixedCameraOptions{}.explanation;
+  const auto agreement = [&](double u) {
+    const auto e = ic::explainImage(image, camera, width, height, line_at(u), nullptr, options);
+    EXPECT_GT(e.samples, 50u) << "u " << u;
+    return e.overlay_agreement;
+  };
+  EXPECT_GT(agreement(319.5), 0.9);
+  EXPECT_LT(agreement(150.0), 0.1);  // plain
+  EXPECT_LT(agreement(560.0), 0.1);  // the lighting gradient
+  EXPECT_LT(agreement(330.0), 0.1);  // beside the crease
+  options.faint_edge_gradient = 0.0;
+  EXPECT_LT(agreement(319.5), 0.1);  // one by one the samples find no edge
 }

@@ -1,6 +1,6 @@
 // The measured surfaces that hide map lines from a fixed camera (map/surface_voxels.h), against geometry known
 // exactly: a wall between the camera and a line hides it, a line on the wall seen at a grazing angle stays visible,
-// a line partly behind the wall is cut where the wall's edge predicts.
+// a line partly behind the wall is cut where the wall's edge predicts, a column's near faces hide its far edge.
 #include <gtest/gtest.h>
 
 #include "insitu_calibration/map/surface_voxels.h"
@@ -103,6 +103,59 @@ TEST(SurfaceVoxels, ALinePartlyBehindAWallIsCutWhereTheWallEnds)
   ASSERT_EQ(all.size(), 1u);
   EXPECT_NEAR((all[0].a - Eigen::Vector3d(4.0, -3.0, 1.5)).norm(), 0.0, 1e-9);
   EXPECT_NEAR((all[0].b - Eigen::Vector3d(4.0, 3.0, 1.5)).norm(), 0.0, 1e-9);
+}
+
+// A column 0.6 m square (x 5-5.6, y -0.3-0.3, z 0-3; the generated buildings' largest) on a floor (z = 0, x 0-20,
+// y -5-5), every face measured with its layer behind it (inside the column, below the floor).
+ic::SurfaceVoxels columnOnAFloor(const ic::SurfaceVoxelOptions& options)
+{
+  ic::SurfaceVoxels voxels(options);
+  const double layer = 0.5 * options.voxel_m;
+  for (double x = 0.0; x <= 20.0; x += 0.02)
+    for (double y = -5.0; y <= 5.0; y += 0.02)
+      for (int k = 0; k < 4; ++k)
+        voxels.insert({x, y, -k * layer});
+  for (double t = 0.0; t <= 0.6; t += 0.01)
+    for (double z = 0.0; z <= 3.0; z += 0.01)
+      for (int k = 0; k < 4; ++k)
+      {
+        voxels.insert({5.0 + k * layer, -0.3 + t, z});  // front
+        voxels.insert({5.6 - k * layer, -0.3 + t, z});  // back
+        voxels.insert({5.0 + t, -0.3 + k * layer, z});  // sides
+        voxels.insert({5.0 + t, 0.3 - k * layer, z});
+      }
+  return voxels;
+}
+
+TEST(SurfaceVoxels, AColumnsNearFacesHideItsFarEdge)
+{
+  const ic::SurfaceVoxels voxels = columnOnAFloor({});
+  const Eigen::Vector3d camera(0.0, -2.0, 3.0);  // sees the faces x = 5 and y = -0.3
+  const Eigen::Vector3d vertical = Eigen::Vector3d::UnitZ(), along_x = Eigen::Vector3d::UnitX(),
+                        along_y = Eigen::Vector3d::UnitY();
+  // The far vertical edge: its sight lines cross the near face (at y = 0.05) 0.6 m before it, within the target's
+  // margin (0.3 m + 0.08 of 6.2 m), and the way from there across to the edge crosses the column's empty inside.
+  EXPECT_TRUE(voxels.blocks(camera, {5.6, 0.3, 1.5}, vertical));
+  EXPECT_TRUE(voxels.blocks(camera, {5.8, 0.4, 0.0}, along_y));  // a floor line just behind it
+  // The edges it shows, and the floor in front of it, beside it and far beyond it.
+  EXPECT_FALSE(voxels.blocks(camera, {5.0, 0.3, 1.5}, vertical));
+  EXPECT_FALSE(voxels.blocks(camera, {5.6, -0.3, 1.5}, vertical));
+  EXPECT_FALSE(voxels.blocks(camera, {5.0, -0.3, 0.5}, vertical));
+  EXPECT_FALSE(voxels.blocks(camera, {4.8, 0.0, 0.0}, along_x));
+  EXPECT_FALSE(voxels.blocks(camera, {5.3, -0.8, 0.0}, along_x));
+  for (const double x : {3.0, 8.0, 15.0, 19.0})  // the floor the sight lines graze, clear of the column
+  {
+    EXPECT_FALSE(voxels.blocks(camera, {x, -3.0, 0.0}, along_x)) << "x " << x;
+    EXPECT_FALSE(voxels.blocks(camera, {x, -3.0, 0.0}, along_y)) << "x " << x;
+  }
+  // The far edge as a line: hidden up to where it shows above the column's top (z > 2.9 there).
+  const auto parts = voxels.unoccludedParts(camera, {{{5.6, 0.3, 0.0}, {5.6, 0.3, 3.0}}});
+  EXPECT_TRUE(parts.empty() || parts.front().a.z() > 2.5);
+  // Without a line's direction, or with the test of other surfaces off, the margin keeps the far edge, as before.
+  EXPECT_FALSE(voxels.blocks(camera, {5.6, 0.3, 1.5}));
+  ic::SurfaceVoxelOptions margin_only;
+  margin_only.other_surface_margin_m = 0.0;
+  EXPECT_FALSE(columnOnAFloor(margin_only).blocks(camera, {5.6, 0.3, 1.5}, vertical));
 }
 
 TEST(DepthRangeGrid, HoldsTheNearestAndFarthestDepthPerCell)

@@ -7,8 +7,10 @@
 // along its ray are marked, so that a sight line crossing a surface at any angle meets two voxels of it. A sight line
 // counts as blocked when it meets at least min_hits occupied voxels between near_margin_m from the camera and a margin
 // before its target that grows with the range (target_margin_m + target_margin_per_m * range): the target's own
-// surface, which a sight line at a grazing angle runs along, must not hide it. Surfaces the depth never measured hide
-// nothing (the test can only keep a hidden line, never drop a visible one by lack of data).
+// surface, which a sight line at a grazing angle runs along, must not hide it. Within that margin a surface that does
+// not lead to the target's line still hides it (the near faces of a column hide its far edge; options below).
+// Surfaces the depth never measured hide nothing (the test can only keep a hidden line, never drop a visible one by
+// lack of data).
 //
 // Memory grows with the measured surface area (about 0.8 MB per 100 m^2 at 5 cm voxels), never with the images.
 #ifndef INSITU_CALIBRATION_MAP_SURFACE_VOXELS_H
@@ -36,6 +38,12 @@ struct SurfaceVoxelOptions
   double target_margin_m = 0.3;       // ... and end this far before the target,
   double target_margin_per_m = 0.08;  // plus this times the range
   int min_hits = 2;
+  // For a point of a map line, inside that margin down to other_surface_margin_m before it, a sight line still
+  // counts as blocked where it meets a surface that is not the line's own: one from which the way to the line across
+  // its direction leaves the measured surfaces for 0.1 m or more (the near face of a column, a box or a chair, with the
+  // object's empty inside between it and a far edge). The floor or wall a sight line grazes near its line leads to the
+  // line without a gap and does not count. 0: off (the margin above only).
+  double other_surface_margin_m = 0.1;
   double sample_step_m = 0.1;  // along a map line, where its visibility is tested (at most 100 samples per line)
   // With follow_adjustment a keyframe keeps its depth samples thinned to one per cell of this size (camera frame), so
   // that its surfaces can be inserted again under the map adjustment's corrected pose (Survey; 12 bytes a sample, at
@@ -65,8 +73,11 @@ public:
   size_t size() const { return voxels_.size(); }
   const SurfaceVoxelOptions& options() const { return options_; }
 
-  // Whether measured surfaces lie between a camera at `from` and the point `to` (the margins above).
+  // Whether measured surfaces lie between a camera at `from` and the point `to` (the margins above); with the
+  // direction of the map line `to` lies on (any length), surfaces other than the line's own within the target's
+  // margin count too (other_surface_margin_m).
   bool blocks(const Eigen::Vector3d& from, const Eigen::Vector3d& to) const;
+  bool blocks(const Eigen::Vector3d& from, const Eigen::Vector3d& to, const Eigen::Vector3d& line_direction) const;
 
   // The parts of each segment that a camera at `center` sees past the measured surfaces (a segment may split;
   // hidden parts are dropped).
@@ -78,6 +89,10 @@ public:
 
 private:
   uint64_t key(const Eigen::Vector3d& point) const;
+  // Whether the measured surface at `point` leads to the line through `target` along `direction` (unit): no two
+  // empty voxels in a row on the way across the line's direction.
+  bool onSurfaceThrough(const Eigen::Vector3d& point, const Eigen::Vector3d& target,
+                        const Eigen::Vector3d& direction) const;
 
   SurfaceVoxelOptions options_;
   std::unordered_set<uint64_t> voxels_;

@@ -100,6 +100,18 @@ struct ImageExplanationOptions
   // wrong alternatives that passed the other tests had 5-24 %. 0 disables.
   double min_isolated_agreement = 0.25;
   size_t min_isolated_samples = 200;
+  // A map line's samples that find no edge on them nor beside them one by one may still lie on a faint edge: a
+  // crease between two faces painted alike (a column's corner: a step of 5-10 grey levels blurred over 3 px, under
+  // min_gradient at any one sample). Averaged over those samples along the line, the step across it stands out of
+  // the image noise: where the mean gradient across the line (signed, within 1 px of it) reaches faint_edge_gradient,
+  // faint_edge_significance standard errors, and faint_edge_beside_ratio times the mean gradient chance_offset_px to
+  // either side (a localised step, not a lighting gradient), those samples count as on an edge. A wrong camera's
+  // line across plain wall or floor averages to no step. Lines whose plain samples are left out (floor, ceiling,
+  // texture) are not tested. 0: off (parameter faint_edge_gradient).
+  double faint_edge_gradient = 1.0;  // grey levels per px
+  double faint_edge_significance = 4.0;
+  double faint_edge_beside_ratio = 3.0;
+  size_t faint_edge_min_samples = 10;
   // The median held-out residual over the median fitted residual of the matched lines: measured and reported, not
   // enforced (1.1-1.6 for right and wrong results alike on the tuning buildings).
   double max_heldout_ratio = 0.0;
@@ -120,6 +132,7 @@ struct ImageExplanation
   // A wrong camera's lines on plain wall or floor lower it.
   size_t isolated_samples = 0;
   double isolated_agreement = 0.0;
+  size_t faint_samples = 0;  // counted on an edge by the averaged step along their line (faint_edge_gradient)
   double overlayExcess() const
   {
     return overlay_chance < 1.0 ? (overlay_agreement - overlay_chance) / (1.0 - overlay_chance) : 0.0;

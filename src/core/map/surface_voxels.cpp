@@ -90,25 +90,59 @@ void SurfaceVoxels::insertSamples(const Eigen::Isometry3d& T_map_camera, const s
 
 bool SurfaceVoxels::blocks(const Eigen::Vector3d& from, const Eigen::Vector3d& to) const
 {
+  return blocks(from, to, Eigen::Vector3d::Zero());
+}
+
+bool SurfaceVoxels::blocks(const Eigen::Vector3d& from, const Eigen::Vector3d& to,
+                           const Eigen::Vector3d& line_direction) const
+{
   const Eigen::Vector3d d = to - from;
   const double range = d.norm();
   const double end = range - options_.target_margin_m - options_.target_margin_per_m * range;
-  if (!(end > options_.near_margin_m))
+  const bool other_surfaces = options_.other_surface_margin_m > 0.0 && line_direction.norm() > 0.5;
+  const double last_s = other_surfaces ? std::max(end, range - options_.other_surface_margin_m) : end;
+  if (!(last_s > options_.near_margin_m))
     return false;
   const Eigen::Vector3d unit = d / range;
   const double step = 0.5 * options_.voxel_m;
   int hits = 0;
   uint64_t last = ~uint64_t{0};
-  for (double s = options_.near_margin_m; s < end; s += step)
+  for (double s = options_.near_margin_m; s < last_s; s += step)
   {
-    const uint64_t k = key(from + s * unit);
+    const Eigen::Vector3d point = from + s * unit;
+    const uint64_t k = key(point);
     if (k == last)
       continue;
     last = k;
-    if (voxels_.count(k) > 0 && ++hits >= options_.min_hits)
+    if (voxels_.count(k) == 0)
+      continue;
+    // Within the target's margin only a surface other than the target's own hides it.
+    if (s >= end && onSurfaceThrough(point, to, line_direction.normalized()))
+      continue;
+    if (++hits >= options_.min_hits)
       return true;
   }
   return false;
+}
+
+bool SurfaceVoxels::onSurfaceThrough(const Eigen::Vector3d& point, const Eigen::Vector3d& target,
+                                     const Eigen::Vector3d& direction) const
+{
+  Eigen::Vector3d across = target - point;
+  across -= across.dot(direction) * direction;
+  const double distance = across.norm();
+  const double v = options_.voxel_m;
+  if (distance < 1.5 * v)  // beside the line: its own edge
+    return true;
+  across /= distance;
+  int free_run = 0;
+  for (double t = v; t < distance - v; t += v)
+  {
+    free_run = occupied(point + t * across) ? 0 : free_run + 1;
+    if (free_run >= 2)  // an empty stretch (an object's inside); one empty voxel is a hole where depth was sparse
+      return false;
+  }
+  return true;
 }
 
 std::vector<Segment3d> SurfaceVoxels::unoccludedParts(const Eigen::Vector3d& center,
@@ -121,7 +155,7 @@ std::vector<Segment3d> SurfaceVoxels::unoccludedParts(const Eigen::Vector3d& cen
     int run_start = -1;  // first visible sample of the current run
     for (int k = 0; k <= n; ++k)
     {
-      const bool visible = k < n && !blocks(center, line.pointAt((k + 0.5) / n));
+      const bool visible = k < n && !blocks(center, line.pointAt((k + 0.5) / n), line.b - line.a);
       if (visible && run_start < 0)
         run_start = k;
       if (!visible && run_start >= 0)
@@ -139,7 +173,7 @@ bool SurfaceVoxels::hiddenFromAll(const std::vector<Eigen::Vector3d>& viewpoints
   const int n = std::clamp(static_cast<int>(std::ceil(line.length() / (2.5 * options_.sample_step_m))), 1, 40);
   for (int k = 0; k < n; ++k)
     for (const Eigen::Vector3d& from : viewpoints)
-      if (!blocks(from, line.pointAt((k + 0.5) / n)))
+      if (!blocks(from, line.pointAt((k + 0.5) / n), line.b - line.a))
         return false;
   return true;
 }

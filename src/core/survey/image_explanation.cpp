@@ -93,10 +93,57 @@ bool forEachSample(const CameraModel& camera, const Segment3d& line, const std::
   return true;
 }
 
+// The mean gradient across the line (grey levels per px, signed along the normals), over samples, at an offset
+// along their normals, with its standard error.
+struct MeanGradient
+{
+  double mean = 0.0, standard_error = 0.0;
+};
+
+MeanGradient meanGradientAcross(const Gradients& g, const std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>>& at,
+                                double offset)
+{
+  double sum = 0.0, sum_squares = 0.0;
+  for (const auto& [p, n] : at)
+  {
+    const Eigen::Vector2d q = p + offset * n;
+    const double across = Eigen::Vector2d(bilinear(g.gx, q.x(), q.y()), bilinear(g.gy, q.x(), q.y())).dot(n);
+    sum += across;
+    sum_squares += across * across;
+  }
+  const double n = static_cast<double>(at.size());
+  MeanGradient out;
+  out.mean = sum / n;
+  out.standard_error = std::sqrt(std::max(0.0, sum_squares / n - out.mean * out.mean) / std::max(1.0, n - 1.0));
+  return out;
+}
+
+// Whether the samples (pixel, unit normal; one line's, normals all to one side) lie on a faint edge: a step across
+// the line, averaged along it, as ImageExplanationOptions::faint_edge_gradient describes.
+bool onFaintEdge(const Gradients& g, const std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>>& at,
+                 const ImageExplanationOptions& o)
+{
+  if (!(o.faint_edge_gradient > 0.0) || at.size() < std::max<size_t>(2, o.faint_edge_min_samples))
+    return false;
+  MeanGradient best;
+  for (const double s : {-1.0, -0.5, 0.0, 0.5, 1.0})
+  {
+    const MeanGradient m = meanGradientAcross(g, at, s);
+    if (std::abs(m.mean) > std::abs(best.mean))
+      best = m;
+  }
+  const double beside = std::max(std::abs(meanGradientAcross(g, at, o.chance_offset_px).mean),
+                                 std::abs(meanGradientAcross(g, at, -o.chance_offset_px).mean));
+  const double step = std::abs(best.mean);
+  return step >= o.faint_edge_gradient && step >= o.faint_edge_significance * best.standard_error &&
+         step >= o.faint_edge_beside_ratio * beside;
+}
+
 // One map line's samples and how many of them have an edge on the line and beside it (both sides counted).
 struct LineSupport
 {
   size_t samples = 0, on = 0, beside = 0;
+  size_t faint = 0;     // of on: found by the averaged step along the line (onFaintEdge)
   size_t left_out = 0;  // plain floor samples left out one by one (not in on, beside: they have no edge)
   size_t isolated = 0, isolated_on = 0;  // samples with no edge beside on either side, and of those on an edge
 };
@@ -110,8 +157,9 @@ struct AssessedLine
 };
 
 // One sample's edge test on the line and beside it, counted into a (kept in a.samples with keep_samples).
-// leave_out_plain: a sample with no edge on it or beside it is left out (plain floor there).
-void assessSample(const Gradients& g, const Eigen::Vector2d& p, const Eigen::Vector2d& normal,
+// leave_out_plain: a sample with no edge on it or beside it is left out (plain floor there). Returns whether the
+// sample is plain (no edge on it nor beside it).
+bool assessSample(const Gradients& g, const Eigen::Vector2d& p, const Eigen::Vector2d& normal,
                   const Eigen::Vector3d& point, const ImageExplanationOptions& o, bool keep_samples,
                   bool leave_out_plain, AssessedLine& a)
 {
@@ -128,13 +176,30 @@ void assessSample(const Gradients& g, const Eigen::Vector2d& p, const Eigen::Vec
     ++a.support.isolated;
     a.support.isolated_on += on ? 1 : 0;
   }
-  if (!keep_samples)
+  if (keep_samples)
+  {
+    a.samples.points.push_back(p);
+    a.samples.map_points.push_back(point);
+    a.samples.on_edge.push_back(on);
+    if (leave_out_plain)
+      a.samples.left_out.push_back(left_out);
+  }
+  return !on && beside == 0;
+}
+
+// The line's plain samples (pixel, normal, index in a.samples) count as on an edge when, averaged, they lie on a
+// faint one (onFaintEdge). Only for lines whose plain samples count (they are all isolated samples then).
+void countFaintEdge(const Gradients& g, const std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>>& plain,
+                    const std::vector<size_t>& plain_index, const ImageExplanationOptions& o, AssessedLine& a)
+{
+  if (!onFaintEdge(g, plain, o))
     return;
-  a.samples.points.push_back(p);
-  a.samples.map_points.push_back(point);
-  a.samples.on_edge.push_back(on);
-  if (leave_out_plain)
-    a.samples.left_out.push_back(left_out);
+  a.support.on += plain.size();
+  a.support.faint += plain.size();
+  a.support.isolated_on += plain.size();
+  for (const size_t k : plain_index)
+    if (k < a.samples.on_edge.size())
+      a.samples.on_edge[k] = true;
 }
 
 // None when the projection is too short to assess.
@@ -143,13 +208,21 @@ std::optional<AssessedLine> assessLine(const Gradients& g, const CameraModel& ca
                                        const ImageExplanationOptions& o, bool keep_samples, bool leave_out_plain)
 {
   AssessedLine a;
+  std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> plain;
+  std::vector<size_t> plain_index;
   const bool assessed =
       forEachSample(camera, line, interval, width, height, o,
                     [&](const Eigen::Vector2d& p, const Eigen::Vector2d& normal, const Eigen::Vector3d& point) {
-                      assessSample(g, p, normal, point, o, keep_samples, leave_out_plain, a);
+                      const size_t index = a.samples.points.size();
+                      if (assessSample(g, p, normal, point, o, keep_samples, leave_out_plain, a) && !leave_out_plain)
+                      {
+                        plain.emplace_back(p, normal);
+                        plain_index.push_back(index);
+                      }
                     });
   if (!assessed)
     return std::nullopt;
+  countFaintEdge(g, plain, plain_index, o, a);
   return a;
 }
 
@@ -263,6 +336,7 @@ void measureOverlay(const std::vector<AssessedLine>& lines, ImageExplanation& ou
     beside += a.support.beside;
     out.isolated_samples += a.support.isolated;
     isolated_on += a.support.isolated_on;
+    out.faint_samples += a.support.faint;
   }
   if (out.samples > 0)
   {
@@ -297,6 +371,8 @@ std::string ImageExplanation::describe() const
   if (plain_floor_samples > 0)
     out += "; " + std::to_string(plain_floor_samples) +
            " samples of other floor or ceiling lines left out where it looks plain";
+  if (faint_samples > 0)
+    out += "; " + std::to_string(faint_samples) + " samples on faint edges (a step averaged along their line)";
   if (plain_texture_samples > 0)
     out += "; " + std::to_string(plain_texture_samples) +
            " samples of wall texture (brick, tile or panel joints) left out where the image is plain";

@@ -139,6 +139,8 @@ void readCameraParameters(ParameterSource& read, FixedCameraOptions& camera)
       "texture_min_neighbours", static_cast<int>(camera.explanation.texture.min_neighbours), Range::integers(0, 100)));
   camera.explanation.min_gradient =
       read.number("overlay_min_gradient", camera.explanation.min_gradient, Range::closed(0.1, 255.0));
+  camera.explanation.faint_edge_gradient =
+      read.number("faint_edge_gradient", camera.explanation.faint_edge_gradient, Range::closed(0.0, 255.0));
   camera.unresolved_joints.enabled = read.flag("unresolved_joints", camera.unresolved_joints.enabled);
   camera.ambiguity.neighbourhood_share =
       read.number("ambiguity/neighbourhood_share", camera.ambiguity.neighbourhood_share, Range::closed(0.0, 0.5));
@@ -157,6 +159,8 @@ SurveyOptions readSurveyParameters(ParameterSource& source, SurveyOptions option
   options.occlusion.enabled = source.flag("occlusion_test", options.occlusion.enabled);
   options.occlusion.follow_adjustment =
       source.flag("occlusion_follows_adjustment", options.occlusion.follow_adjustment);
+  options.occlusion.other_surface_margin_m = source.number(
+      "occlusion_other_surface_margin", options.occlusion.other_surface_margin_m, Range::closed(0.0, 1.0, "m"));
   readCameraParameters(source, options.cameras);
   FieldThresholds field = thresholds ? *thresholds : FieldThresholds{};
   field.cameras = options.cameras;
