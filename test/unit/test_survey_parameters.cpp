@@ -54,6 +54,8 @@ TEST(SurveyParameters, UnsetParametersKeepTheStructsDefaults)
   EXPECT_TRUE(read.cameras.explanation.plain_ceiling);
   EXPECT_EQ(read.cameras.ambiguity.neighbourhood_share, 0.05);
   EXPECT_EQ(read.cameras.ambiguity.better_score_margin, 0.5);
+  EXPECT_EQ(read.cameras.explanation.faint_edge_gradient, 1.0);
+  EXPECT_EQ(read.occlusion.other_surface_margin_m, 0.1);
   EXPECT_EQ(read.ceiling.min_height_m, 2.2);
   EXPECT_FALSE(read.extended_retry.enabled);
   EXPECT_EQ(read.extended_retry.max_fusion_sigma_m, 0.012);
@@ -75,6 +77,7 @@ depth_registration: {x_px: 0.7, y_px: -0.25}
 floor_lines: true
 floor: {height: 0.05, max_range: 8, tilt_sigma_deg: 0.1, height_sigma: 0.01, extended: true}
 ceiling: {min_height: 2.5}
+occlusion_other_surface_margin: 0
 cameras: []
 )");
   const ic::SurveyOptions o = ic::readSurveyParameters(source);
@@ -100,6 +103,7 @@ cameras: []
   EXPECT_TRUE(o.floor.depth_confirmation);
   EXPECT_TRUE(o.floor.extend_confirmed);
   EXPECT_EQ(o.ceiling.min_height_m, 2.5);
+  EXPECT_EQ(o.occlusion.other_surface_margin_m, 0.0);
 }
 
 TEST(SurveyParameters, EverySetCameraParameterIsTaken)
@@ -126,6 +130,7 @@ plain_floor_samples: false
 plain_ceiling_samples: false
 texture_min_neighbours: 6
 overlay_min_gradient: 2.5
+faint_edge_gradient: 0
 unresolved_joints: false
 ambiguity: {neighbourhood_share: 0, better_score_margin: 0}
 cameras: []
@@ -155,6 +160,7 @@ cameras: []
   EXPECT_FALSE(o.explanation.plain_ceiling);
   EXPECT_EQ(o.explanation.texture.min_neighbours, 6u);
   EXPECT_EQ(o.explanation.min_gradient, 2.5);
+  EXPECT_EQ(o.explanation.faint_edge_gradient, 0.0);
   EXPECT_EQ(o.ambiguity.neighbourhood_share, 0.0);
   EXPECT_EQ(o.ambiguity.better_score_margin, 0.0);
 }

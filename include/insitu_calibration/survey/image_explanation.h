@@ -10,6 +10,8 @@
 //    count.
 //  - Where the image beside a line is plain, the line itself must mostly lie on an edge (the isolated agreement):
 //    texture beside the lines raises the chance level for right and wrong cameras alike, plain surroundings do not.
+//    A line whose plain samples show, averaged along it, a step across it lies on a faint crease: they count as on
+//    an edge (faint_edge_gradient).
 //  - Held-out lines: each matched line's residual had it been left out of the fit (the refinement's linearised
 //    leave-one-out), against the residual level of the fit: a camera pulled onto a few wrong matches predicts its
 //    other lines badly.
