@@ -135,6 +135,9 @@ Options:
   --plain-floor-samples 0|1
                         the final check leaves floor samples out one by one where the floor looks plain there
                         instead of whole plain floor lines (params plain_floor_samples; default 1)
+  --square-pixels 0|1   the fixed cameras' pixels are square: one focal length, fx = fy (params square_pixels;
+                        default 1; 0 for a stream resampled to non-square pixels, such as an analogue camera's
+                        720x576 digitiser: fx and fy estimated apart)
   --plain-ceiling-samples 0|1
                         the final check tests lines on the ceiling the survey's depth lines measured as floor lines
                         (their samples left out where the image looks plain; params plain_ceiling_samples;
@@ -151,6 +154,11 @@ Options:
                         when, averaged along the line, the step across it reaches G grey levels per px, 4 standard
                         errors and 3 times the step 4 px beside it: a faint crease (params faint_edge_gradient;
                         default 1; 0: off)
+  --chance-mapped-radius R
+                        the final check measures its chance level beside a line at places at least R px from every
+                        other map line's projection (an edge there is explained by the map, not met by chance) and
+                        leaves out samples with no such place (params chance_mapped_radius; default 3; 0: 4 px beside
+                        every sample)
   --occlusion-other-surface-margin M
                         the occlusion test hides a map line's point behind a surface other than the line's own
                         down to M m before it (params occlusion_other_surface_margin; default 0.1; 0: only beyond
@@ -197,8 +205,10 @@ Options:
                         lines, the share of the image lines' length per cause; and the final check measured on the
                         TRUE camera, with why its samples find no image edge (WORLD rendered from it: hidden from it
                         by a surface the occlusion test missed, a true edge in view that shows no edge (the map
-                        point within 1 px of it, or farther), no true edge): "truth-check" lines; the check's numbers and verdict for the result and each of the
-                        ambiguity test's alternatives, with their errors: "truth-agreement" lines
+                        point within 1 px of it, or farther), no true edge): "truth-check" lines; the check's
+                        numbers and verdict for the result and each of the ambiguity test's alternatives, with
+                        their errors, and the verdict with the chance level measured 4 px beside every sample
+                        (chance_mapped_radius 0): "truth-agreement" lines
   --prior-from-truth P,D,F[,SEED]
                         with --truth-dir: replace every camera's prior by its true camera moved P m in a random
                         direction, its viewing direction turned D degrees (about a random axis across it; the
@@ -835,13 +845,25 @@ void diagnoseFinalCheck(const ic::simulation::World& world, const ic::FixedCamer
   const auto& result = accepted ? camera.lastResult() : camera.lastRefused();
   if (!result || result->checked_map_lines.empty())
     return;
-  std::printf("truth-agreement %s %s result (%s): %s\n", name.c_str(), accepted ? "accepted" : "refused",
-              describeError(result->calibration.camera, truth).c_str(),
-              describeAgreement(result->explanation, o).c_str());
+  // The verdict with the chance level 4 px beside every sample too (chance_mapped_radius 0), to see what measuring it
+  // clear of other map lines changes.
+  ic::ImageExplanationOptions beside_every_sample = o;
+  beside_every_sample.chance_mapped_radius_px = 0.0;
+  const auto verdict_beside_every_sample = [&](const ic::CameraModel& c) {
+    return ic::acceptExplanation(camera.explain(c, map, occluders, nullptr, nullptr, &beside_every_sample),
+                                 beside_every_sample)
+               ? "passes"
+               : "fails";
+  };
+  std::printf("truth-agreement %s %s result (%s): %s; chance 4 px beside every sample: %s\n", name.c_str(),
+              accepted ? "accepted" : "refused", describeError(result->calibration.camera, truth).c_str(),
+              describeAgreement(result->explanation, o).c_str(),
+              verdict_beside_every_sample(result->calibration.camera));
   for (const ic::AlternativeCamera& alt : result->ambiguity.alternatives)
-    std::printf("truth-agreement %s alternative (%s): %s\n", name.c_str(),
+    std::printf("truth-agreement %s alternative (%s): %s; chance 4 px beside every sample: %s\n", name.c_str(),
                 describeError(alt.calibration.camera, truth).c_str(),
-                describeAgreement(camera.explain(alt.calibration.camera, map, occluders), o).c_str());
+                describeAgreement(camera.explain(alt.calibration.camera, map, occluders), o).c_str(),
+                verdict_beside_every_sample(alt.calibration.camera));
 }
 
 // Map coverage (line_evaluation.h): the camera's image lines, extracted from its median under the true distortion,
@@ -1331,11 +1353,15 @@ void parseCameraOptions(ic::CommandLine& cli, ic::FixedCameraOptions* cameras)
   cameras->explanation.plain_floor_by_sample =
       onOff(cli, "plain-floor-samples", cameras->explanation.plain_floor_by_sample);
   cameras->explanation.plain_ceiling = onOff(cli, "plain-ceiling-samples", cameras->explanation.plain_ceiling);
+  cameras->matcher.calibration.refinement.single_focal =
+      onOff(cli, "square-pixels", cameras->matcher.calibration.refinement.single_focal);
   cameras->explanation.texture.min_neighbours = static_cast<size_t>(
       cli.number("texture-min-neighbours", static_cast<double>(cameras->explanation.texture.min_neighbours), 0, 100));
   cameras->explanation.min_gradient = cli.number("overlay-min-gradient", cameras->explanation.min_gradient, 0.1, 255.0);
   cameras->explanation.faint_edge_gradient =
       cli.number("faint-edge-gradient", cameras->explanation.faint_edge_gradient, 0.0, 255.0);
+  cameras->explanation.chance_mapped_radius_px =
+      cli.number("chance-mapped-radius", cameras->explanation.chance_mapped_radius_px, 0.0, 10.0);
   ic::LineMatcherOptions& matcher = cameras->matcher;
   if (cli.flag("no-refine"))
     matcher.calibration.refine = false;
@@ -1736,6 +1762,8 @@ const std::set<std::string> kValueOptions = {"cameras",
                                              "texture-min-neighbours",
                                              "overlay-min-gradient",
                                              "faint-edge-gradient",
+                                             "square-pixels",
+                                             "chance-mapped-radius",
                                              "occlusion-other-surface-margin",
                                              "occluders-follow-adjustment",
                                              "triangulated-lines",

@@ -69,7 +69,8 @@ void expectCheckedLinesAsCounted(const cv::Mat& image, const sim::SimulatedFixed
   EXPECT_EQ(checked.size(), expected.map_lines + expected.plain_lines) << cam.name;
   EXPECT_EQ(left_out, expected.plain_lines) << cam.name;
   EXPECT_EQ(counted_samples, expected.samples) << cam.name;
-  EXPECT_EQ(left_out_samples, expected.plain_floor_samples + expected.plain_texture_samples) << cam.name;
+  EXPECT_EQ(left_out_samples, expected.plain_floor_samples + expected.plain_texture_samples + expected.amid_samples)
+      << cam.name;
   EXPECT_DOUBLE_EQ(static_cast<double>(counted_on_edge) / counted_samples, expected.overlay_agreement) << cam.name;
   EXPECT_DOUBLE_EQ(with_samples.overlay_agreement, expected.overlay_agreement) << cam.name;
 }
@@ -137,7 +138,8 @@ TEST(ImageExplanation, UnresolvedFloorJointsDoNotRefuseTheTrueCamera)
   // The whole-line rule (the default's by-sample rule has its own test below).
   ic::ImageExplanationOptions options = ic::FixedCameraOptions{}.explanation;
   options.plain_floor_by_sample = false;
-  options.texture.min_neighbours = 0;  // the floor rule alone (texture lines: their own test)
+  options.texture.min_neighbours = 0;     // the floor rule alone (texture lines: their own test)
+  options.chance_mapped_radius_px = 0.0;  // nothing left out amid map lines (its own test)
   ic::ImageExplanationOptions every_floor_line = options;
   every_floor_line.leave_out_plain_floor = false;
   const std::vector<ic::Segment3d> joints = tileCentreLines(0.5, 0.0);  // 0.5 m floor tiles
@@ -202,6 +204,7 @@ TEST(ImageExplanation, UnresolvedWallTextureDoesNotRefuseTheTrueCamera)
   ic::ImageExplanationOptions options = ic::FixedCameraOptions{}.explanation;
   ASSERT_EQ(options.texture.min_neighbours, 0u);  // off by default
   options.texture.min_neighbours = 4;
+  options.chance_mapped_radius_px = 0.0;  // nothing left out amid map lines (its own test)
   ic::ImageExplanationOptions no_texture = options;
   no_texture.texture.min_neighbours = 0;
   std::vector<ic::Segment3d> mortar;  // the north wall is y = 6, x 0-8
@@ -314,7 +317,8 @@ TEST(ImageExplanation, PlainFloorSamplesLeftOutOneByOne)
   const sim::Renderer renderer(*world);
   ic::ImageExplanationOptions by_sample = ic::FixedCameraOptions{}.explanation;
   by_sample.plain_floor_by_sample = true;
-  by_sample.texture.min_neighbours = 0;  // the floor rule alone (texture lines: their own test)
+  by_sample.texture.min_neighbours = 0;     // the floor rule alone (texture lines: their own test)
+  by_sample.chance_mapped_radius_px = 0.0;  // nothing left out amid map lines (its own test)
   ic::ImageExplanationOptions every_floor_line = by_sample;
   every_floor_line.leave_out_plain_floor = false;
   size_t left_out_samples = 0;
@@ -356,8 +360,9 @@ TEST(ImageExplanation, UnresolvedCeilingJointsAreTestedAsFloorJoints)
   const auto world = sim::loadWorldFile(kWorld);
   ASSERT_TRUE(world) << world.error().describe();
   const sim::Renderer renderer(*world);
-  const ic::ImageExplanationOptions unknown = ic::FixedCameraOptions{}.explanation;
+  ic::ImageExplanationOptions unknown = ic::FixedCameraOptions{}.explanation;
   ASSERT_FALSE(unknown.ceiling_height_m);
+  unknown.chance_mapped_radius_px = 0.0;  // nothing left out amid map lines (its own test)
   ic::ImageExplanationOptions known = unknown;
   known.ceiling_height_m = 3.0;
   ic::ImageExplanationOptions off = known;
@@ -479,4 +484,76 @@ TEST(ImageExplanation, AFaintCreaseFoundByTheStepAveragedAlongTheLine)
   EXPECT_LT(agreement(330.0), 0.1);  // beside the crease
   options.faint_edge_gradient = 0.0;
   EXPECT_LT(agreement(319.5), 0.1);  // one by one the samples find no edge
+}
+
+namespace
+{
+// A synthetic view of a wall with a joint texture: dark joints (1 px, blurred) every period_px over columns 100-400,
+// painted over rows 100-300, and a bright box at columns 460-600, in image noise; and the map lines of a camera
+// shifted by shift_px right and down: every joint over rows 100-379 (the lower part finds no edge: a right camera
+// misses some map lines too) and the box's four edges, on a vertical plane 5 m in front of a 500 px camera.
+struct TexturedView
+{
+  cv::Mat image;
+  std::vector<ic::Segment3d> map;
+  ic::CameraModel camera{{500.0, 500.0, 0.0, 320.0, 240.0}, {0.0, {320.0, 240.0}}, {}};
+};
+
+TexturedView texturedWall(double period_px, double shift_px)
+{
+  TexturedView v;
+  cv::Mat image(480, 640, CV_32FC1, cv::Scalar(128.0f));
+  for (double u = 100.0; u <= 400.0; u += period_px)
+    image(cv::Rect(static_cast<int>(u), 100, 1, 200)).setTo(80.0f);
+  image(cv::Rect(460, 150, 141, 201)).setTo(200.0f);
+  cv::GaussianBlur(image, image, cv::Size(0, 0), 0.7);
+  cv::Mat noise(480, 640, CV_32FC1);
+  cv::RNG(11).fill(noise, cv::RNG::NORMAL, 0.0, 2.0);
+  image += noise;
+  image.convertTo(v.image, CV_8UC1);
+  // The wall point seen at pixel (u, row) + the shift along both.
+  const auto at = [&](double u, double row) {
+    return Eigen::Vector3d(5.0 * (u + shift_px - 320.0) / 500.0, 5.0 * (row + shift_px - 240.0) / 500.0, 5.0);
+  };
+  for (double u = 100.0; u <= 400.0; u += period_px)
+    v.map.push_back({at(u, 100.0), at(u, 379.0)});
+  v.map.push_back({at(459.5, 149.5), at(459.5, 350.5)});
+  v.map.push_back({at(600.5, 149.5), at(600.5, 350.5)});
+  v.map.push_back({at(459.5, 149.5), at(600.5, 149.5)});
+  v.map.push_back({at(459.5, 350.5), at(600.5, 350.5)});
+  return v;
+}
+}  // namespace
+
+// A wall whose texture the map holds (joints 6 px apart): 4 px beside each joint line lies the next joint's edge, an
+// edge the camera explains. Counted as chance, it refuses the right camera; measured clear of the other map lines'
+// projections, the joints' samples have no place to measure it and are left out, and the rest decide. Cameras
+// shifted by half a joint spacing (3 px right and down: its lines between the joints, its box off the box) and by
+// 40 px stay refused. Joints 12 px apart leave room between them: nothing is left out there.
+TEST(ImageExplanation, TheChanceLevelIsMeasuredClearOfOtherMapLines)
+{
+  ic::ImageExplanationOptions options = ic::FixedCameraOptions{}.explanation;
+  ic::ImageExplanationOptions off = options;
+  off.chance_mapped_radius_px = 0.0;
+  const auto explain = [&](double period_px, double shift_px, const ic::ImageExplanationOptions& o) {
+    const TexturedView v = texturedWall(period_px, shift_px);
+    return ic::explainImage(v.image, v.camera, 640, 480, v.map, nullptr, o);
+  };
+  const ic::ImageExplanation right = explain(6.0, 0.0, options), right_off = explain(6.0, 0.0, off);
+  EXPECT_GT(right_off.overlay_chance, 0.5) << right_off.describe();
+  EXPECT_FALSE(ic::acceptExplanation(right_off, options)) << right_off.describe();
+  EXPECT_EQ(right_off.amid_samples, 0u);
+  EXPECT_GT(right.amid_samples, 3000u) << right.describe();
+  EXPECT_LT(right.overlay_chance, 0.1) << right.describe();
+  EXPECT_GT(right.overlay_agreement, 0.7) << right.describe();
+  EXPECT_TRUE(ic::acceptExplanation(right, options)) << right.describe();
+  for (const double shift_px : {3.0, 40.0})
+  {
+    const ic::ImageExplanation wrong = explain(6.0, shift_px, options);
+    EXPECT_FALSE(ic::acceptExplanation(wrong, options)) << "shift " << shift_px << ": " << wrong.describe();
+  }
+  const ic::ImageExplanation sparse = explain(12.0, 0.0, options), sparse_off = explain(12.0, 0.0, off);
+  EXPECT_EQ(sparse.amid_samples, 0u) << sparse.describe();
+  EXPECT_EQ(sparse.samples, sparse_off.samples);
+  EXPECT_EQ(sparse.overlay_agreement, sparse_off.overlay_agreement);
 }

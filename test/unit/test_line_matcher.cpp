@@ -56,12 +56,14 @@ std::vector<ic::Segment3d> makeRoom(std::mt19937& rng)
   return lines;
 }
 
-// A camera somewhere in the room (synthetic_lines.h's random camera) with a focal length in [focal_min, focal_max] px.
+// A camera somewhere in the room (synthetic_lines.h's random camera) with a focal length in [focal_min, focal_max] px
+// and square pixels, as the matcher's calibration takes them (LineMatcherOptions::calibration).
 ic::CameraModel randomCamera(double focal_min_px, double focal_max_px, std::mt19937& rng)
 {
   ic::SyntheticCameraOptions options;
   options.focal_min_px = focal_min_px;
   options.focal_max_px = focal_max_px;
+  options.aspect_jitter = 0.0;
   return ic::randomCamera(options, rng);
 }
 
@@ -315,4 +317,33 @@ TEST(LineMatcher, FinalSigmasWeighOnlyTheFinalCalibration)
   ASSERT_TRUE(plain->calibration.uncertainty.available && weighed->calibration.uncertainty.available);
   EXPECT_GT(weighed->calibration.uncertainty.position_m, 1.2 * plain->calibration.uncertainty.position_m);
   EXPECT_LT(ic::compareCameras(truth, weighed->calibration.camera).center_m, 0.03);
+}
+
+// The survey's calibration takes pixels as square by default: one focal length (fx = fy exactly), close to the
+// truth's. A camera whose stream is resampled to non-square pixels (fy 4 % above fx, as an analogue camera's
+// digitiser) is fitted by fx and fy apart with refinement.single_focal false. (One room: a matching takes 45 s.)
+TEST(LineMatcher, SquarePixelsByDefaultAndApartWhenAsked)
+{
+  std::mt19937 rng(70);
+  const std::vector<ic::Segment3d> room = makeRoom(rng);
+  ic::CameraModel truth = randomCamera(800, 1000, rng);
+  const auto image = imageLines(truth, room, 0.3, 0, rng);
+  const ic::CameraPrior prior = offPrior(truth, 0.5, 10.0, 1.1, rng);
+  const ic::LineMatcherOptions square;
+  ASSERT_TRUE(square.calibration.refinement.single_focal);
+  const auto result = ic::matchAndCalibrate(room, image, prior, kWidth, kHeight, square);
+  ASSERT_TRUE(result) << result.error().describe();
+  const ic::Intrinsics& k = result->calibration.camera.intrinsics();
+  EXPECT_EQ(k.fx, k.fy);
+  EXPECT_LT(std::abs(ic::compareCameras(truth, result->calibration.camera).focal_relative), 0.01);
+
+  truth.intrinsics().fy *= 1.04;
+  const auto non_square_image = imageLines(truth, room, 0.3, 0, rng);
+  ic::LineMatcherOptions apart;
+  apart.calibration.refinement.single_focal = false;
+  const auto non_square = ic::matchAndCalibrate(room, non_square_image, prior, kWidth, kHeight, apart);
+  ASSERT_TRUE(non_square) << non_square.error().describe();
+  const ic::Intrinsics& n = non_square->calibration.camera.intrinsics();
+  EXPECT_NEAR(n.fy / n.fx, 1.04, 0.01);  // as well as this room determines fx (ConvergesFromAnOffPrior: 1 %)
+  EXPECT_LT(std::abs(ic::compareCameras(truth, non_square->calibration.camera).focal_relative), 0.01);
 }

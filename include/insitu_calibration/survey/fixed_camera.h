@@ -171,10 +171,11 @@ public:
   std::optional<CameraModel> currentCamera() const;
   // The final check's measurement (image_explanation.h) of any camera against the median image: the map lines in its
   // view less those the occluders (none: nothing hidden) hide from it. For a result, and for the truth's camera in
-  // diagnostics (with Survey::surfaces()).
+  // diagnostics (with Survey::surfaces()). options: the check's (none: the camera's own).
   ImageExplanation explain(const CameraModel& camera, const std::vector<Segment3d>& map_lines,
                            const SurfaceVoxels* occluders, const RefinementResult* refinement = nullptr,
-                           std::vector<EdgeSamples>* checked_lines = nullptr) const;
+                           std::vector<EdgeSamples>* checked_lines = nullptr,
+                           const ImageExplanationOptions* options = nullptr) const;
 
 private:
   Expected<FixedCameraResult> calibrateFromFile(const std::string& world_frame);

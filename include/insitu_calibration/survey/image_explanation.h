@@ -34,10 +34,24 @@ namespace insitu_calibration
 {
 struct ImageExplanationOptions
 {
-  double sample_step_px = 3.0;       // along each projected map line
-  double min_gradient = 4.0;         // grey levels per px across the line for an edge
-  double min_alignment = 0.8;        // |gradient . normal| / |gradient|
-  double chance_offset_px = 4.0;     // where the chance level is measured
+  double sample_step_px = 3.0;    // along each projected map line
+  double min_gradient = 4.0;      // grey levels per px across the line for an edge
+  double min_alignment = 0.8;     // |gradient . normal| / |gradient|
+  double chance_offset_px = 4.0;  // where the chance level is measured
+  // The chance level is measured clear of the other map lines' projections (a band of chance_mapped_radius_px
+  // about each): an edge there is that line's, which the camera explains, not one met by chance. Where another map
+  // line projects near the place chance_offset_px beside a sample, the nearest place up to 1.5 chance_offset_px from
+  // the line clear of every band (its own line's included) is taken instead. A sample with no such place on either
+  // side lies amid other map lines (a texture the map holds, finer than the bands): there is no telling what meets an
+  // edge by chance, and it is left out. The places depend on the camera's own projection, not on the image: a wrong
+  // camera's meet image edges as often as they would anywhere. 3 px: the check's edge probe reaches 1 px either side
+  // of a place, and a blurred 1 px joint gives a gradient over 4 grey levels per px up to 2 px from its centre.
+  // Measured: a room's right camera (brick joints 4-6 px apart in a 640x480 view, all mapped) was refused with its
+  // chance level at 42 % (excess 0.39) counting the joints' edges beside its lines as chance. Only when at least
+  // min_chance_sides sides are measured is the chance level taken from them (else 4 px beside every counted sample).
+  // 0: off, 4 px beside every sample, none left out (parameter chance_mapped_radius).
+  double chance_mapped_radius_px = 3.0;
+  size_t min_chance_sides = 200;
   double min_line_length_px = 20.0;  // shorter projections are not assessed
   // A map line with both ends within floor_tolerance_m of the floor plane (z = floor_height_m in the map, as
   // FloorLineOptions) is a floor line. It is left out where the floor looks plain: fewer than plain_floor_on_edge
@@ -128,7 +142,11 @@ struct ImageExplanation
   size_t plain_floor_samples = 0;    // with plain_floor_by_sample: floor and ceiling samples left out (not in samples)
   size_t plain_texture_samples = 0;  // texture lines' samples left out where the image is plain (not in samples)
   double overlay_agreement = 0.0;    // share of the samples on an edge
-  double overlay_chance = 0.0;       // share 4 px beside the lines
+  double overlay_chance = 0.0;       // share 4 px beside the lines (of the sides not on other map lines)
+  // With chance_mapped_radius_px: the points beside the counted samples measured nearer or farther than
+  // chance_offset_px (another map line projects there), and those with no place clear of the map lines (left out).
+  size_t chance_places_moved = 0, chance_places_none = 0;
+  size_t amid_samples = 0;  // no chance place on either side: left out (not in samples)
   // Of the counted samples with no edge beside them on either side (plain surroundings; lines whose plain samples are
   // left out excepted), the share on an edge: texture beside a line does not raise it, as it raises the chance level.
   // A wrong camera's lines on plain wall or floor lower it.

@@ -197,7 +197,7 @@ LineMatcherOptions::LineMatcherOptions()
 {
   calibration.robust_noise_level = true;
   calibration.refinement.vertex_outlier_sigmas = 5.0;
-  calibration.refinement.aspect_prior_sigma = 0.005;
+  calibration.refinement.single_focal = true;
   calibration.refinement.principal_point_prior_sigma = 0.03;
 }
 

@@ -263,10 +263,12 @@ std::vector<Segment3d> FixedCamera::unhiddenLines(const CameraModel& camera, con
 
 ImageExplanation FixedCamera::explain(const CameraModel& camera, const std::vector<Segment3d>& map_lines,
                                       const SurfaceVoxels* occluders, const RefinementResult* refinement,
-                                      std::vector<EdgeSamples>* checked_lines) const
+                                      std::vector<EdgeSamples>* checked_lines,
+                                      const ImageExplanationOptions* options) const
 {
   return explainImage(median_.median(), camera, config_.image_width, config_.image_height,
-                      unhiddenLines(camera, map_lines, occluders), refinement, options_.explanation, checked_lines);
+                      unhiddenLines(camera, map_lines, occluders), refinement,
+                      options ? *options : options_.explanation, checked_lines);
 }
 
 Status FixedCamera::checkExplanation(FixedCameraResult& result, const std::vector<Segment3d>& map_lines) const
@@ -367,7 +369,11 @@ Expected<FixedCameraResult> FixedCamera::calibrateFromFile(const std::string& wo
                  config_.correspondence_file + " is for a " + std::to_string(data->image_width) + "x" +
                      std::to_string(data->image_height) + " image, the camera is " +
                      std::to_string(config_.image_width) + "x" + std::to_string(config_.image_height));
-  auto calibration = calibrateCamera(*data, options_.matcher.calibration);
+  // Square pixels are the survey's matching's assumption (square_pixels); a correspondence file's lines (CAD lines,
+  // an installer's clicks) fit fx and fy apart, as calibrate_lines does.
+  CalibrationOptions options = options_.matcher.calibration;
+  options.refinement.single_focal = false;
+  auto calibration = calibrateCamera(*data, options);
   if (!calibration)
     return calibration.error();
   FixedCameraResult result;

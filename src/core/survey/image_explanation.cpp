@@ -93,6 +93,8 @@ bool forEachSample(const CameraModel& camera, const Segment3d& line, const std::
   return true;
 }
 
+using PixelsAndNormals = std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>>;
+
 // The mean gradient across the line (grey levels per px, signed along the normals), over samples, at an offset
 // along their normals, with its standard error.
 struct MeanGradient
@@ -100,8 +102,7 @@ struct MeanGradient
   double mean = 0.0, standard_error = 0.0;
 };
 
-MeanGradient meanGradientAcross(const Gradients& g, const std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>>& at,
-                                double offset)
+MeanGradient meanGradientAcross(const Gradients& g, const PixelsAndNormals& at, double offset)
 {
   double sum = 0.0, sum_squares = 0.0;
   for (const auto& [p, n] : at)
@@ -120,8 +121,7 @@ MeanGradient meanGradientAcross(const Gradients& g, const std::vector<std::pair<
 
 // Whether the samples (pixel, unit normal; one line's, normals all to one side) lie on a faint edge: a step across
 // the line, averaged along it, as ImageExplanationOptions::faint_edge_gradient describes.
-bool onFaintEdge(const Gradients& g, const std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>>& at,
-                 const ImageExplanationOptions& o)
+bool onFaintEdge(const Gradients& g, const PixelsAndNormals& at, const ImageExplanationOptions& o)
 {
   if (!(o.faint_edge_gradient > 0.0) || at.size() < std::max<size_t>(2, o.faint_edge_min_samples))
     return false;
@@ -143,8 +143,12 @@ bool onFaintEdge(const Gradients& g, const std::vector<std::pair<Eigen::Vector2d
 struct LineSupport
 {
   size_t samples = 0, on = 0, beside = 0;
+  // The sides beside the samples that measure the chance level (places clear of the other map lines' projections),
+  // of them those on an edge, and those not chance_offset_px from the line.
+  size_t chance_sides = 0, chance_hits = 0, chance_moved = 0;
   size_t faint = 0;     // of on: found by the averaged step along the line (onFaintEdge)
   size_t left_out = 0;  // plain floor samples left out one by one (not in on, beside: they have no edge)
+  size_t amid = 0;      // samples with no chance place on either side (not in on, beside, isolated, left_out)
   size_t isolated = 0, isolated_on = 0;  // samples with no edge beside on either side, and of those on an edge
 };
 
@@ -153,44 +157,130 @@ struct AssessedLine
 {
   LineSupport support;
   EdgeSamples samples;
-  bool is_floor = true;  // its plain samples are counted as floor samples (else as texture samples)
+  std::vector<bool> amid;  // with samples kept and the map lines' bands: per sample, amid other map lines
+  bool is_floor = true;    // its plain samples are counted as floor samples (else as texture samples)
 };
 
+// The image as the check sees it: its gradients, and where the map lines in view project (a band of
+// ImageExplanationOptions::chance_mapped_radius_px about each; empty when off): an edge beside a line there is
+// another map line's, explained by the camera, not met by chance.
+struct CheckedView
+{
+  Gradients gradients;
+  cv::Mat mapped;  // CV_8U, non-zero on a map line's projection
+  bool onMapLine(const Eigen::Vector2d& q) const
+  {
+    const int u = static_cast<int>(std::lround(q.x())), v = static_cast<int>(std::lround(q.y()));
+    return !mapped.empty() && u >= 0 && v >= 0 && u < mapped.cols && v < mapped.rows && mapped.at<uchar>(v, u) != 0;
+  }
+};
+
+cv::Mat mapLineBands(const CameraModel& camera, const std::vector<Segment3d>& lines,
+                     const std::vector<std::pair<double, double>>& intervals, int width, int height, double radius_px)
+{
+  cv::Mat mask = cv::Mat::zeros(height, width, CV_8U);
+  const int thickness = std::max(1, static_cast<int>(std::lround(2.0 * radius_px)));
+  for (size_t i = 0; i < lines.size(); ++i)
+  {
+    const Eigen::Vector3d a = lines[i].a + intervals[i].first * (lines[i].b - lines[i].a);
+    const Eigen::Vector3d b = lines[i].a + intervals[i].second * (lines[i].b - lines[i].a);
+    const auto pa = camera.project(a), pb = camera.project(b);
+    const double length = pa && pb ? (*pb - *pa).norm() : 100.0;
+    const int n = std::clamp(static_cast<int>(length / 4.0), 1, 500);  // distortion bends long projections
+    std::optional<Eigen::Vector2d> previous;
+    for (int k = 0; k <= n; ++k)
+    {
+      const auto p = camera.project(a + (static_cast<double>(k) / n) * (b - a));
+      if (p && previous)
+        cv::line(mask, cv::Point2d(previous->x(), previous->y()), cv::Point2d(p->x(), p->y()), cv::Scalar(255),
+                 thickness, cv::LINE_8);
+      previous = p;
+    }
+  }
+  return mask;
+}
+
+// Where beside the sample p (along sign * normal) the chance level is measured: chance_offset_px from the line, or,
+// where another map line projects near there, the nearest offset up to 1.5 chance_offset_px clear of every map
+// line's band (its own included); none when there is no such place (a texture finer than the bands).
+std::optional<Eigen::Vector2d> chancePlace(const CheckedView& view, const Eigen::Vector2d& p,
+                                           const Eigen::Vector2d& normal, double sign, const ImageExplanationOptions& o)
+{
+  const double farthest = 1.5 * o.chance_offset_px;
+  for (int k = 0; k <= 2 * static_cast<int>(std::ceil(farthest)); ++k)
+  {
+    const double offset = o.chance_offset_px + ((k % 2) ? -0.5 : 0.5) * ((k + 1) / 2);
+    if (offset <= 0.0 || offset > farthest)
+      continue;
+    const Eigen::Vector2d q = p + sign * offset * normal;
+    if (!view.onMapLine(q))
+      return q;
+  }
+  return std::nullopt;
+}
+
+// Keeps the sample for the report's overlay (left_out: not counted there).
+void keepSample(const Eigen::Vector2d& p, const Eigen::Vector3d& point, bool on, bool left_out, bool amid,
+                bool with_flags, AssessedLine& a)
+{
+  a.samples.points.push_back(p);
+  a.samples.map_points.push_back(point);
+  a.samples.on_edge.push_back(on);
+  if (with_flags)
+    a.samples.left_out.push_back(left_out || amid);
+  a.amid.push_back(amid);
+}
+
 // One sample's edge test on the line and beside it, counted into a (kept in a.samples with keep_samples).
-// leave_out_plain: a sample with no edge on it or beside it is left out (plain floor there). Returns whether the
-// sample is plain (no edge on it nor beside it).
-bool assessSample(const Gradients& g, const Eigen::Vector2d& p, const Eigen::Vector2d& normal,
+// leave_out_plain: a sample with no edge on it or beside it is left out (plain floor there). A sample with no chance
+// place on either side (amid other map lines' projections) is left out. Returns whether the sample counts and is
+// plain (no edge on it nor beside it).
+bool assessSample(const CheckedView& view, const Eigen::Vector2d& p, const Eigen::Vector2d& normal,
                   const Eigen::Vector3d& point, const ImageExplanationOptions& o, bool keep_samples,
                   bool leave_out_plain, AssessedLine& a)
 {
+  const Gradients& g = view.gradients;
   const bool on = onEdge(g, p, normal, o);
-  const int beside = (onEdge(g, p + o.chance_offset_px * normal, normal, o) ? 1 : 0) +
-                     (onEdge(g, p - o.chance_offset_px * normal, normal, o) ? 1 : 0);
-  const bool left_out = leave_out_plain && !on && beside == 0;
+  const Eigen::Vector2d sides[2] = {p + o.chance_offset_px * normal, p - o.chance_offset_px * normal};
+  std::optional<Eigen::Vector2d> places[2] = {sides[0], sides[1]};
+  if (!view.mapped.empty())
+    for (int side = 0; side < 2; ++side)
+      places[side] = chancePlace(view, p, normal, side == 0 ? 1.0 : -1.0, o);
+  const bool amid = !places[0] && !places[1];
+  const bool side_on_edge[2] = {onEdge(g, sides[0], normal, o), onEdge(g, sides[1], normal, o)};
+  const int beside = (side_on_edge[0] ? 1 : 0) + (side_on_edge[1] ? 1 : 0);
+  const bool left_out = !amid && leave_out_plain && !on && beside == 0;
   ++a.support.samples;
+  if (keep_samples)
+    keepSample(p, point, on, left_out, amid, leave_out_plain || !view.mapped.empty(), a);
+  if (amid)
+  {
+    ++a.support.amid;
+    return false;
+  }
   a.support.on += on ? 1 : 0;
   a.support.beside += beside;
   a.support.left_out += left_out ? 1 : 0;
+  for (int side = 0; side < 2 && !left_out; ++side)
+    if (places[side])
+    {
+      const bool moved = *places[side] != sides[side];
+      ++a.support.chance_sides;
+      a.support.chance_hits += (moved ? onEdge(g, *places[side], normal, o) : side_on_edge[side]) ? 1 : 0;
+      a.support.chance_moved += moved ? 1 : 0;
+    }
   if (!leave_out_plain && beside == 0)  // where plain samples are left out, the isolated ones all have an edge
   {
     ++a.support.isolated;
     a.support.isolated_on += on ? 1 : 0;
-  }
-  if (keep_samples)
-  {
-    a.samples.points.push_back(p);
-    a.samples.map_points.push_back(point);
-    a.samples.on_edge.push_back(on);
-    if (leave_out_plain)
-      a.samples.left_out.push_back(left_out);
   }
   return !on && beside == 0;
 }
 
 // The line's plain samples (pixel, normal, index in a.samples) count as on an edge when, averaged, they lie on a
 // faint one (onFaintEdge). Only for lines whose plain samples count (they are all isolated samples then).
-void countFaintEdge(const Gradients& g, const std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>>& plain,
-                    const std::vector<size_t>& plain_index, const ImageExplanationOptions& o, AssessedLine& a)
+void countFaintEdge(const Gradients& g, const PixelsAndNormals& plain, const std::vector<size_t>& plain_index,
+                    const ImageExplanationOptions& o, AssessedLine& a)
 {
   if (!onFaintEdge(g, plain, o))
     return;
@@ -203,18 +293,18 @@ void countFaintEdge(const Gradients& g, const std::vector<std::pair<Eigen::Vecto
 }
 
 // None when the projection is too short to assess.
-std::optional<AssessedLine> assessLine(const Gradients& g, const CameraModel& camera, const Segment3d& line,
+std::optional<AssessedLine> assessLine(const CheckedView& view, const CameraModel& camera, const Segment3d& line,
                                        const std::pair<double, double>& interval, int width, int height,
                                        const ImageExplanationOptions& o, bool keep_samples, bool leave_out_plain)
 {
   AssessedLine a;
-  std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> plain;
+  PixelsAndNormals plain;
   std::vector<size_t> plain_index;
   const bool assessed =
       forEachSample(camera, line, interval, width, height, o,
                     [&](const Eigen::Vector2d& p, const Eigen::Vector2d& normal, const Eigen::Vector3d& point) {
                       const size_t index = a.samples.points.size();
-                      if (assessSample(g, p, normal, point, o, keep_samples, leave_out_plain, a) && !leave_out_plain)
+                      if (assessSample(view, p, normal, point, o, keep_samples, leave_out_plain, a) && !leave_out_plain)
                       {
                         plain.emplace_back(p, normal);
                         plain_index.push_back(index);
@@ -222,7 +312,7 @@ std::optional<AssessedLine> assessLine(const Gradients& g, const CameraModel& ca
                     });
   if (!assessed)
     return std::nullopt;
-  countFaintEdge(g, plain, plain_index, o, a);
+  countFaintEdge(view.gradients, plain, plain_index, o, a);
   return a;
 }
 
@@ -263,7 +353,7 @@ bool onPlainFloor(bool floor_line, const LineSupport& s, const ImageExplanationO
 {
   if (s.samples == 0)
     return false;
-  if (s.left_out == s.samples)
+  if (s.left_out > 0 && s.left_out + s.amid == s.samples)
     return true;
   if (!floor_line || o.plain_floor_by_sample)
     return false;
@@ -277,6 +367,8 @@ void countWhole(AssessedLine& a)
   a.samples.counted = true;
   a.support.left_out = 0;
   a.samples.left_out.clear();
+  if (std::find(a.amid.begin(), a.amid.end(), true) != a.amid.end())
+    a.samples.left_out = a.amid;  // samples amid other map lines stay out
 }
 
 // The map lines in view that the overlay test assesses (projections long enough, with a sample inside the image),
@@ -286,7 +378,8 @@ std::vector<AssessedLine> assessOverlay(const cv::Mat& image, const CameraModel&
                                         const std::vector<Segment3d>& map_lines, const ImageExplanationOptions& options,
                                         bool keep_samples)
 {
-  const Gradients g = gradients(image);
+  CheckedView view;
+  view.gradients = gradients(image);
   std::vector<Segment3d> in_view;
   std::vector<std::pair<double, double>> intervals;
   for (const auto& line : map_lines)
@@ -295,6 +388,8 @@ std::vector<AssessedLine> assessOverlay(const cv::Mat& image, const CameraModel&
       in_view.push_back(line);
       intervals.push_back(*interval);
     }
+  if (options.chance_mapped_radius_px > 0.0)
+    view.mapped = mapLineBands(camera, in_view, intervals, width, height, options.chance_mapped_radius_px);
   const std::vector<bool> texture = textureLines(in_view, options.texture);
   const std::vector<bool> plain_tested = plainTestedLines(in_view, options);
   std::vector<AssessedLine> lines;
@@ -303,8 +398,8 @@ std::vector<AssessedLine> assessOverlay(const cv::Mat& image, const CameraModel&
   {
     const Segment3d& line = in_view[i];
     const bool floor_by_sample = options.plain_floor_by_sample && plain_tested[i];
-    auto assessed =
-        assessLine(g, camera, line, intervals[i], width, height, options, keep_samples, floor_by_sample || texture[i]);
+    auto assessed = assessLine(view, camera, line, intervals[i], width, height, options, keep_samples,
+                               floor_by_sample || texture[i]);
     if (!assessed || assessed->support.samples == 0)  // not assessed, or only at the border
       continue;
     assessed->is_floor = floor_by_sample;
@@ -319,9 +414,9 @@ std::vector<AssessedLine> assessOverlay(const cv::Mat& image, const CameraModel&
 }
 
 // The overlay agreement and its chance level over the lines that count.
-void measureOverlay(const std::vector<AssessedLine>& lines, ImageExplanation& out)
+void measureOverlay(const std::vector<AssessedLine>& lines, const ImageExplanationOptions& o, ImageExplanation& out)
 {
-  size_t on = 0, beside = 0, isolated_on = 0;
+  size_t on = 0, beside = 0, isolated_on = 0, chance_sides = 0, chance_hits = 0, chance_moved = 0;
   for (const AssessedLine& a : lines)
   {
     if (!a.samples.counted)
@@ -329,19 +424,29 @@ void measureOverlay(const std::vector<AssessedLine>& lines, ImageExplanation& ou
       ++out.plain_lines;
       continue;
     }
+    out.amid_samples += a.support.amid;
     ++out.map_lines;
-    out.samples += a.support.samples - a.support.left_out;
+    out.samples += a.support.samples - a.support.left_out - a.support.amid;
     (a.is_floor ? out.plain_floor_samples : out.plain_texture_samples) += a.support.left_out;
     on += a.support.on;
     beside += a.support.beside;
     out.isolated_samples += a.support.isolated;
     isolated_on += a.support.isolated_on;
     out.faint_samples += a.support.faint;
+    chance_sides += a.support.chance_sides;
+    chance_moved += a.support.chance_moved;
+    chance_hits += a.support.chance_hits;
   }
   if (out.samples > 0)
   {
     out.overlay_agreement = static_cast<double>(on) / out.samples;
     out.overlay_chance = 0.5 * static_cast<double>(beside) / out.samples;
+  }
+  if (o.chance_mapped_radius_px > 0.0 && chance_sides >= std::max<size_t>(1, o.min_chance_sides))
+  {
+    out.overlay_chance = static_cast<double>(chance_hits) / chance_sides;
+    out.chance_places_moved = chance_moved;
+    out.chance_places_none = 2 * out.samples - std::min(2 * out.samples, chance_sides);
   }
   if (out.isolated_samples > 0)
     out.isolated_agreement = static_cast<double>(isolated_on) / out.isolated_samples;
@@ -373,6 +478,12 @@ std::string ImageExplanation::describe() const
            " samples of other floor or ceiling lines left out where it looks plain";
   if (faint_samples > 0)
     out += "; " + std::to_string(faint_samples) + " samples on faint edges (a step averaged along their line)";
+  if (amid_samples > 0)
+    out += "; " + std::to_string(amid_samples) +
+           " samples amid other map lines left out (no place beside them to measure the chance level)";
+  if (chance_places_moved + chance_places_none > 0)
+    out += "; chance measured clear of other map lines: " + std::to_string(chance_places_moved) +
+           " places beside moved, " + std::to_string(chance_places_none) + " with none";
   if (plain_texture_samples > 0)
     out += "; " + std::to_string(plain_texture_samples) +
            " samples of wall texture (brick, tile or panel joints) left out where the image is plain";
@@ -391,7 +502,7 @@ ImageExplanation explainImage(const cv::Mat& image, const CameraModel& camera, i
     out.image_checked = true;
     std::vector<AssessedLine> lines =
         assessOverlay(image, camera, width, height, map_lines, options, checked_lines != nullptr);
-    measureOverlay(lines, out);
+    measureOverlay(lines, options, out);
     if (checked_lines)
       for (AssessedLine& a : lines)
         checked_lines->push_back(std::move(a.samples));

@@ -141,6 +141,10 @@ void readCameraParameters(ParameterSource& read, FixedCameraOptions& camera)
       read.number("overlay_min_gradient", camera.explanation.min_gradient, Range::closed(0.1, 255.0));
   camera.explanation.faint_edge_gradient =
       read.number("faint_edge_gradient", camera.explanation.faint_edge_gradient, Range::closed(0.0, 255.0));
+  camera.matcher.calibration.refinement.single_focal =
+      read.flag("square_pixels", camera.matcher.calibration.refinement.single_focal);
+  camera.explanation.chance_mapped_radius_px =
+      read.number("chance_mapped_radius", camera.explanation.chance_mapped_radius_px, Range::closed(0.0, 10.0));
   camera.unresolved_joints.enabled = read.flag("unresolved_joints", camera.unresolved_joints.enabled);
   camera.ambiguity.neighbourhood_share =
       read.number("ambiguity/neighbourhood_share", camera.ambiguity.neighbourhood_share, Range::closed(0.0, 0.5));
