@@ -159,6 +159,9 @@ Options:
                         other map line's projection (an edge there is explained by the map, not met by chance) and
                         leaves out samples with no such place (params chance_mapped_radius; default 3; 0: 4 px beside
                         every sample)
+  --chance-both-sides 0|1
+                        with a chance-mapped radius: a sample counts only where both its sides have such a place (1),
+                        or where either has (0) (params chance_both_sides; default 1)
   --occlusion-other-surface-margin M
                         the occlusion test hides a map line's point behind a surface other than the line's own
                         down to M m before it (params occlusion_other_surface_margin; default 0.1; 0: only beyond
@@ -189,7 +192,9 @@ Options:
                         "truth-limit" and "truth-keyframes", which need each recording's own errors): also report,
                         per camera, how many matches pair the wrong edges and how far the matched map lines are
                         from the true edges, the localiser's limit (its error averaged over the keyframes, at the
-                        camera: "truth-limit" lines) and the cameras' poses relative to each other against the
+                        camera: "truth-limit" lines; over the keyframes that observed the camera's matched lines,
+                        as tf gave them and adjusted, beside the placement sigma predicted for them:
+                        "truth-local-limit" lines) and the cameras' poses relative to each other against the
                         truth ("truth-relative" lines), the map's coverage of each camera's image lines
                         ("truth-coverage" lines) and how much of an accepted camera's error its lines' true offsets
                         explain, all, wrong matches and right ones (linearised through the refinement: the
@@ -208,7 +213,7 @@ Options:
                         point within 1 px of it, or farther), no true edge): "truth-check" lines; the check's
                         numbers and verdict for the result and each of the ambiguity test's alternatives, with
                         their errors, and the verdict with the chance level measured 4 px beside every sample
-                        (chance_mapped_radius 0): "truth-agreement" lines
+                        (chance_mapped_radius 0) and with the other chance_both_sides rule: "truth-agreement" lines
   --prior-from-truth P,D,F[,SEED]
                         with --truth-dir: replace every camera's prior by its true camera moved P m in a random
                         direction, its viewing direction turned D degrees (about a random axis across it; the
@@ -353,6 +358,41 @@ std::optional<std::vector<ic::simulation::Pose2d>> keyframeLocalizationErrors(co
   if (recording + 1 != recordings.size())
     return std::nullopt;
   return errors;
+}
+
+// The localiser's true mean error over the keyframes that observed the camera's matched lines, at the camera, as tf
+// gave the poses and after the adjustment's corrections, beside the placement sigma the calibration predicts for
+// them ("truth-local-limit" lines): how far the map is off where the camera's lines are.
+void reportLocalPlacementAgainstTruth(const std::vector<std::string>& truth_dirs, const ic::Survey& survey,
+                                      const std::string& name, const ic::FixedCameraResult& result)
+{
+  const auto errors = keyframeLocalizationErrors(truth_dirs, survey);
+  const auto truth = ic::loadCalibrationFile(truth_dirs.front() + "/" + name + ".yaml");
+  if (!errors || !truth)
+    return;
+  const std::vector<ic::MapLine> used = survey.usedMapLines();
+  const auto lines = ic::Survey::matchedMapLines(result, used);
+  const std::vector<size_t> observing = ic::keyframesObserving(survey.keyframes(), lines);
+  const auto corrections = survey.poseCorrections();
+  std::vector<ic::simulation::Pose2d> before, after;
+  std::vector<Eigen::Vector3d> pivots;
+  for (size_t k : observing)
+  {
+    const ic::simulation::Pose2d& e = (*errors)[k];
+    before.push_back(e);
+    after.push_back({e.x + corrections[k].x, e.y + corrections[k].y, e.yaw + corrections[k].yaw});
+    pivots.push_back(survey.keyframes()[k].T_map_camera.translation());
+  }
+  const Eigen::Vector3d centre = truth->camera.pose().center();
+  const auto tf = ic::simulation::placementLimit(before, pivots, centre);
+  const auto adjusted = ic::simulation::placementLimit(after, pivots, centre);
+  const ic::MapPlacementUncertainty local = survey.mapPlacementOf(lines), whole = survey.mapPlacement();
+  std::printf(
+      "truth-local-limit %s over %zu keyframes: tf %.2f mm %.4f deg, adjusted %.2f mm %.4f deg; predicted 1 "
+      "sigma %.2f mm %.4f deg (the survey's %.2f mm %.4f deg)\n",
+      name.c_str(), observing.size(), 1000.0 * tf.position_m, tf.rotation_rad * 180.0 / M_PI,
+      1000.0 * adjusted.position_m, adjusted.rotation_rad * 180.0 / M_PI, 1000.0 * local.atPoint(centre),
+      local.sigma_deg, 1000.0 * whole.atPoint(centre), whole.sigma_deg);
 }
 
 // Diagnostics against the simulator's truth: the true edge of each matched image line (under the true camera) and
@@ -855,15 +895,24 @@ void diagnoseFinalCheck(const ic::simulation::World& world, const ic::FixedCamer
                ? "passes"
                : "fails";
   };
-  std::printf("truth-agreement %s %s result (%s): %s; chance 4 px beside every sample: %s\n", name.c_str(),
+  // And with the other rule for samples with a clear place on one side only (chance_needs_both_sides).
+  ic::ImageExplanationOptions other_rule = o;
+  other_rule.chance_needs_both_sides = !o.chance_needs_both_sides;
+  const auto agreement_other_rule = [&](const ic::CameraModel& c) {
+    return describeAgreement(camera.explain(c, map, occluders, nullptr, nullptr, &other_rule), other_rule);
+  };
+  const char* other = o.chance_needs_both_sides ? "either side clear" : "both sides clear";
+  std::printf("truth-agreement %s %s result (%s): %s; chance 4 px beside every sample: %s; %s: %s\n", name.c_str(),
               accepted ? "accepted" : "refused", describeError(result->calibration.camera, truth).c_str(),
               describeAgreement(result->explanation, o).c_str(),
-              verdict_beside_every_sample(result->calibration.camera));
+              verdict_beside_every_sample(result->calibration.camera), other,
+              agreement_other_rule(result->calibration.camera).c_str());
   for (const ic::AlternativeCamera& alt : result->ambiguity.alternatives)
-    std::printf("truth-agreement %s alternative (%s): %s; chance 4 px beside every sample: %s\n", name.c_str(),
+    std::printf("truth-agreement %s alternative (%s): %s; chance 4 px beside every sample: %s; %s: %s\n", name.c_str(),
                 describeError(alt.calibration.camera, truth).c_str(),
                 describeAgreement(camera.explain(alt.calibration.camera, map, occluders), o).c_str(),
-                verdict_beside_every_sample(alt.calibration.camera));
+                verdict_beside_every_sample(alt.calibration.camera), other,
+                agreement_other_rule(alt.calibration.camera).c_str());
 }
 
 // Map coverage (line_evaluation.h): the camera's image lines, extracted from its median under the true distortion,
@@ -1362,6 +1411,8 @@ void parseCameraOptions(ic::CommandLine& cli, ic::FixedCameraOptions* cameras)
       cli.number("faint-edge-gradient", cameras->explanation.faint_edge_gradient, 0.0, 255.0);
   cameras->explanation.chance_mapped_radius_px =
       cli.number("chance-mapped-radius", cameras->explanation.chance_mapped_radius_px, 0.0, 10.0);
+  cameras->explanation.chance_needs_both_sides =
+      onOff(cli, "chance-both-sides", cameras->explanation.chance_needs_both_sides);
   ic::LineMatcherOptions& matcher = cameras->matcher;
   if (cli.flag("no-refine"))
     matcher.calibration.refine = false;
@@ -1678,6 +1729,7 @@ bool calibrateAndSave(const ic::CommandLine& cli, ic::Survey& survey, const std:
     ic::RefinementOptions refinement = survey.camera(name).matcherOptions().calibration.refinement;
     refinement.estimate_distortion = result->calibration.distortion_estimated;
     reportAgainstTruth(truthDir(cli), name, *result, refinement);
+    reportLocalPlacementAgainstTruth(cli.items("truth-dir"), survey, name, *result);
   }
   return true;
 }
@@ -1764,6 +1816,7 @@ const std::set<std::string> kValueOptions = {"cameras",
                                              "faint-edge-gradient",
                                              "square-pixels",
                                              "chance-mapped-radius",
+                                             "chance-both-sides",
                                              "occlusion-other-surface-margin",
                                              "occluders-follow-adjustment",
                                              "triangulated-lines",

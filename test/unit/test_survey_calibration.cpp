@@ -54,6 +54,16 @@ void expectReportedSigmasCover(const ic::Survey& survey, const ic::FixedCameraRe
   EXPECT_DOUBLE_EQ(budget->matched_lines.position_m, before.position_m) << name;
   EXPECT_DOUBLE_EQ(budget->matched_lines.rotation_deg, before.rotation_deg) << name;
   EXPECT_GT(budget->map_placement.position_m, 0.0) << name;
+  // The placement is the whole survey's at the camera (the keyframes that observed its lines give more, which the
+  // adjustment does not leave: docs).
+  const Eigen::Vector3d centre = reported.calibration.camera.pose().center();
+  const auto observers = survey.mapPlacementOf(ic::Survey::matchedMapLines(reported, survey.usedMapLines()));
+  EXPECT_GT(observers.keyframes, 0u) << name;
+  EXPECT_LT(observers.keyframes, survey.keyframes().size()) << name;
+  EXPECT_NEAR(budget->map_placement.position_m, survey.mapPlacement().atPoint(centre), 1e-12) << name;
+  std::printf("%s: map placement at the camera %.1f mm (the %zu keyframes that observed its lines: %.1f mm)\n",
+              name.c_str(), 1e3 * budget->map_placement.position_m, observers.keyframes,
+              1e3 * observers.atPoint(centre));
   const auto sum = [](double a, double b, double c) { return std::sqrt(a * a + b * b + c * c); };
   EXPECT_NEAR(sum(budget->matched_lines.position_m, budget->map_lines.position_m, budget->map_placement.position_m),
               after.position_m, 1e-9)

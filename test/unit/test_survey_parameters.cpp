@@ -56,6 +56,7 @@ TEST(SurveyParameters, UnsetParametersKeepTheStructsDefaults)
   EXPECT_EQ(read.cameras.ambiguity.better_score_margin, 0.5);
   EXPECT_EQ(read.cameras.explanation.faint_edge_gradient, 1.0);
   EXPECT_EQ(read.cameras.explanation.chance_mapped_radius_px, 3.0);
+  EXPECT_TRUE(read.cameras.explanation.chance_needs_both_sides);
   EXPECT_TRUE(read.cameras.matcher.calibration.refinement.single_focal);
   EXPECT_EQ(read.occlusion.other_surface_margin_m, 0.1);
   EXPECT_EQ(read.ceiling.min_height_m, 2.2);
@@ -134,6 +135,7 @@ texture_min_neighbours: 6
 overlay_min_gradient: 2.5
 faint_edge_gradient: 0
 chance_mapped_radius: 0
+chance_both_sides: false
 square_pixels: false
 unresolved_joints: false
 ambiguity: {neighbourhood_share: 0, better_score_margin: 0}
@@ -166,6 +168,7 @@ cameras: []
   EXPECT_EQ(o.explanation.min_gradient, 2.5);
   EXPECT_EQ(o.explanation.faint_edge_gradient, 0.0);
   EXPECT_EQ(o.explanation.chance_mapped_radius_px, 0.0);
+  EXPECT_FALSE(o.explanation.chance_needs_both_sides);
   EXPECT_FALSE(o.matcher.calibration.refinement.single_focal);
   EXPECT_EQ(o.ambiguity.neighbourhood_share, 0.0);
   EXPECT_EQ(o.ambiguity.better_score_margin, 0.0);

@@ -52,6 +52,12 @@ struct ImageExplanationOptions
   // 0: off, 4 px beside every sample, none left out (parameter chance_mapped_radius).
   double chance_mapped_radius_px = 3.0;
   size_t min_chance_sides = 200;
+  // With chance_mapped_radius_px: a sample counts only where both its sides have a clear place (false: where either
+  // has). A line along a texture's border keeps a clear place on its plain side while it lies in the texture, and a
+  // camera a few px off matches its lines to the texture's edges there, against a chance level measured on the plain
+  // side only: of five wrong alternatives (0.10-0.35 m off) that passed the check with either side, three fail with
+  // both (parameter chance_both_sides).
+  bool chance_needs_both_sides = true;
   double min_line_length_px = 20.0;  // shorter projections are not assessed
   // A map line with both ends within floor_tolerance_m of the floor plane (z = floor_height_m in the map, as
   // FloorLineOptions) is a floor line. It is left out where the floor looks plain: fewer than plain_floor_on_edge

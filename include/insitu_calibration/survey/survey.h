@@ -21,6 +21,7 @@
 #include "insitu_calibration/map/surface_voxels.h"
 #include "insitu_calibration/survey/fixed_camera.h"
 #include "insitu_calibration/survey/keyframe_selector.h"
+#include "insitu_calibration/survey/map_placement.h"
 
 namespace insitu_calibration
 {
@@ -48,7 +49,8 @@ struct SurveyOptions
   // The localiser behind the keyframes' poses (tf): its error's standard deviation in x, y and yaw, and its
   // correlation time. With a sigma above 0 the map is adjusted jointly with the keyframe poses
   // (line_map_adjustment.h) before it is used, and a calibration's uncertainty includes the map's placement (the
-  // localiser's error averaged over the survey: sigma * sqrt(2 correlation / survey time), at most sigma).
+  // localiser's error averaged over the survey: about sigma * sqrt(2 correlation / survey time), at most sigma;
+  // map_placement.h).
   // 0: tf is trusted as exact (the map as inserted, no placement uncertainty).
   double localization_sigma_m = 0.02;
   double localization_sigma_deg = 0.5;
@@ -107,14 +109,6 @@ Expected<FixedCameraResult> calibrateWithExtendedRetry(FixedCamera& camera, cons
                                                        const CalibrationMap& map,
                                                        const std::function<CalibrationMap()>& extended,
                                                        CalibrationMap* used = nullptr);
-
-// The map's placement in the map frame: how far the whole survey may be off, as a shift and a turn about centre.
-struct MapPlacementUncertainty
-{
-  double sigma_m = 0.0;                              // per horizontal axis
-  double sigma_deg = 0.0;                            // yaw
-  Eigen::Vector3d centre = Eigen::Vector3d::Zero();  // the keyframes' mean position
-};
 
 struct SurveyStats
 {
@@ -186,7 +180,10 @@ public:
   std::shared_ptr<const SurfaceVoxels> surfaces() const { return surfaces_; }
   // Per keyframe the adjustment's correction of the pose tf gave (zeros without an adjustment).
   std::vector<PoseCorrection> poseCorrections() const;
+  // The whole survey's placement (the localiser's error averaged over every keyframe; zero sigmas without an
+  // adjustment), and that of the keyframes that observed the given lines (map_placement.h).
   MapPlacementUncertainty mapPlacement() const;
+  MapPlacementUncertainty mapPlacementOf(const std::vector<const MapLine*>& lines) const;
 
   // Calibrates one camera against the map in use (FixedCamera::calibrate with the map's segments and sigmas; a
   // refusal tried again on the extended map when options().extended_retry is on: calibrateWithExtendedRetry) and
@@ -210,6 +207,10 @@ public:
   // be adjusted meanwhile) to its sigmas and its file's quality, with the used lines' shared errors
   // (SurveyOptions::shared_map_errors_in_sigma). False when there is none to add.
   bool addMapPlacement(FixedCameraResult* result, const std::vector<MapLine>& used_lines) const;
+  // The map lines (of used_lines) a result's final refinement used: its inlier correspondences' source lines, in their
+  // order (nullptr for one whose line is not among used_lines).
+  static std::vector<const MapLine*> matchedMapLines(const FixedCameraResult& result,
+                                                     const std::vector<MapLine>& used_lines);
 
   bool hasCamera(const std::string& name) const { return cameras_.count(name) > 0; }
   std::vector<std::string> cameraNames() const;

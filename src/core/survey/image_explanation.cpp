@@ -246,7 +246,7 @@ bool assessSample(const CheckedView& view, const Eigen::Vector2d& p, const Eigen
   if (!view.mapped.empty())
     for (int side = 0; side < 2; ++side)
       places[side] = chancePlace(view, p, normal, side == 0 ? 1.0 : -1.0, o);
-  const bool amid = !places[0] && !places[1];
+  const bool amid = o.chance_needs_both_sides ? !places[0] || !places[1] : !places[0] && !places[1];
   const bool side_on_edge[2] = {onEdge(g, sides[0], normal, o), onEdge(g, sides[1], normal, o)};
   const int beside = (side_on_edge[0] ? 1 : 0) + (side_on_edge[1] ? 1 : 0);
   const bool left_out = !amid && leave_out_plain && !on && beside == 0;

@@ -442,33 +442,31 @@ std::vector<PoseCorrection> Survey::poseCorrections() const
   return adjusted_ ? corrections_ : std::vector<PoseCorrection>(keyframe_data_.size());
 }
 
+namespace
+{
+LocaliserErrorModel localiserErrorModel(const SurveyOptions& o)
+{
+  return {o.localization_sigma_m, o.localization_sigma_deg, o.localization_correlation_s};
+}
+}  // namespace
+
 MapPlacementUncertainty Survey::mapPlacement() const
 {
-  MapPlacementUncertainty out;
-  if (keyframe_data_.empty())
-    return out;
-  for (const auto& kf : keyframe_data_)
-    out.centre += kf.T_map_camera.translation() / static_cast<double>(keyframe_data_.size());
+  std::vector<size_t> every(keyframe_data_.size());
+  for (size_t k = 0; k < every.size(); ++k)
+    every[k] = k;
+  MapPlacementUncertainty out = placementOverKeyframes(keyframe_data_, every, localiserErrorModel(options_));
   if (!adjusting())
-    return out;
-  // The mean of a stationary error with exponential correlation tau over a time T >> tau has the variance
-  // sigma^2 * 2 tau / T: T / (2 tau) independent samples, no fewer than one. Recordings (a keyframe that starts one,
-  // or a clock that went back) are independent of each other, as the adjustment's chains are: their samples add up.
-  const double tau = std::max(1e-9, options_.localization_correlation_s);
-  double samples = 0.0, start = keyframe_data_.front().stamp;
-  for (size_t k = 1; k <= keyframe_data_.size(); ++k)
-  {
-    const bool ends = k == keyframe_data_.size() || keyframe_data_[k].starts_recording ||
-                      !(keyframe_data_[k].stamp > keyframe_data_[k - 1].stamp);
-    if (!ends)
-      continue;
-    samples += std::max(1.0, (keyframe_data_[k - 1].stamp - start) / (2.0 * tau));
-    if (k < keyframe_data_.size())
-      start = keyframe_data_[k].stamp;
-  }
-  const double factor = 1.0 / std::sqrt(samples);
-  out.sigma_m = options_.localization_sigma_m * factor;
-  out.sigma_deg = options_.localization_sigma_deg * factor;
+    out.sigma_m = out.sigma_deg = 0.0;
+  return out;
+}
+
+MapPlacementUncertainty Survey::mapPlacementOf(const std::vector<const MapLine*>& lines) const
+{
+  MapPlacementUncertainty out =
+      placementOverKeyframes(keyframe_data_, keyframesObserving(keyframe_data_, lines), localiserErrorModel(options_));
+  if (!adjusting())
+    out.sigma_m = out.sigma_deg = 0.0;
   return out;
 }
 
@@ -636,9 +634,7 @@ bool Survey::addMapPlacement(FixedCameraResult* result, const std::vector<MapLin
   CameraUncertainty& u = result->calibration.uncertainty;
   if (!u.available || !(placement.sigma_m > 0.0 || placement.sigma_deg > 0.0))
     return shared;
-  const Eigen::Vector3d arm = result->calibration.camera.pose().center() - placement.centre;
-  const double turn_m = placement.sigma_deg * M_PI / 180.0 * arm.head<2>().norm();
-  const double placement_m = std::sqrt(2.0 * placement.sigma_m * placement.sigma_m + turn_m * turn_m);
+  const double placement_m = placement.atPoint(result->calibration.camera.pose().center());
   u.position_m = std::hypot(u.position_m, placement_m);
   u.rotation_deg = std::hypot(u.rotation_deg, placement.sigma_deg);
   if (result->file.quality)
@@ -710,6 +706,17 @@ const MapLine* sourceLineOf(const LineCorrespondence& c, const std::vector<MapLi
 }
 }  // namespace
 
+std::vector<const MapLine*> Survey::matchedMapLines(const FixedCameraResult& result,
+                                                    const std::vector<MapLine>& used_lines)
+{
+  std::vector<const MapLine*> out;
+  const auto& inlier = result.calibration.inlier_lines;
+  for (size_t k = 0; k < result.correspondences.lines.size(); ++k)
+    if (k < inlier.size() && inlier[k])
+      out.push_back(sourceLineOf(result.correspondences.lines[k], used_lines));
+  return out;
+}
+
 bool Survey::addSharedMapErrors(FixedCameraResult* result, const std::vector<MapLine>& used) const
 {
   CameraCalibration& c = result->calibration;
@@ -717,13 +724,14 @@ bool Survey::addSharedMapErrors(FixedCameraResult* result, const std::vector<Map
   if (!options_.shared_map_errors_in_sigma || !u.available || !c.refinement)
     return false;
   // The lines the final refinement used, each with its map line's shared errors.
+  const std::vector<const MapLine*> lines = matchedMapLines(*result, used);
   CorrespondenceSet inliers = result->correspondences;
   inliers.lines.clear();
   std::vector<std::vector<Eigen::Vector3d>> modes;
-  for (size_t k = 0; k < result->correspondences.lines.size(); ++k)
+  for (size_t k = 0, i = 0; k < result->correspondences.lines.size(); ++k)
     if (k < c.inlier_lines.size() && c.inlier_lines[k])
     {
-      const MapLine* line = sourceLineOf(result->correspondences.lines[k], used);
+      const MapLine* line = lines[i++];
       inliers.lines.push_back(result->correspondences.lines[k]);
       modes.push_back(line ? sharedErrorModes(*line, options_.min_map_line_sigma_m) : std::vector<Eigen::Vector3d>());
     }

@@ -145,6 +145,8 @@ void readCameraParameters(ParameterSource& read, FixedCameraOptions& camera)
       read.flag("square_pixels", camera.matcher.calibration.refinement.single_focal);
   camera.explanation.chance_mapped_radius_px =
       read.number("chance_mapped_radius", camera.explanation.chance_mapped_radius_px, Range::closed(0.0, 10.0));
+  camera.explanation.chance_needs_both_sides =
+      read.flag("chance_both_sides", camera.explanation.chance_needs_both_sides);
   camera.unresolved_joints.enabled = read.flag("unresolved_joints", camera.unresolved_joints.enabled);
   camera.ambiguity.neighbourhood_share =
       read.number("ambiguity/neighbourhood_share", camera.ambiguity.neighbourhood_share, Range::closed(0.0, 0.5));
