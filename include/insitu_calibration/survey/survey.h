@@ -251,6 +251,8 @@ public:
 
 private:
   bool adjusting() const;
+  // The placement of the mean over the keyframes selected (zero sigmas without an adjustment).
+  MapPlacementUncertainty placementOver(const std::vector<size_t>& selected) const;
   void adjustMap() const;
   void cacheAdjustment(MapAdjustment adjustment) const;  // the cache's members are mutable
   std::vector<MapLine> usedLinesOf(const LineMap& map) const;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <numeric>
 #include <utility>
 
 #include "insitu_calibration/cpu_time.h"
@@ -450,24 +451,24 @@ LocaliserErrorModel localiserErrorModel(const SurveyOptions& o)
 }
 }  // namespace
 
-MapPlacementUncertainty Survey::mapPlacement() const
+MapPlacementUncertainty Survey::placementOver(const std::vector<size_t>& selected) const
 {
-  std::vector<size_t> every(keyframe_data_.size());
-  for (size_t k = 0; k < every.size(); ++k)
-    every[k] = k;
-  MapPlacementUncertainty out = placementOverKeyframes(keyframe_data_, every, localiserErrorModel(options_));
+  MapPlacementUncertainty out = placementOverKeyframes(keyframe_data_, selected, localiserErrorModel(options_));
   if (!adjusting())
     out.sigma_m = out.sigma_deg = 0.0;
   return out;
 }
 
+MapPlacementUncertainty Survey::mapPlacement() const
+{
+  std::vector<size_t> every(keyframe_data_.size());
+  std::iota(every.begin(), every.end(), size_t{0});
+  return placementOver(every);
+}
+
 MapPlacementUncertainty Survey::mapPlacementOf(const std::vector<const MapLine*>& lines) const
 {
-  MapPlacementUncertainty out =
-      placementOverKeyframes(keyframe_data_, keyframesObserving(keyframe_data_, lines), localiserErrorModel(options_));
-  if (!adjusting())
-    out.sigma_m = out.sigma_deg = 0.0;
-  return out;
+  return placementOver(keyframesObserving(keyframe_data_, lines));
 }
 
 // The map it was matched to was adjusted for the assumed error, and the adjustment moves the keyframes by a few
