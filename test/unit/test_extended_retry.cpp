@@ -2,7 +2,8 @@
 // (calibrateWithExtendedRetry, SurveyOptions::extended_retry): the default world's cam_east rendered, the map in use
 // a few of the true edges it sees (too few to calibrate), the extended map all of them. The retry calibrates it
 // within the node's test thresholds and says so; a camera the map in use calibrates never builds the extended map;
-// a retry that fails too keeps the first refusal and its advice, with the second reason noted.
+// a retry that fails too keeps the first refusal and its advice, with the second reason noted; the ambiguity test's
+// refusal is not retried.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -14,6 +15,7 @@
 #include "insitu_calibration/simulation/renderer.h"
 #include "insitu_calibration/simulation/world.h"
 #include "insitu_calibration/survey/survey.h"
+#include "insitu_calibration/survey/view_ambiguity.h"
 #include "insitu_calibration/test_support/edges_in_view.h"
 
 namespace ic = insitu_calibration;
@@ -158,6 +160,16 @@ TEST_F(ExtendedRetryTest, ARetryThatFailsKeepsTheFirstRefusalAndNotesTheSecond)
   EXPECT_FALSE(
       ic::extendedRetryWorthwhile(ic::Error(ic::ErrorCode::kNotEnoughData, "no image has arrived from /x yet")));
   EXPECT_TRUE(ic::extendedRetryWorthwhile(ic::Error(ic::ErrorCode::kDegenerate, ic::kWeaklyDeterminedRefusal)));
+  // Nor the ambiguity test's refusal: two cameras explain the image alike on the map in use, and the extended map's
+  // less certain lines must not pick one (a repeating view was accepted a period off so).
+  for (const char* ambiguity : {ic::kRepeatingViewRefusal, ic::kUndecidedViewRefusal})
+  {
+    const ic::Error refusal(ic::ErrorCode::kNoSolution, std::string(ambiguity) + ": a camera at 1 2 3 explains ...");
+    EXPECT_TRUE(ic::isAmbiguityRefusal(refusal)) << ambiguity;
+    EXPECT_FALSE(ic::extendedRetryWorthwhile(refusal)) << ambiguity;
+  }
+  EXPECT_TRUE(ic::extendedRetryWorthwhile(
+      ic::Error(ic::ErrorCode::kNoSolution, "the camera does not explain the image: too few of the map lines ...")));
 }
 
 TEST(ExtendedRetryOptions, TheExtendedMapAddsFusionAndCeilingLinesOnlyWhenMissing)

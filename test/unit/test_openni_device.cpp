@@ -245,13 +245,16 @@ TEST(OpenniDevice, RecordsAndPlaysBackTheSameFrames)
   dr::OpenniConfig config;
   config.uri = path;
   config.oni_loop = false;
+  // Played at half speed: OpenNI drops the frames a busy reader misses, and on a loaded machine (two calibrations
+  // beside the test suite) a real-time reader missed enough to fail the count below.
+  config.oni_speed = 0.5;
   const auto opened = player.open(config);
   ASSERT_TRUE(opened) << opened.error().describe();
   EXPECT_TRUE(player.summary().is_file);
   EXPECT_EQ(player.summary().color_mode, (dr::VideoModeSpec{320, 240, 30}));
   std::map<dr::StreamKind, int> matched;
   int frames = 0;
-  readFor(player, 2.5, [&](const dr::FrameView& frame) {
+  readFor(player, 4.0, [&](const dr::FrameView& frame) {
     ++frames;
     if (recorded.count(frameKey(frame)))
       ++matched[frame.stream];

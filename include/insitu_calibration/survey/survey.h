@@ -98,7 +98,7 @@ struct CalibrationMap
 };
 
 // Whether a refusal is one the extended map may turn: too few matches, too weakly determined, or no acceptable
-// solution (not kInvalidInput, nor a camera without images).
+// solution (not kInvalidInput, nor a camera without images, nor the ambiguity test's refusal: isAmbiguityRefusal).
 bool extendedRetryWorthwhile(const Error& refusal);
 
 // Calibrates the camera against map; a refusal that extendedRetryWorthwhile is tried once more against extended()

@@ -161,6 +161,13 @@ ViewAmbiguity withAcceptedAlternative(const ViewAmbiguity& ambiguity, size_t tak
 // floor seen by 9 lines, floor_hall seed 1's cam_sw, was accepted 2.2 m off).
 bool dismissedByOwnChecks(const Status& own_checks);
 
+// How the refusal below begins: a repetition of the map beside the matched lines, or the neighbourhood's start.
+constexpr const char* kRepeatingViewRefusal = "the view repeats";
+constexpr const char* kUndecidedViewRefusal = "the view does not decide the camera";
+
+// Whether a refusal is the ambiguity test's (either of the two above).
+bool isAmbiguityRefusal(const Error& refusal);
+
 // The refusal (kNoSolution) for a view an alternative camera explains as well: names the repetition (or the
 // neighbourhood), the two positions and what to do.
 Error ambiguityError(const CameraCalibration& accepted, const AlternativeCamera& alternative,

@@ -9,6 +9,7 @@
 #include "insitu_calibration/cpu_time.h"
 #include "insitu_calibration/refine/refinement.h"
 #include "insitu_calibration/survey/uncertainty_budget.h"
+#include "insitu_calibration/survey/view_ambiguity.h"
 
 namespace insitu_calibration
 {
@@ -567,8 +568,10 @@ bool extendedRetryAdds(const SurveyOptions& options)
 bool extendedRetryWorthwhile(const Error& refusal)
 {
   const ErrorCode code = refusal.code();
+  // Not the ambiguity test's refusal: the map in use found two cameras explaining the image alike, and the extended
+  // map's less certain lines are no ground to pick one (a repeating view was accepted a period off so, 2026-12-07).
   return (code == ErrorCode::kNotEnoughData || code == ErrorCode::kDegenerate || code == ErrorCode::kNoSolution) &&
-         refusal.message().find(kNoImageRefusal) == std::string::npos;
+         refusal.message().find(kNoImageRefusal) == std::string::npos && !isAmbiguityRefusal(refusal);
 }
 
 namespace

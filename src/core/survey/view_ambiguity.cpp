@@ -340,6 +340,13 @@ std::string ViewAmbiguity::describe() const
   return out;
 }
 
+bool isAmbiguityRefusal(const Error& refusal)
+{
+  const std::string& message = refusal.message();
+  return refusal.code() == ErrorCode::kNoSolution &&
+         (message.find(kRepeatingViewRefusal) == 0 || message.find(kUndecidedViewRefusal) == 0);
+}
+
 Error ambiguityError(const CameraCalibration& accepted, const AlternativeCamera& alt, const ViewAmbiguity& ambiguity)
 {
   const Eigen::Vector3d a = accepted.camera.pose().center(), b = alt.calibration.camera.pose().center();
@@ -347,30 +354,30 @@ Error ambiguityError(const CameraCalibration& accepted, const AlternativeCamera&
   if (alt.from_neighbourhood)
   {
     std::snprintf(buffer, sizeof(buffer),
-                  "the view does not decide the camera: a camera at %.2f %.2f %.2f (fx %.1f) explains the image as "
+                  "%s: a camera at %.2f %.2f %.2f (fx %.1f) explains the image as "
                   "well as the one found at %.2f %.2f %.2f (fx %.1f): explanation score %.2f vs %.2f, %zu vs %zu "
                   "matched lines, %.2f m / %.1f deg / %.1f %% focal length apart (a repeated structure, such as "
                   "shelf rows or door frames, lets the matches slip by one); survey a distinctive feature in the "
                   "camera's view (a rug, a sign, a door, a piece of furniture) and more of its view, or give a "
                   "tighter prior",
-                  b.x(), b.y(), b.z(), alt.calibration.camera.intrinsics().fx, a.x(), a.y(), a.z(),
-                  accepted.camera.intrinsics().fx, alt.score, ambiguity.accepted_score, alt.matched_lines,
+                  kUndecidedViewRefusal, b.x(), b.y(), b.z(), alt.calibration.camera.intrinsics().fx, a.x(), a.y(),
+                  a.z(), accepted.camera.intrinsics().fx, alt.score, ambiguity.accepted_score, alt.matched_lines,
                   ambiguity.accepted_matched, alt.position_difference_m, alt.rotation_difference_deg,
                   100.0 * alt.focal_difference_relative);
     return Error(ErrorCode::kNoSolution, buffer);
   }
   std::snprintf(buffer, sizeof(buffer),
-                "the view repeats: the map lines the camera matched recur every %.2f m along (%.2f %.2f %.2f) (floor "
+                "%s: the map lines the camera matched recur every %.2f m along (%.2f %.2f %.2f) (floor "
                 "tiles, a row of identical windows, doors or columns), and a camera at %.2f %.2f %.2f (fx %.1f) "
                 "explains the image as well as the one found at %.2f %.2f %.2f (fx %.1f): explanation score %.2f vs "
                 "%.2f, %zu vs %zu matched lines, %.2f m / %.1f deg / %.1f %% focal length apart; either may be "
                 "wrong by whole periods: survey a distinctive feature in the camera's view (a rug, a sign, a door, "
                 "a piece of furniture), or give a tighter prior",
-                alt.shift.norm(), alt.shift.x() / alt.shift.norm(), alt.shift.y() / alt.shift.norm(),
-                alt.shift.z() / alt.shift.norm(), b.x(), b.y(), b.z(), alt.calibration.camera.intrinsics().fx, a.x(),
-                a.y(), a.z(), accepted.camera.intrinsics().fx, alt.score, ambiguity.accepted_score, alt.matched_lines,
-                ambiguity.accepted_matched, alt.position_difference_m, alt.rotation_difference_deg,
-                100.0 * alt.focal_difference_relative);
+                kRepeatingViewRefusal, alt.shift.norm(), alt.shift.x() / alt.shift.norm(),
+                alt.shift.y() / alt.shift.norm(), alt.shift.z() / alt.shift.norm(), b.x(), b.y(), b.z(),
+                alt.calibration.camera.intrinsics().fx, a.x(), a.y(), a.z(), accepted.camera.intrinsics().fx, alt.score,
+                ambiguity.accepted_score, alt.matched_lines, ambiguity.accepted_matched, alt.position_difference_m,
+                alt.rotation_difference_deg, 100.0 * alt.focal_difference_relative);
   return Error(ErrorCode::kNoSolution, buffer);
 }
 
