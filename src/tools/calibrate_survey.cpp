@@ -107,7 +107,7 @@ Options:
                         intersection and confirmed from several keyframes, become map lines (default 0: off)
   --extended-retry 0|1  a camera the map refuses is tried once more against the map with its extensions (fused
                         uncertain depth lines, --max-fusion-sigma 0.012, and ceiling lines); a camera the map
-                        calibrates keeps that result (params extended_retry; default 0: off)
+                        calibrates keeps that result (params extended_retry; default 1: on)
   --max-fusion-sigma M  observations too uncertain for the map alone (sigma above 3 mm) up to M m are fused into
                         map lines used when many keyframes agree (params map/max_fusion_sigma; default 0: off;
                         0.012 measured: docs/measurements.md, "Fusion measured again")
@@ -199,7 +199,9 @@ Options:
                         ("truth-coverage" lines) and how much of an accepted camera's error its lines' true offsets
                         explain, all, wrong matches and right ones (linearised through the refinement: the
                         camera's change when the lines move onto their true edges, so an explained error has the
-                        opposite sign; focal, lambda, rotation, position: "truth-line-shift" lines), and where
+                        opposite sign; focal, lambda, rotation, position: "truth-line-shift" lines), how many of
+                        its final calibration's direction lines show an edge of their given direction, of another
+                        or none, and how far off ("truth-direction-lines" lines), and where
                         each of the ambiguity test's alternatives ended ("truth-alternative" lines; the search's
                         result, when a start explaining the image better replaced it: "truth-replaced")
   --coverage-diagnosis WORLD
@@ -225,12 +227,14 @@ Options:
                         the true one moved by a normal error of SIGMA_PX px per axis, with that sigma: how much a
                         principal point known from a lab calibration helps (narrow views)
   --oracle              with --truth-dir: instead of the pipeline, calibrate on the matches the TRUE camera makes
-                        (with the other long image lines as plumb lines, as the final calibration does): the
-                        accuracy the map and image lines allow when matching is perfect; also with the map lines
-                        replaced by their true edges (true 3D), the image lines by the true edges' images (true 2D)
-                        and both (a check of the model: exact)
+                        (with the other long image lines as direction and plumb lines, as the final calibration
+                        does): the accuracy the map and image lines allow when matching is perfect; also with the
+                        map lines replaced by their true edges (true 3D), the matched image lines by the true
+                        edges' images (true 2D) and both (nearly exact: the direction and plumb lines stay real)
   --oracle-details      with --oracle: per image line its true edge and map lines, per match the map line's
-                        support, spread and error, and the image points' distances to the true edge
+                        support, spread and error, the image points' distances to the true edge, and per
+                        direction line its true edge, its angle to the given direction and its end points'
+                        distances to that edge
   --trace               print the matcher's steps (starts, matching rounds, local moves) to stderr
   --no-refine           the paper's linear DLT after matching (no Ceres refinement)
   --no-ransac           no RANSAC over the matched lines
@@ -295,6 +299,59 @@ void reportLineShiftsAgainstTruth(const ic::CameraModel& truth, const std::vecto
                 100.0 * shift->fx_px / f, lambdaPercent(shift->lambda), shift->rotation_rad.norm() * 180.0 / M_PI,
                 1000.0 * shift->center_m.norm());
   }
+}
+
+// The true edge a direction line shows (ImageLineError::edge, -1: none) and the angle between that edge and the
+// direction the line was given (deg; -1 without an edge).
+struct DirectionLineTruth
+{
+  ic::ImageLineError shown;
+  double angle_deg = -1.0;
+};
+
+DirectionLineTruth directionLineTruth(const ic::DirectionLine& line, const ic::CameraModel& truth,
+                                      const std::vector<ic::Segment3d>& segments,
+                                      const std::vector<ic::TrueEdgeImage>& images)
+{
+  DirectionLineTruth out;
+  out.shown = ic::measureImageLine(line.image, truth.distortion(), images, 3.0, 1.0, 0.6);
+  if (out.shown.edge >= 0)
+  {
+    const Eigen::Vector3d e = (segments[out.shown.edge].b - segments[out.shown.edge].a).normalized();
+    out.angle_deg = std::acos(std::min(1.0, std::abs(e.dot(line.direction)))) * 180.0 / M_PI;
+  }
+  return out;
+}
+
+// The final calibration's direction lines against the truth ("truth-direction-lines"): how many show an edge of the
+// direction they were given (within 1 deg), of another direction, or no edge, and the image lines' distance to their
+// true edges' images (the vanishing point is what they measure: a direction taken wrongly turns the camera).
+void reportDirectionLinesAgainstTruth(const ic::CameraModel& truth, const std::vector<ic::Segment3d>& segments,
+                                      const std::vector<ic::TrueEdgeImage>& images, const ic::FixedCameraResult& result,
+                                      const std::string& name)
+{
+  const auto& lines = result.correspondences.direction_lines;
+  if (lines.empty())
+    return;
+  size_t right = 0, other = 0, none = 0;
+  std::vector<double> rms;
+  for (const auto& line : lines)
+  {
+    const DirectionLineTruth shown = directionLineTruth(line, truth, segments, images);
+    if (shown.shown.edge < 0)
+    {
+      ++none;
+      continue;
+    }
+    (shown.angle_deg <= 1.0 ? right : other) += 1;
+    rms.push_back(shown.shown.rms_px);
+  }
+  std::sort(rms.begin(), rms.end());
+  std::printf(
+      "truth-direction-lines %s: %zu, on an edge of their direction %zu, of another %zu, on none %zu; "
+      "RMS to the edge median %.2f px, max %.2f px\n",
+      name.c_str(), lines.size(), right, other, none, rms.empty() ? 0.0 : rms[rms.size() / 2],
+      rms.empty() ? 0.0 : rms.back());
 }
 
 // The ambiguity test's alternatives against the truth: did one of its starts reach the true camera, and how did
@@ -449,6 +506,7 @@ void reportAgainstTruth(const std::string& truth_dir, const std::string& name, c
       "matched map lines off their edge by median %.2f mm, max %.2f mm\n",
       result.matched_image_lines.size(), wrong, unknown_image, unknown_map, map_stats.median_px, map_stats.max_px);
   reportLineShiftsAgainstTruth(truth->camera, segments, images, result, options, name);
+  reportDirectionLinesAgainstTruth(truth->camera, segments, images, result, name);
   reportAlternativesAgainstTruth(truth->camera, result.ambiguity);
 }
 
@@ -1113,6 +1171,49 @@ void replaceByTruth(OracleData& d, bool details)
   }
 }
 
+// The part of edge e that the image points' rays pass nearest (an edge along a whole building may reach behind the
+// camera, and then has no image as a whole).
+ic::Segment3d clippedToView(const ic::CameraModel& t, const ic::Segment3d& e,
+                            const std::vector<Eigen::Vector2d>& points)
+{
+  const Eigen::Vector3d u = (e.b - e.a).normalized(), c = t.pose().center();
+  auto nearest = [&](const Eigen::Vector2d& m) {
+    const auto r = t.backProject(m);
+    if (!r)
+      return e.a;
+    const Eigen::Vector3d v = (t.pose().rotation.transpose() * *r).normalized(), w = e.a - c;
+    const double b = u.dot(v), denom = 1.0 - b * b;
+    const double s = denom > 1e-12 ? (b * v.dot(w) - u.dot(w)) / denom : 0.0;
+    return Eigen::Vector3d(e.a + s * u);
+  };
+  return {nearest(points.front()), nearest(points.back())};
+}
+
+// Per direction line: the true edge its image line shows and how far that edge's direction is from the one the
+// line was given (a line given the wrong direction turns the camera: its residuals carry no map error to widen it).
+void printDirectionLineTruth(const OracleData& d)
+{
+  const ic::CameraModel& t = d.truth.camera;
+  const auto images = ic::projectEdges(t, d.edges);
+  for (const auto& line : d.set.direction_lines)
+  {
+    const DirectionLineTruth truth = directionLineTruth(line, t, d.edges, images);
+    const ic::ImageLineError& ie = truth.shown;
+    std::string ends;
+    if (ie.edge >= 0)
+    {
+      const auto distances = distancesToLineImage(t, clippedToView(t, d.edges[ie.edge], line.image), line.image);
+      if (!distances.empty())
+        ends = ", points " + std::to_string(distances.front()) + " .. " + std::to_string(distances.back()) + " px";
+    }
+    std::printf(
+        "    direction line %zu pts %.1f px, direction %.3f %.3f %.3f (group %d): edge %d rms %.2f px, %.2f deg "
+        "from the given direction%s\n",
+        line.image.size(), (line.image.back() - line.image.front()).norm(), line.direction.x(), line.direction.y(),
+        line.direction.z(), line.azimuth_group, ie.edge, ie.rms_px, truth.angle_deg, ends.c_str());
+  }
+}
+
 // The unmatched image lines as the final calibration uses them (direction lines, the other long ones plumb lines,
 // found under the true camera); then the both-true variant.
 void addUnmatchedLinesAndBothTrue(OracleData& d, const ic::LineMatcherOptions& matcher, bool details)
@@ -1135,7 +1236,10 @@ void addUnmatchedLinesAndBothTrue(OracleData& d, const ic::LineMatcherOptions& m
       for (auto* s2 : {&d.set, &d.true_world, &d.true_image, &d.true_both})
         s2->straight_lines.push_back(d.polylines[i]);
   if (details)
+  {
     std::printf("    %zu plumb lines, %zu direction lines\n", d.set.straight_lines.size(), direction_lines.size());
+    printDirectionLineTruth(d);
+  }
   for (size_t i = 0; i < d.set.lines.size(); ++i)
   {
     d.true_both.lines[i].world = d.true_world.lines[i].world;

@@ -11,6 +11,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "insitu_calibration/io/correspondence_file.h"
 #include "insitu_calibration/metrics.h"
 #include "insitu_calibration/simulation/renderer.h"
 #include "insitu_calibration/simulation/world.h"
@@ -172,12 +173,44 @@ TEST_F(ExtendedRetryTest, ARetryThatFailsKeepsTheFirstRefusalAndNotesTheSecond)
       ic::Error(ic::ErrorCode::kNoSolution, "the camera does not explain the image: too few of the map lines ...")));
 }
 
+// A camera calibrated from its correspondence file (CAD lines) does not use the map: its refusal is not retried,
+// and the extended map is not built for it.
+TEST_F(ExtendedRetryTest, ACameraFromACorrespondenceFileIsNotRetried)
+{
+  ic::CorrespondenceSet two_lines;  // too few lines to calibrate
+  two_lines.image_width = cam_->width;
+  two_lines.image_height = cam_->height;
+  for (size_t k = 0; k < 2; ++k)
+  {
+    ic::LineCorrespondence line;
+    line.world = {edges_[k].a, edges_[k].b};
+    line.image = {*cam_->camera.project(edges_[k].a), *cam_->camera.project(edges_[k].b)};
+    two_lines.lines.push_back(line);
+  }
+  const std::string path = ::testing::TempDir() + "extended_retry_two_lines.yaml";
+  ASSERT_TRUE(ic::saveCorrespondenceFile(path, two_lines));
+  ic::FixedCameraConfig config = camera().config();
+  config.correspondence_file = path;
+  ic::FixedCamera fixed(config, ic::FixedCameraOptions());
+  int built = 0;
+  const auto refused = ic::calibrateWithExtendedRetry(fixed, "map", mapOf(edges_, false), [&]() {
+    ++built;
+    return mapOf(edges_, true);
+  });
+  ASSERT_FALSE(refused);
+  std::printf("%s\n", refused.error().describe().c_str());
+  EXPECT_TRUE(ic::extendedRetryWorthwhile(refused.error()));  // a map-based camera's refusal like it would be
+  EXPECT_EQ(built, 0);
+  EXPECT_EQ(refused.error().message().find("tried again"), std::string::npos);
+}
+
 TEST(ExtendedRetryOptions, TheExtendedMapAddsFusionAndCeilingLinesOnlyWhenMissing)
 {
   ic::SurveyOptions options;
-  EXPECT_FALSE(ic::extendedRetryAdds(options));  // off by default
+  EXPECT_TRUE(ic::extendedRetryAdds(options));  // on by default
+  options.extended_retry.enabled = false;
+  EXPECT_FALSE(ic::extendedRetryAdds(options));
   options.extended_retry.enabled = true;
-  EXPECT_TRUE(ic::extendedRetryAdds(options));
   const ic::SurveyOptions extended = ic::extendedMapOptions(options);
   EXPECT_DOUBLE_EQ(extended.map.max_fusion_sigma_m, 0.012);
   EXPECT_TRUE(extended.ceiling.enabled);

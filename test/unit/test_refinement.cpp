@@ -471,13 +471,14 @@ namespace
 {
 // The images of up to `count` edges along the building's axes (x, y, z of the world; 5-9 m away, 0.2 px noise) without
 // their 3D lines: direction lines; only vertical ones when `vertical_only`.
-std::vector<ic::DirectionLine> axisEdgeImages(const Scene& s, int count, unsigned seed, bool vertical_only)
+std::vector<ic::DirectionLine> axisEdgeImages(const Scene& s, int count, unsigned seed, bool vertical_only,
+                                              double noise_px = 0.2, int points = 4)
 {
   std::mt19937 rng(seed);
   ic::SyntheticLineOptions options;
   options.lines = 6 * count;
-  options.image_points_per_line = 4;
-  options.image_noise_px = 0.2;
+  options.image_points_per_line = points;
+  options.image_noise_px = noise_px;
   options.depth_min_m = 5.0;
   options.depth_max_m = 9.0;
   options.axis_aligned = true;
@@ -490,6 +491,20 @@ std::vector<ic::DirectionLine> axisEdgeImages(const Scene& s, int count, unsigne
       out.push_back({more.data.lines[i].image, d});
   }
   return out;
+}
+
+// A narrow view of the building (makeNarrowBuildingScene, its 3D points 1 mm off) with its principal point up to 3 % of
+// the width off centre, drawn from rng.
+Scene narrowViewOffCentre(unsigned seed, std::mt19937& rng)
+{
+  std::uniform_real_distribution<double> offset(-0.03 * 1280, 0.03 * 1280);
+  const double y = offset(rng), x = offset(rng);  // the order in which the tests drew them
+  return makeNarrowBuildingScene(seed, Eigen::Vector2d(x, y * 0.75), 0.001);
+}
+
+double rotationErrorDeg(const Scene& s, const ic::RefinementResult& r)
+{
+  return ic::compareCameras(s.truth, r.camera).rotation_rad * 180.0 / M_PI;
 }
 }  // namespace
 
@@ -545,13 +560,9 @@ TEST(Refinement, ImagesOfTheBuildingsAxesPinANarrowCamerasRotation)
   int covered = 0, narrower = 0;
   double error_without = 0.0, error_with = 0.0, error_vertical = 0.0;
   std::mt19937 rng(4800);
-  std::uniform_real_distribution<double> offset(-0.03 * 1280, 0.03 * 1280);
-  const auto rotation_deg = [](const Scene& s, const ic::RefinementResult& r) {
-    return ic::compareCameras(s.truth, r.camera).rotation_rad * 180.0 / M_PI;
-  };
   for (int t = 0; t < trials; ++t)
   {
-    Scene s = makeNarrowBuildingScene(4900 + t, Eigen::Vector2d(offset(rng), offset(rng) * 0.75), 0.001);
+    Scene s = narrowViewOffCentre(4900 + t, rng);
     const ic::RefinementOptions options = surveyRefinementOptions();
     const auto without = ic::refineCamera(s.lines.data, perturbed(s.truth), options);
     ASSERT_TRUE(without);
@@ -562,10 +573,10 @@ TEST(Refinement, ImagesOfTheBuildingsAxesPinANarrowCamerasRotation)
     const auto with = ic::refineCamera(s.lines.data, without->camera, options);
     ASSERT_TRUE(with && vertical);
     ASSERT_TRUE(without->uncertainty.available && with->uncertainty.available);
-    error_with += rotation_deg(s, *with) / trials;
-    error_vertical += rotation_deg(s, *vertical) / trials;
-    error_without += rotation_deg(s, *without) / trials;
-    covered += rotation_deg(s, *with) < 2.0 * with->uncertainty.rotation_deg ? 1 : 0;
+    error_with += rotationErrorDeg(s, *with) / trials;
+    error_vertical += rotationErrorDeg(s, *vertical) / trials;
+    error_without += rotationErrorDeg(s, *without) / trials;
+    covered += rotationErrorDeg(s, *with) < 2.0 * with->uncertainty.rotation_deg ? 1 : 0;
     narrower += with->uncertainty.rotation_deg < 0.75 * without->uncertainty.rotation_deg ? 1 : 0;
   }
   std::printf(
@@ -578,10 +589,54 @@ TEST(Refinement, ImagesOfTheBuildingsAxesPinANarrowCamerasRotation)
   EXPECT_GE(narrower, 13);
 }
 
+// Unmatched image lines are whatever edges the fine-tuning found: a floor's plank joints seen at a grazing angle came
+// out 0.5-1.3 px off their edges and tilted (set AL's corridor 979236, cam_a), where the matched lines sit within
+// 0.1-0.2 px. Weighed like the matched lines, such lines turn the camera; weighed by their own scatter about their
+// fitted line (direction_line_noise_ratio), they count as the noisy lines they are. A narrow view as above with 8
+// images of the building's axes at the matched lines' noise and 20 short two-point ones at 1.5 px: weighed equally the
+// noisy lines raise the mean rotation error 0.385 -> 0.415 deg, weighed by their scatter 0.387 deg, within 2 sigma 19
+// of 20 (errors at random: the Huber loss already keeps them in check, and the gain is small).
+TEST(Refinement, NoisyDirectionLinesAreWeighedByTheirOwnScatter)
+{
+  const int trials = 20;
+  int covered = 0;
+  double error_equal = 0.0, error_weighed = 0.0, error_precise = 0.0;
+  std::mt19937 rng(5300);
+  for (int t = 0; t < trials; ++t)
+  {
+    Scene s = narrowViewOffCentre(5400 + t, rng);
+    ic::RefinementOptions options = surveyRefinementOptions();
+    const auto start = ic::refineCamera(s.lines.data, perturbed(s.truth), options);
+    ASSERT_TRUE(start);
+    s.lines.data.direction_lines = axisEdgeImages(s, 8, 5500 + t, false);
+    const auto precise = ic::refineCamera(s.lines.data, start->camera, options);
+    for (const auto& line : axisEdgeImages(s, 20, 5600 + t, false, 1.5, 2))
+      s.lines.data.direction_lines.push_back(line);
+    const auto weighed = ic::refineCamera(s.lines.data, start->camera, options);
+    options.direction_line_noise_ratio = 0.0;
+    const auto equal = ic::refineCamera(s.lines.data, start->camera, options);
+    ASSERT_TRUE(precise && weighed && equal);
+    ASSERT_TRUE(weighed->uncertainty.available) << weighed->uncertainty.reason;
+    error_precise += rotationErrorDeg(s, *precise) / trials;
+    error_weighed += rotationErrorDeg(s, *weighed) / trials;
+    error_equal += rotationErrorDeg(s, *equal) / trials;
+    covered += rotationErrorDeg(s, *weighed) < 2.0 * weighed->uncertainty.rotation_deg ? 1 : 0;
+  }
+  std::printf(
+      "mean rotation error over %d narrow cameras with 8 precise direction lines %.3f deg; with 20 noisy ones more, "
+      "weighed by their scatter %.3f deg, weighed as the matched lines %.3f deg; within 2 sigma %d\n",
+      trials, error_precise, error_weighed, error_equal, covered);
+  EXPECT_GT(error_equal, 1.05 * error_precise);    // weighed as the matched lines, the noisy lines cost accuracy
+  EXPECT_LT(error_weighed, 1.05 * error_precise);  // weighed by their scatter, hardly any
+  EXPECT_GE(covered, 18);
+}
+
 // The building's horizontal directions come from the map's lines, a fraction of a degree off. Taken as exact, the
 // images of edges along them bias the camera (a wide view's focal length most); with their azimuth estimated with the
 // camera (one shared turn about the vertical, DirectionLine::azimuth_group) they do not (0.15 deg off, 20 wide views:
-// focal length 0.078 % off taken as exact, 0.037 % estimated), and the camera's errors stay within 2 sigma.
+// focal length 0.078 % off taken as exact, 0.037 % estimated), and the camera's errors stay within 2 sigma. Every
+// direction line weighs 1 here (direction_line_noise_ratio 0): the weighting by each line's scatter also weighs down
+// lines a wrong azimuth tilts (taken as exact 0.071 % with it), which is not what this test measures.
 TEST(Refinement, AHorizontalDirectionsAzimuthIsEstimatedWithTheCamera)
 {
   const int trials = 20;
@@ -604,7 +659,8 @@ TEST(Refinement, AHorizontalDirectionsAzimuthIsEstimatedWithTheCamera)
     for (auto& l : lines)
       if (std::abs(l.direction.z()) < 0.5)
         l.direction = turn * l.direction;
-    const ic::RefinementOptions options = surveyRefinementOptions();
+    ic::RefinementOptions options = surveyRefinementOptions();
+    options.direction_line_noise_ratio = 0.0;
     s.lines.data.direction_lines = lines;
     const auto fixed = ic::refineCamera(s.lines.data, s.truth, options);
     for (auto& l : s.lines.data.direction_lines)

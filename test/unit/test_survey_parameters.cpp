@@ -60,7 +60,9 @@ TEST(SurveyParameters, UnsetParametersKeepTheStructsDefaults)
   EXPECT_TRUE(read.cameras.matcher.calibration.refinement.single_focal);
   EXPECT_EQ(read.occlusion.other_surface_margin_m, 0.1);
   EXPECT_EQ(read.ceiling.min_height_m, 2.2);
-  EXPECT_FALSE(read.extended_retry.enabled);
+  EXPECT_TRUE(read.extended_retry.enabled);
+  EXPECT_EQ(read.cameras.matcher.calibration.refinement.direction_line_noise_ratio,
+            defaults.cameras.matcher.calibration.refinement.direction_line_noise_ratio);
   EXPECT_EQ(read.extended_retry.max_fusion_sigma_m, 0.012);
   EXPECT_TRUE(read.extended_retry.ceiling_lines);
 }
@@ -177,15 +179,26 @@ cameras: []
 TEST(SurveyParameters, TheExtendedRetryParametersAreTaken)
 {
   ic::YamlParameterSource source = parsed(R"(
-extended_retry: true
+extended_retry: false
 extended_map: {max_fusion_sigma: 0.02, ceiling_lines: false}
 cameras: []
 )");
   const ic::SurveyOptions o = ic::readSurveyParameters(source);
   ASSERT_TRUE(source.ok()) << source.summary();
-  EXPECT_TRUE(o.extended_retry.enabled);
+  EXPECT_FALSE(o.extended_retry.enabled);  // on by default
   EXPECT_EQ(o.extended_retry.max_fusion_sigma_m, 0.02);
   EXPECT_FALSE(o.extended_retry.ceiling_lines);
+}
+
+TEST(SurveyParameters, TheDirectionLinesNoiseRatioIsTaken)
+{
+  ic::YamlParameterSource source = parsed("direction_lines: {noise_ratio: 3.5}\ncameras: []\n");
+  const ic::SurveyOptions o = ic::readSurveyParameters(source);
+  ASSERT_TRUE(source.ok()) << source.summary();
+  EXPECT_EQ(o.cameras.matcher.calibration.refinement.direction_line_noise_ratio, 3.5);
+  ic::YamlParameterSource bad = parsed("direction_lines: {noise_ratio: -1}\ncameras: []\n");
+  ic::readSurveyParameters(bad);
+  EXPECT_FALSE(bad.ok());
 }
 
 TEST(SurveyParameters, BadValuesAreEachReportedAndKeepTheirDefaults)

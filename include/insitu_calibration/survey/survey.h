@@ -71,10 +71,11 @@ struct SurveyOptions
   // A camera the map in use cannot calibrate (refused: too few matches, too weakly determined, not explaining its
   // image) is tried once more against the map with its extensions, which add lines where depth alone is too
   // uncertain (far walls) or out of reach (the ceiling) but each let a wrong camera through somewhere when used for
-  // every camera (docs/measurements.md): a camera the map in use calibrates keeps that result.
+  // every camera (docs/measurements.md): a camera the map in use calibrates keeps that result. On since 2026-12-08:
+  // on the held-out sets AK and AL it gained 7 good, 1 fair and 2 off of 31 refused cameras, none wrong.
   struct ExtendedMapRetry
   {
-    bool enabled = false;
+    bool enabled = true;
     double max_fusion_sigma_m = 0.012;  // LineMapOptions::max_fusion_sigma_m of the extended map (0: no fusion)
     bool ceiling_lines = true;          // CeilingLineOptions::enabled of the extended map
   } extended_retry;
@@ -101,7 +102,8 @@ struct CalibrationMap
 // solution (not kInvalidInput, nor a camera without images, nor the ambiguity test's refusal: isAmbiguityRefusal).
 bool extendedRetryWorthwhile(const Error& refusal);
 
-// Calibrates the camera against map; a refusal that extendedRetryWorthwhile is tried once more against extended()
+// Calibrates the camera against map; a refusal that extendedRetryWorthwhile (of a camera without a correspondence
+// file, which does not use the map) is tried once more against extended()
 // (called only then; a map without lines: no retry). An accepted retry says so in its summary and quality extras
 // (extended_map 1); a refused one keeps the first refusal (its advice is for the map in use) with the second's reason
 // noted. *used (optional): the map the result came from.

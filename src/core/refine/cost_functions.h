@@ -220,6 +220,7 @@ struct DirectionLineResidual
   Eigen::Vector3d e1;
   Eigen::Vector3d e2;
   Eigen::Vector2d image;
+  double weight = 1.0;  // 1 / the line's noise relative to the matched lines' (refinement.cpp, reweighDirectionLines)
 
   template <typename T>
   static void turnAboutZ(const T* azimuth, const Eigen::Vector3d& v, T* out)
@@ -245,7 +246,7 @@ struct DirectionLineResidual
     }
     projector.undistortedHomogeneous(focal, skew, delta, center, a, ua);
     projector.undistortedHomogeneous(focal, skew, delta, center, b, ub);
-    return ImagePointToLineResidual::distance(ua, ub, image, 1.0, principal, distortion, projector.r_ref2, residual);
+    return ImagePointToLineResidual::distance(ua, ub, image, weight, principal, distortion, projector.r_ref2, residual);
   }
 };
 

@@ -171,12 +171,14 @@ struct DirectionLines
   std::vector<std::array<double, 1>> phi;
   std::vector<std::array<Eigen::Vector3d, 3>> frames;  // direction, e1, e2
   std::vector<bool> used;
+  std::vector<double> weight;  // DirectionLineResidual::weight (reweighDirectionLines)
   // Per azimuth group (DirectionLine::azimuth_group) its correction, free when a used line has it; and the constant
   // zero of exact directions.
   std::map<int, std::array<double, 1>> azimuth;
   std::array<double, 1> exact = {0.0};
 
   double* azimuthOf(int group) { return group < 0 ? exact.data() : azimuth.at(group).data(); }
+  const double* azimuthOf(int group) const { return group < 0 ? exact.data() : azimuth.at(group).data(); }
   std::vector<int> usedAzimuthGroups(const CorrespondenceSet& data) const
   {
     std::vector<int> out;
@@ -355,6 +357,7 @@ DirectionLines fitDirectionLines(const RefinementState& s)
              std::abs(r) <= s.options.max_direction_line_px;
     }
     out.used.push_back(used);
+    out.weight.push_back(1.0);
   }
   return out;
 }
@@ -446,7 +449,7 @@ void addDirectionLineResiduals(RefinementState& s, BuiltProblem* built)
       const auto& [d, e1, e2] = s.direction.frames[k];
       built->problem->AddResidualBlock(
           new ceres::AutoDiffCostFunction<DirectionLineResidual, 1, 2, 2, 1, 1, 3, 3, 1, 1>(
-              new DirectionLineResidual{s.projector, d, e1, e2, m}),
+              new DirectionLineResidual{s.projector, d, e1, e2, m, s.direction.weight[k]}),
           makeLoss(s.options.loss, s.loss_scale_px).release(), p.focal, p.principal, p.skew, p.distortion, p.delta,
           p.center, s.direction.phi[k].data(), s.direction.azimuthOf(s.data.direction_lines[k].azimuth_group));
       ++built->residual_count;
@@ -585,6 +588,17 @@ std::vector<std::vector<double>> imagePointDistances(const RefinementState& s)
   return distance;
 }
 
+// The noise level of the matched lines' image points in use (1.4826 x median distance); NaN without any.
+double usedImagePointNoise(const RefinementState& s, const std::vector<std::vector<double>>& distance)
+{
+  std::vector<double> all;
+  for (size_t i = 0; i < distance.size(); ++i)
+    for (size_t v = 0; v < distance[i].size(); ++v)
+      if (s.vertex_used[i][v] && std::isfinite(distance[i][v]))
+        all.push_back(distance[i][v]);
+  return all.empty() ? std::numeric_limits<double>::quiet_NaN() : robustSigma(std::move(all));
+}
+
 // Image points far beyond the noise level of all image points are left out (a polyline that runs past the end of its
 // edge onto the next one); a line keeps at least two. True when the set of points changed: the solve is repeated.
 bool leaveOutImagePointOutliers(RefinementState& s)
@@ -592,15 +606,10 @@ bool leaveOutImagePointOutliers(RefinementState& s)
   if (!(s.options.vertex_outlier_sigmas > 0.0) || s.options.line_residual == LineResidual::kWorldPoints)
     return false;
   const std::vector<std::vector<double>> distance = imagePointDistances(s);
-  std::vector<double> all;
-  for (size_t i = 0; i < distance.size(); ++i)
-    for (size_t v = 0; v < distance[i].size(); ++v)
-      if (s.vertex_used[i][v] && std::isfinite(distance[i][v]))
-        all.push_back(distance[i][v]);
-  if (all.empty())
+  const double noise = usedImagePointNoise(s, distance);
+  if (!std::isfinite(noise))
     return false;
-  const double threshold =
-      std::max(s.options.min_vertex_outlier_px, s.options.vertex_outlier_sigmas * robustSigma(std::move(all)));
+  const double threshold = std::max(s.options.min_vertex_outlier_px, s.options.vertex_outlier_sigmas * noise);
   bool changed = false;
   for (size_t i = 0; i < distance.size(); ++i)
   {
@@ -614,6 +623,56 @@ bool leaveOutImagePointOutliers(RefinementState& s)
     if (used != s.vertex_used[i])
     {
       s.vertex_used[i] = used;
+      changed = true;
+    }
+  }
+  return changed;
+}
+
+// A direction line's scatter about its own fitted line (px; its angle phi is one degree of freedom), NaN when it
+// has no point to spare.
+double directionLineScatter(const RefinementState& s, size_t k)
+{
+  const auto& points = s.data.direction_lines[k].image;
+  if (points.size() < 2)
+    return std::numeric_limits<double>::quiet_NaN();
+  const auto& [d, e1, e2] = s.direction.frames[k];
+  const double* azimuth = s.direction.azimuthOf(s.data.direction_lines[k].azimuth_group);
+  double sum = 0.0;
+  for (const auto& m : points)
+  {
+    const DirectionLineResidual f{s.projector, d, e1, e2, m};
+    double r = 0.0;
+    if (!f(s.p.focal, s.p.principal, s.p.skew, s.p.distortion, s.p.delta, s.p.center, s.direction.phi[k].data(),
+           azimuth, &r))
+      return std::numeric_limits<double>::quiet_NaN();
+    sum += r * r;
+  }
+  return std::sqrt(sum / static_cast<double>(points.size() - 1));
+}
+
+// Direction lines noisier than the matched lines' image points (by more than direction_line_noise_ratio) are weighed
+// by that noise over their scatter; a weight only ever falls, so the rounds settle. True when a weight changed: the
+// solve is repeated.
+bool reweighDirectionLines(RefinementState& s)
+{
+  if (!(s.options.direction_line_noise_ratio > 0.0) || s.options.line_residual == LineResidual::kWorldPoints)
+    return false;
+  const double noise = usedImagePointNoise(s, imagePointDistances(s));
+  if (!std::isfinite(noise) || !(noise > 0.0))
+    return false;
+  bool changed = false;
+  for (size_t k = 0; k < s.direction.used.size(); ++k)
+  {
+    if (!s.direction.used[k])
+      continue;
+    const double scatter = directionLineScatter(s, k);
+    if (!std::isfinite(scatter) || scatter <= s.options.direction_line_noise_ratio * noise)
+      continue;
+    const double weight = noise / scatter;
+    if (weight < 0.95 * s.direction.weight[k])
+    {
+      s.direction.weight[k] = weight;
       changed = true;
     }
   }
@@ -681,6 +740,7 @@ Expected<BuiltProblem> solveRounds(RefinementState& s, RefinementResult* result,
     if (summary->termination_type == ceres::FAILURE)
       return Error(ErrorCode::kNoSolution, "refinement failed: " + summary->message);
     vertices_changed = leaveOutImagePointOutliers(s);
+    vertices_changed = reweighDirectionLines(s) || vertices_changed;
   }
   return built;
 }
@@ -824,6 +884,7 @@ std::vector<Eigen::MatrixXd> cameraShiftsOfLineMoves(const CorrespondenceSet& da
   for (const auto& line : data.lines)
     s.vertex_used.emplace_back(line.image.size(), true);
   pairWorldPointsWithParts(s);
+  reweighDirectionLines(s);  // as the solve weighed them at its optimum
   s.prior_noise_px = kMinPriorNoisePx;
   Expected<BuiltProblem> built = buildProblem(s);
   // As refineCamera's solve ended with priors_at_fit_noise: the priors scaled by the fit's noise at `camera`.

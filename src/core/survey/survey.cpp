@@ -606,7 +606,8 @@ Expected<FixedCameraResult> calibrateWithExtendedRetry(FixedCamera& camera, cons
   auto result = camera.calibrate(map.segments, world_frame, map.sigmas);
   if (used)
     *used = map;
-  if (result || !extendedRetryWorthwhile(result.error()))
+  // A camera calibrated from its correspondence file does not use the map: another map cannot turn its refusal.
+  if (result || !camera.config().correspondence_file.empty() || !extendedRetryWorthwhile(result.error()))
     return result;
   const CalibrationMap second_map = extended();
   if (second_map.segments.empty())

@@ -128,6 +128,8 @@ void readCameraParameters(ParameterSource& read, FixedCameraOptions& camera)
   camera.matcher.horizontal_direction_lines =
       read.flag("direction_lines/horizontal", camera.matcher.horizontal_direction_lines);
   CalibrationOptions& calibration = camera.matcher.calibration;
+  calibration.refinement.direction_line_noise_ratio = read.number(
+      "direction_lines/noise_ratio", calibration.refinement.direction_line_noise_ratio, Range::closed(0.0, 100.0, ""));
   calibration.refine = read.flag("refine", calibration.refine);
   calibration.ransac = read.flag("ransac", calibration.ransac);
   camera.image_lines.refiner.thin_lines = read.flag("thin_lines", camera.image_lines.refiner.thin_lines);
