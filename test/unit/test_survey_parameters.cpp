@@ -190,15 +190,21 @@ cameras: []
   EXPECT_FALSE(o.extended_retry.ceiling_lines);
 }
 
-TEST(SurveyParameters, TheDirectionLinesNoiseRatioIsTaken)
+TEST(SurveyParameters, TheDirectionLinesNoiseRatioAndSigmaAreTaken)
 {
-  ic::YamlParameterSource source = parsed("direction_lines: {noise_ratio: 3.5}\ncameras: []\n");
+  ic::YamlParameterSource source = parsed("direction_lines: {noise_ratio: 3.5, sigma_px: 0.4}\ncameras: []\n");
   const ic::SurveyOptions o = ic::readSurveyParameters(source);
   ASSERT_TRUE(source.ok()) << source.summary();
   EXPECT_EQ(o.cameras.matcher.calibration.refinement.direction_line_noise_ratio, 3.5);
-  ic::YamlParameterSource bad = parsed("direction_lines: {noise_ratio: -1}\ncameras: []\n");
-  ic::readSurveyParameters(bad);
-  EXPECT_FALSE(bad.ok());
+  EXPECT_EQ(o.cameras.matcher.calibration.refinement.direction_line_sigma_px, 0.4);
+  EXPECT_EQ(ic::SurveyOptions().cameras.matcher.calibration.refinement.direction_line_sigma_px, 0.0);
+  for (const char* text : {"direction_lines: {noise_ratio: -1}\ncameras: []\n",
+                           "direction_lines: {sigma_px: -0.1}\ncameras: []\n"})
+  {
+    ic::YamlParameterSource bad = parsed(text);
+    ic::readSurveyParameters(bad);
+    EXPECT_FALSE(bad.ok()) << text;
+  }
 }
 
 TEST(SurveyParameters, BadValuesAreEachReportedAndKeepTheirDefaults)

@@ -93,6 +93,14 @@ struct RefinementOptions
   // fine-tuning found, e.g. a floor's plank joints at a grazing angle, 1 px off and tilted, where the matched lines
   // sit within 0.1 px; weighed like them, thirty such lines turned a camera 0.4 deg. 0: every line weight 1.
   double direction_line_noise_ratio = 2.0;
+  // A direction line's error as a whole, px: its edge a little off the given direction, its fine-tuned image tilted
+  // by the texture beside it (plank joints 0.5-1.3 px off their edges, the same sign along the line), the same for all
+  // its points, as a matched line's 3D error is. Weighed like it (with weight_by_world_sigma: each point's weight
+  // sqrt(s0^2 / (s0^2 + n sigma^2)), n points, s0 = world_sigma_image_noise_px): weighed as exact, thirty such lines
+  // outweighed matched lines known to a few tenths of a px and turned a camera 0.9 deg, its principal point 20 px.
+  // 0 (default): weight 1. At 0.25 px it cost more than it gained on held-out surveys (precise direction lines weighed
+  // down with the rest: docs/measurements.md, "Direction lines weighed as whole lines").
+  double direction_line_sigma_px = 0.0;
   // Weight each line by its 3D uncertainty (LineCorrespondence::world_sigma_m; lines without one keep weight 1).
   bool weight_by_world_sigma = true;
   double world_sigma_image_noise_px = 0.1;  // the image noise the 3D uncertainty is weighed against

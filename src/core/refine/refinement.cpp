@@ -324,6 +324,18 @@ StraightLines fitStraightLines(const RefinementState& s)
   return out;
 }
 
+// A direction line's weight: its points' own noise `noise_ratio` times the image noise the weights assume
+// (world_sigma_image_noise_px, s0; reweighDirectionLines), and its error as a whole (direction_line_sigma_px), as
+// worldSigmaWeights weighs a matched line's: s0 / sqrt((ratio s0)^2 + n sigma^2) for n points.
+double directionLineWeight(const RefinementOptions& o, size_t points, double noise_ratio)
+{
+  const double sigma = o.weight_by_world_sigma ? o.direction_line_sigma_px : 0.0;
+  const double s0 = o.world_sigma_image_noise_px;
+  if (!(sigma > 0.0) || !(s0 > 0.0))
+    return 1.0 / noise_ratio;
+  return s0 / std::sqrt(noise_ratio * noise_ratio * s0 * s0 + static_cast<double>(points) * sigma * sigma);
+}
+
 // Direction lines whose image is not a line through their vanishing point under the initial camera (within
 // max_direction_line_px: an edge of another direction, or a wrong start) are left out.
 DirectionLines fitDirectionLines(const RefinementState& s)
@@ -357,7 +369,7 @@ DirectionLines fitDirectionLines(const RefinementState& s)
              std::abs(r) <= s.options.max_direction_line_px;
     }
     out.used.push_back(used);
-    out.weight.push_back(1.0);
+    out.weight.push_back(directionLineWeight(s.options, line.image.size(), 1.0));
   }
   return out;
 }
@@ -652,8 +664,8 @@ double directionLineScatter(const RefinementState& s, size_t k)
 }
 
 // Direction lines noisier than the matched lines' image points (by more than direction_line_noise_ratio) are weighed
-// by that noise over their scatter; a weight only ever falls, so the rounds settle. True when a weight changed: the
-// solve is repeated.
+// as that noisy (their scatter over that noise, directionLineWeight); a weight only ever falls, so the rounds settle.
+// True when a weight changed: the solve is repeated.
 bool reweighDirectionLines(RefinementState& s)
 {
   if (!(s.options.direction_line_noise_ratio > 0.0) || s.options.line_residual == LineResidual::kWorldPoints)
@@ -669,7 +681,7 @@ bool reweighDirectionLines(RefinementState& s)
     const double scatter = directionLineScatter(s, k);
     if (!std::isfinite(scatter) || scatter <= s.options.direction_line_noise_ratio * noise)
       continue;
-    const double weight = noise / scatter;
+    const double weight = directionLineWeight(s.options, s.data.direction_lines[k].image.size(), scatter / noise);
     if (weight < 0.95 * s.direction.weight[k])
     {
       s.direction.weight[k] = weight;

@@ -130,6 +130,8 @@ void readCameraParameters(ParameterSource& read, FixedCameraOptions& camera)
   CalibrationOptions& calibration = camera.matcher.calibration;
   calibration.refinement.direction_line_noise_ratio = read.number(
       "direction_lines/noise_ratio", calibration.refinement.direction_line_noise_ratio, Range::closed(0.0, 100.0, ""));
+  calibration.refinement.direction_line_sigma_px = read.number(
+      "direction_lines/sigma_px", calibration.refinement.direction_line_sigma_px, Range::closed(0.0, 100.0, "px"));
   calibration.refine = read.flag("refine", calibration.refine);
   calibration.ransac = read.flag("ransac", calibration.ransac);
   camera.image_lines.refiner.thin_lines = read.flag("thin_lines", camera.image_lines.refiner.thin_lines);
